@@ -1,0 +1,48 @@
+# Helpers shared by every module: one library target per module, one test binary per module
+# whose tests are registered with CTest as "<module>/<Suite>.<Test>", benchmarks in build/bench/.
+
+function(fringe_set_warnings target)
+  target_compile_options(${target} PRIVATE -Wall -Wextra -Wpedantic -Wno-deprecated-enum-enum-conversion)
+  if(FRINGE_WERROR)
+    target_compile_options(${target} PRIVATE -Werror)
+  endif()
+endfunction()
+
+# fringe_add_library(<module> SOURCES a.cc b.cc DEPS fringe_util Eigen3::Eigen ...)
+function(fringe_add_library module)
+  cmake_parse_arguments(ARG "" "" "SOURCES;DEPS;PRIVATE_DEPS" ${ARGN})
+  add_library(fringe_${module} STATIC ${ARG_SOURCES})
+  target_include_directories(fringe_${module} PUBLIC ${PROJECT_SOURCE_DIR}/src)
+  target_link_libraries(fringe_${module} PUBLIC ${ARG_DEPS} PRIVATE ${ARG_PRIVATE_DEPS})
+  fringe_set_warnings(fringe_${module})
+endfunction()
+
+# fringe_add_tests(<module> SOURCES a_test.cc ... DEPS ...): one binary fringe_<module>_tests.
+function(fringe_add_tests module)
+  if(NOT FRINGE_BUILD_TESTS)
+    return()
+  endif()
+  cmake_parse_arguments(ARG "" "" "SOURCES;DEPS" ${ARGN})
+  set(target fringe_${module}_tests)
+  add_executable(${target} ${ARG_SOURCES})
+  target_link_libraries(${target} PRIVATE fringe_${module} fringe_test_main ${ARG_DEPS})
+  fringe_set_warnings(${target})
+  set_target_properties(${target} PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${PROJECT_BINARY_DIR}/tests)
+  gtest_discover_tests(${target}
+    TEST_PREFIX "${module}/"
+    DISCOVERY_MODE PRE_TEST
+    WORKING_DIRECTORY ${PROJECT_SOURCE_DIR}
+    PROPERTIES ENVIRONMENT "FRINGE_SOURCE_DIR=${PROJECT_SOURCE_DIR}")
+endfunction()
+
+# fringe_add_bench(<name> SOURCES ... DEPS ...): program build/bench/<name>.
+function(fringe_add_bench name)
+  if(NOT FRINGE_BUILD_BENCH)
+    return()
+  endif()
+  cmake_parse_arguments(ARG "" "" "SOURCES;DEPS" ${ARGN})
+  add_executable(${name} ${ARG_SOURCES})
+  target_link_libraries(${name} PRIVATE ${ARG_DEPS} benchmark::benchmark)
+  fringe_set_warnings(${name})
+  set_target_properties(${name} PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${PROJECT_BINARY_DIR}/bench)
+endfunction()

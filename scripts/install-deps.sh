@@ -1,0 +1,33 @@
+#!/usr/bin/env bash
+# Installs every Debian 12 package fringe needs to build, test and benchmark.
+# Idempotent: when everything is already installed it does nothing (no network),
+# so the README commands can be re-run cheaply. Run as root (or with sudo).
+set -euo pipefail
+
+packages=(
+  build-essential cmake ninja-build pkg-config clang-format
+  libopencv-dev libopencv-contrib-dev   # image I/O, imgproc, calib3d, structured_light (peer)
+  libeigen3-dev                         # linear algebra
+  libnanoflann-dev                      # k-d trees
+  libembree-dev                         # ray casting in the simulator
+  libtbb-dev                            # threads
+  libcli11-dev                          # command line
+  nlohmann-json3-dev                    # JSON
+  libgtest-dev libgmock-dev             # tests
+  libbenchmark-dev                      # benchmarks
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "install-deps: all ${#packages[@]} packages present"
+  exit 0
+fi
+
+SUDO=""
+if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+echo "install-deps: installing ${missing[*]}"
+$SUDO apt-get update -qq
+DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"

@@ -1,0 +1,74 @@
+#include <CLI/CLI.hpp>
+#include <cstdio>
+#include <iostream>
+
+#include "fringe/cli/cli.h"
+#include "fringe/util/error.h"
+#include "fringe/util/log.h"
+
+#ifndef FRINGE_VERSION
+#define FRINGE_VERSION "unknown"
+#endif
+
+namespace fringe::cli {
+
+namespace {
+
+bool HasSubcommand(const CLI::App& app, const std::string& name) {
+  for (const CLI::App* sub : app.get_subcommands([](const CLI::App*) { return true; })) {
+    if (sub->get_name() == name) return true;
+  }
+  return false;
+}
+
+}  // namespace
+
+int Main(int argc, char** argv) {
+  CLI::App app{"fringe: fringe-projection (phase-shifting structured-light) 3D measurement",
+               "fringe"};
+  app.set_version_flag("--version", std::string("fringe ") + FRINGE_VERSION);
+  app.require_subcommand(1);
+  bool quiet = false, verbose = false;
+  app.add_flag("-q,--quiet", quiet, "Print only results and errors");
+  app.add_flag("-v,--verbose", verbose, "Print details of every step");
+  app.footer(
+      "Run 'fringe <command> --help' for the options of a command.\n"
+      "Exit codes: 0 success, 1 error, 2 usage error.");
+
+  AddDemoCommand(app);
+  AddInfoCommand(app);
+
+  app.parse_complete_callback([&] {
+    util::SetVerbosity(quiet     ? util::Verbosity::kQuiet
+                       : verbose ? util::Verbosity::kVerbose
+                                 : util::Verbosity::kNormal);
+  });
+
+  // CLI11 reports a misspelt subcommand as "a subcommand is required"; name it instead.
+  if (argc > 1 && argv[1][0] != '-' && !HasSubcommand(app, argv[1])) {
+    std::fprintf(stderr, "fringe: usage error: unknown subcommand '%s'\nRun 'fringe --help' for usage.\n",
+                 argv[1]);
+    return 2;
+  }
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForAllHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForVersion& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    std::fprintf(stderr, "fringe: usage error: %s\nRun 'fringe --help' for usage.\n", e.what());
+    return 2;
+  } catch (const fringe::Error& e) {
+    std::fprintf(stderr, "fringe: error: %s\n", e.what());
+    return 1;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "fringe: internal error: %s\n", e.what());
+    return 1;
+  }
+  return 0;
+}
+
+}  // namespace fringe::cli

@@ -1,0 +1,42 @@
+// Calibration files: the rig JSON of docs/formats.md, and import of OpenCV stereo calibration
+// YAML (M1 D1 M2 D2 in intrinsics, R T in extrinsics, as written by stereo_calib samples).
+#pragma once
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "fringe/geometry/camera.h"
+#include "fringe/geometry/rigid3.h"
+#include "fringe/geometry/stereo_rig.h"
+
+namespace fringe::io {
+
+nlohmann::json CameraToJson(const CameraModel& camera);
+// `context` names where the object came from ("rig.json: cameras.left") for error messages.
+CameraModel CameraFromJson(const nlohmann::json& j, const std::string& context);
+
+// {"rotation": [[r00,r01,r02],[..],[..]], "translation_mm": [tx,ty,tz]}
+nlohmann::json RigidToJson(const Rigid3d& t);
+Rigid3d RigidFromJson(const nlohmann::json& j, const std::string& context);
+
+nlohmann::json RigToJson(const StereoRig& rig);
+StereoRig RigFromJson(const nlohmann::json& j, const std::string& context);
+
+// Whole-file helpers; ReadRig also accepts a single-camera file ({"camera": {...}}) and throws
+// for anything else, naming the file and field.
+StereoRig ReadRig(const std::filesystem::path& path);
+void WriteRig(const std::filesystem::path& path, const StereoRig& rig,
+              const nlohmann::json& extra = nlohmann::json::object());
+
+// Reads JSON from a file with errors naming the file; writes JSON atomically, pretty printed.
+nlohmann::json ReadJson(const std::filesystem::path& path);
+void WriteJson(const std::filesystem::path& path, const nlohmann::json& j);
+
+// OpenCV stereo calibration (cv::FileStorage YAML/XML): intrinsics with M1 D1 M2 D2, extrinsics
+// with R T (T in the file's length unit, assumed millimetres). Image size must be given
+// (OpenCV's files do not store it).
+StereoRig ImportOpenCvStereo(const std::filesystem::path& intrinsics,
+                             const std::filesystem::path& extrinsics, int width, int height);
+
+}  // namespace fringe::io

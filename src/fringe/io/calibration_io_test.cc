@@ -1,0 +1,59 @@
+#include "fringe/io/calibration_io.h"
+
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+#include "fringe/util/error.h"
+#include "fringe_test.h"
+
+namespace fringe::io {
+namespace {
+
+TEST(CalibrationIo, RigRoundTrip) {
+  test::TempDir dir;
+  const StereoRig rig = StereoRig::Reference();
+  WriteRig(dir / "rig.json", rig);
+  const StereoRig r = ReadRig(dir / "rig.json");
+  EXPECT_TRUE(r.left == rig.left);
+  EXPECT_TRUE(r.right == rig.right);
+  ASSERT_TRUE(r.projector.has_value());
+  EXPECT_TRUE(*r.projector == *rig.projector);
+  EXPECT_LT(Difference(r.right_from_left, rig.right_from_left).angle_rad, 1e-12);
+  EXPECT_LT(Difference(r.right_from_left, rig.right_from_left).translation_mm, 1e-12);
+  EXPECT_LT(Difference(r.projector_from_left, rig.projector_from_left).translation_mm, 1e-12);
+}
+
+TEST(CalibrationIo, ErrorsNameFileAndField) {
+  test::TempDir dir;
+  nlohmann::json j = RigToJson(StereoRig::Reference());
+  j["cameras"]["right"]["fx"] = "big";
+  WriteJson(dir / "bad.json", j);
+  try {
+    ReadRig(dir / "bad.json");
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("bad.json"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("cameras.right.fx"), std::string::npos) << e.what();
+  }
+  j = RigToJson(StereoRig::Reference());
+  j["right_from_left"]["rotation"][0][0] = 3.0;
+  WriteJson(dir / "rot.json", j);
+  EXPECT_THROW(ReadRig(dir / "rot.json"), Error);
+  {
+    std::ofstream f(dir / "junk.json");
+    f << "{ not json";
+  }
+  EXPECT_THROW(ReadRig(dir / "junk.json"), Error);
+}
+
+TEST(CalibrationIo, ImportsOpenCvStereoYaml) {
+  FRINGE_SHARED_DATA_OR_SKIP(data, "slsdk-stereo-phasegray");
+  const StereoRig rig =
+      ImportOpenCvStereo(data / "intrinsic.yml", data / "extrinsic.yml", 2048, 1536);
+  EXPECT_NEAR(rig.BaselineMm(), 302, 5);  // ../shared/data/README.md: baseline ~302 mm
+  EXPECT_GT(rig.left.fx, 1000);
+}
+
+}  // namespace
+}  // namespace fringe::io

@@ -1,0 +1,74 @@
+#include "fringe/io/image_io.h"
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "fringe/util/error.h"
+#include "fringe/util/files.h"
+
+namespace fringe::io {
+namespace {
+
+using util::StrCat;
+
+cv::Mat ReadAny(const std::filesystem::path& path) {
+  util::RequireFile(path, "image");
+  cv::Mat img;
+  try {
+    img = cv::imread(path.string(), cv::IMREAD_UNCHANGED);
+  } catch (const cv::Exception& e) {
+    throw Error(StrCat(path.string(), ": cannot decode image: ", e.what()));
+  }
+  if (img.empty()) throw Error(StrCat(path.string(), ": cannot decode image (corrupt or not an image)"));
+  return img;
+}
+
+void CheckSize(const std::filesystem::path& path, const cv::Mat& img,
+               const std::optional<cv::Size>& expected) {
+  if (expected && img.size() != *expected) {
+    throw Error(StrCat(path.string(), ": image is ", img.cols, "x", img.rows, ", expected ",
+                       expected->width, "x", expected->height));
+  }
+}
+
+}  // namespace
+
+cv::Mat ReadGrayImage(const std::filesystem::path& path, std::optional<cv::Size> expected_size) {
+  cv::Mat img = ReadAny(path);
+  if (img.depth() != CV_8U && img.depth() != CV_16U) {
+    throw Error(StrCat(path.string(), ": unsupported pixel depth (expected 8- or 16-bit)"));
+  }
+  if (img.channels() == 3) {
+    cv::cvtColor(img, img, cv::COLOR_BGR2GRAY);
+  } else if (img.channels() == 4) {
+    cv::cvtColor(img, img, cv::COLOR_BGRA2GRAY);
+  } else if (img.channels() != 1) {
+    throw Error(StrCat(path.string(), ": unsupported number of channels ", img.channels()));
+  }
+  CheckSize(path, img, expected_size);
+  return img;
+}
+
+cv::Mat ReadFloatImage(const std::filesystem::path& path, std::optional<cv::Size> expected_size) {
+  cv::Mat img = ReadAny(path);
+  if (img.type() != CV_32FC1) {
+    throw Error(StrCat(path.string(), ": expected a single-channel 32-bit float image"));
+  }
+  CheckSize(path, img, expected_size);
+  return img;
+}
+
+void WriteImage(const std::filesystem::path& path, const cv::Mat& image) {
+  if (image.empty()) throw Error(StrCat(path.string(), ": refusing to write an empty image"));
+  util::WriteAtomically(path, [&](const std::filesystem::path& tmp) {
+    bool ok = false;
+    try {
+      ok = cv::imwrite(tmp.string(), image);
+    } catch (const cv::Exception& e) {
+      throw Error(StrCat(path.string(), ": cannot write image: ", e.what()));
+    }
+    if (!ok) throw Error(StrCat(path.string(), ": cannot write image (unsupported format?)"));
+  });
+}
+
+}  // namespace fringe::io

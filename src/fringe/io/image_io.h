@@ -1,0 +1,24 @@
+// Image files through OpenCV: 8- and 16-bit grey PNG / TIFF (and anything imread reads), 32-bit
+// float TIFF for maps. Errors name the file and the problem.
+#pragma once
+
+#include <filesystem>
+#include <opencv2/core.hpp>
+#include <optional>
+
+namespace fringe::io {
+
+// Reads an image as single-channel CV_8U or CV_16U (colour images are converted to grey).
+// Throws fringe::Error for a missing file, an undecodable file, an unsupported depth, or a size
+// different from `expected_size` when given.
+cv::Mat ReadGrayImage(const std::filesystem::path& path,
+                      std::optional<cv::Size> expected_size = std::nullopt);
+
+// Reads a single-channel 32-bit float image (TIFF).
+cv::Mat ReadFloatImage(const std::filesystem::path& path,
+                       std::optional<cv::Size> expected_size = std::nullopt);
+
+// Writes atomically; the format follows the extension. Throws fringe::Error on failure.
+void WriteImage(const std::filesystem::path& path, const cv::Mat& image);
+
+}  // namespace fringe::io

@@ -1,4 +1,6 @@
-// The `fringe` command line: one subcommand per file, each a thin parser over a library function.
+// The `fringe` command line: one subcommand per file (cli/<name>.cc), each a thin parser over a
+// library function, registered with FRINGE_REGISTER_COMMAND so that adding a subcommand touches
+// no shared file.
 //
 // Exit codes: 0 success, 1 error (bad input, failed step: the message names the file and the
 // problem), 2 usage error (unknown subcommand or flag, bad flag value).
@@ -12,8 +14,20 @@ namespace fringe::cli {
 
 int Main(int argc, char** argv);
 
-// Subcommand registration, one per file (cli/<name>.cc).
-void AddInfoCommand(CLI::App& app);
-void AddDemoCommand(CLI::App& app);
+using AddCommandFn = void (*)(CLI::App& app);
+
+// Registers a subcommand; `order` sets its place in --help (the pipeline order:
+// 10 demo, 20 simulate, 30 patterns, 40 decode, 50 calibrate, 60 reconstruct, 70 register,
+// 80 fuse, 90 scan, 100 evaluate, 110 info).
+struct CommandRegistration {
+  CommandRegistration(int order, AddCommandFn add);
+};
 
 }  // namespace fringe::cli
+
+// In a subcommand's .cc file, at namespace scope inside fringe::cli:
+//   void AddInfoCommand(CLI::App& app) { ... }
+//   FRINGE_REGISTER_COMMAND(110, AddInfoCommand);
+// The cli target is an OBJECT library so these static registrations are never dropped.
+#define FRINGE_REGISTER_COMMAND(order, fn) \
+  static const ::fringe::cli::CommandRegistration fn##_registration{order, fn}

@@ -25,4 +25,6 @@ void AddDemoCommand(CLI::App& app) {
   });
 }
 
+FRINGE_REGISTER_COMMAND(10, AddDemoCommand);
+
 }  // namespace fringe::cli

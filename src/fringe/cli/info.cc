@@ -18,4 +18,6 @@ void AddInfoCommand(CLI::App& app) {
   });
 }
 
+FRINGE_REGISTER_COMMAND(110, AddInfoCommand);
+
 }  // namespace fringe::cli

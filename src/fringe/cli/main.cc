@@ -1,4 +1,7 @@
 #include <CLI/CLI.hpp>
+#include <algorithm>
+#include <utility>
+#include <vector>
 #include <cstdio>
 #include <iostream>
 
@@ -14,6 +17,11 @@ namespace fringe::cli {
 
 namespace {
 
+std::vector<std::pair<int, AddCommandFn>>& Registry() {
+  static std::vector<std::pair<int, AddCommandFn>> registry;
+  return registry;
+}
+
 bool HasSubcommand(const CLI::App& app, const std::string& name) {
   for (const CLI::App* sub : app.get_subcommands([](const CLI::App*) { return true; })) {
     if (sub->get_name() == name) return true;
@@ -22,6 +30,10 @@ bool HasSubcommand(const CLI::App& app, const std::string& name) {
 }
 
 }  // namespace
+
+CommandRegistration::CommandRegistration(int order, AddCommandFn add) {
+  Registry().emplace_back(order, add);
+}
 
 int Main(int argc, char** argv) {
   CLI::App app{"fringe: fringe-projection (phase-shifting structured-light) 3D measurement",
@@ -35,8 +47,10 @@ int Main(int argc, char** argv) {
       "Run 'fringe <command> --help' for the options of a command.\n"
       "Exit codes: 0 success, 1 error, 2 usage error.");
 
-  AddDemoCommand(app);
-  AddInfoCommand(app);
+  auto commands = Registry();
+  std::stable_sort(commands.begin(), commands.end(),
+                   [](const auto& a, const auto& b) { return a.first < b.first; });
+  for (const auto& [order, add] : commands) add(app);
 
   app.parse_complete_callback([&] {
     util::SetVerbosity(quiet     ? util::Verbosity::kQuiet

@@ -15,6 +15,7 @@ packages=(
   nlohmann-json3-dev                    # JSON
   libgtest-dev libgmock-dev             # tests
   libbenchmark-dev                      # benchmarks
+  libopen3d-dev                         # peer in benchmarks only (ICP, normals)
 )
 
 missing=()

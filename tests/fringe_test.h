@@ -26,13 +26,12 @@ class TempDir {
 
 // Declares `const std::filesystem::path var` = ../shared/data/<sub>; skips the test with a reason
 // when absent, or fails when FRINGE_REQUIRE_SHARED_DATA=1.
-#define FRINGE_SHARED_DATA_OR_SKIP(var, sub)                                              \
-  const auto var##_root = ::fringe::util::SharedDataDir();                                \
-  if (!var##_root || !std::filesystem::exists(*var##_root / (sub))) {                     \
-    if (::fringe::util::SharedDataRequired()) {                                            \
-      FAIL() << "shared data " << (sub)                                                   \
-             << " is missing and FRINGE_REQUIRE_SHARED_DATA is set";                      \
-    }                                                                                      \
-    GTEST_SKIP() << "shared data " << (sub) << " not found (../shared/data absent)";      \
-  }                                                                                        \
+#define FRINGE_SHARED_DATA_OR_SKIP(var, sub)                                                    \
+  const auto var##_root = ::fringe::util::SharedDataDir();                                      \
+  if (!var##_root || !std::filesystem::exists(*var##_root / (sub))) {                           \
+    if (::fringe::util::SharedDataRequired()) {                                                 \
+      FAIL() << "shared data " << (sub) << " is missing and FRINGE_REQUIRE_SHARED_DATA is set"; \
+    }                                                                                           \
+    GTEST_SKIP() << "shared data " << (sub) << " not found (../shared/data absent)";            \
+  }                                                                                             \
   const std::filesystem::path var = *var##_root / (sub)

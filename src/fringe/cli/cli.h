@@ -30,4 +30,4 @@ struct CommandRegistration {
 //   FRINGE_REGISTER_COMMAND(110, AddInfoCommand);
 // The cli target is an OBJECT library so these static registrations are never dropped.
 #define FRINGE_REGISTER_COMMAND(order, fn) \
-  static const ::fringe::cli::CommandRegistration fn##_registration{order, fn}
+  static const ::fringe::cli::CommandRegistration fn##_registration { order, fn }

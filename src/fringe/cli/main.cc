@@ -1,9 +1,9 @@
 #include <CLI/CLI.hpp>
 #include <algorithm>
-#include <utility>
-#include <vector>
 #include <cstdio>
 #include <iostream>
+#include <utility>
+#include <vector>
 
 #include "fringe/cli/cli.h"
 #include "fringe/util/error.h"
@@ -60,7 +60,8 @@ int Main(int argc, char** argv) {
 
   // CLI11 reports a misspelt subcommand as "a subcommand is required"; name it instead.
   if (argc > 1 && argv[1][0] != '-' && !HasSubcommand(app, argv[1])) {
-    std::fprintf(stderr, "fringe: usage error: unknown subcommand '%s'\nRun 'fringe --help' for usage.\n",
+    std::fprintf(stderr,
+                 "fringe: usage error: unknown subcommand '%s'\nRun 'fringe --help' for usage.\n",
                  argv[1]);
     return 2;
   }

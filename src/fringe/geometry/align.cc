@@ -26,7 +26,8 @@ RigidAlignment AlignRigid(const std::vector<Eigen::Vector3d>& p_in_a,
   Eigen::Vector3d mean_a = Eigen::Vector3d::Zero(), mean_b = Eigen::Vector3d::Zero();
   for (size_t i = 0; i < n; ++i) {
     const double w = weights.empty() ? 1.0 : weights[i];
-    if (!(w >= 0)) throw Error(util::StrCat("AlignRigid: weight ", i, " is ", w, " (must be >= 0)"));
+    if (!(w >= 0))
+      throw Error(util::StrCat("AlignRigid: weight ", i, " is ", w, " (must be >= 0)"));
     if (w == 0) continue;
     ++n_used;
     w_sum += w;

@@ -16,8 +16,8 @@ struct RigidAlignment {
   enum class Status { kOk, kTooFewPoints, kDegenerate };
   Status status = Status::kTooFewPoints;
   std::string message;
-  Rigid3d b_from_a;       // valid only when status == kOk
-  double rms_mm = 0;      // weighted RMS residual |b_from_a * a_i - b_i| after alignment
+  Rigid3d b_from_a;   // valid only when status == kOk
+  double rms_mm = 0;  // weighted RMS residual |b_from_a * a_i - b_i| after alignment
   int num_points = 0;
 
   bool ok() const { return status == Status::kOk; }

@@ -15,9 +15,8 @@ TEST(AlignRigid, RecoversRandomMotionsExactly) {
   auto& rng = util::GlobalRng();
   std::normal_distribution<double> n(0, 1);
   for (int trial = 0; trial < 50; ++trial) {
-    const Rigid3d b_from_a(
-        Eigen::Quaterniond(n(rng), n(rng), n(rng), n(rng)).normalized(),
-        Eigen::Vector3d(n(rng), n(rng), n(rng)) * 200);
+    const Rigid3d b_from_a(Eigen::Quaterniond(n(rng), n(rng), n(rng), n(rng)).normalized(),
+                           Eigen::Vector3d(n(rng), n(rng), n(rng)) * 200);
     std::vector<Eigen::Vector3d> a, b;
     const int count = 3 + trial;
     for (int i = 0; i < count; ++i) {

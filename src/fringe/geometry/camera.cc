@@ -12,7 +12,7 @@ CameraModel CameraModel::ReferenceCamera() {
   c.width = 1280;
   c.height = 1024;
   c.fx = c.fy = 12.0 / 0.0048;  // 12 mm lens, 4.8 um pixels: 2500 px
-  c.cx = 639.5 + 3.2;            // real principal points are never exactly centred
+  c.cx = 639.5 + 3.2;           // real principal points are never exactly centred
   c.cy = 511.5 - 2.7;
   c.k1 = -0.08;  // mild barrel distortion: ~3 px at the image corners
   c.k2 = 0.12;

@@ -21,12 +21,12 @@
 namespace fringe {
 
 struct CameraModel {
-  int width = 1280;   // image width in pixels, > 0
-  int height = 1024;  // image height in pixels, > 0
-  double fx = 2500;   // focal length in pixels, > 0
-  double fy = 2500;   // focal length in pixels, > 0
-  double cx = 639.5;  // principal point in pixels
-  double cy = 511.5;  // principal point in pixels
+  int width = 1280;                               // image width in pixels, > 0
+  int height = 1024;                              // image height in pixels, > 0
+  double fx = 2500;                               // focal length in pixels, > 0
+  double fy = 2500;                               // focal length in pixels, > 0
+  double cx = 639.5;                              // principal point in pixels
+  double cy = 511.5;                              // principal point in pixels
   double k1 = 0, k2 = 0, p1 = 0, p2 = 0, k3 = 0;  // OpenCV distortion, dimensionless
 
   // The reference rig camera (../shared/SPEC.md): 1280x1024, 4.8 um pixels, 12 mm lens.
@@ -45,8 +45,8 @@ struct CameraModel {
   // Pixel of a point in the camera frame. The point must have Z > 0 (not checked: callers
   // culling points behind the camera must test Z themselves).
   Eigen::Vector2d Project(const Eigen::Vector3d& p_in_cam) const {
-    return PixelFromNormalized(Distort(Eigen::Vector2d(p_in_cam.x() / p_in_cam.z(),
-                                                       p_in_cam.y() / p_in_cam.z())));
+    return PixelFromNormalized(
+        Distort(Eigen::Vector2d(p_in_cam.x() / p_in_cam.z(), p_in_cam.y() / p_in_cam.z())));
   }
   // Undistorted normalized coordinates (x, y) of a pixel, by Newton iteration on the
   // distortion model (converges to < 1e-12 in normalized units inside the image).

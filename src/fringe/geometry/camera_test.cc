@@ -75,8 +75,7 @@ TEST(StereoRig, ReferenceGeometry) {
   // The point 500 mm ahead of the rig centre is near the image centre of both cameras.
   const Rigid3d left_from_right = rig.right_from_left.Inverse();
   const Eigen::Vector3d centre_in_left =
-      0.5 * (Eigen::Vector3d::Zero() + left_from_right.translation()) +
-      Eigen::Vector3d(0, 0, 0);
+      0.5 * (Eigen::Vector3d::Zero() + left_from_right.translation()) + Eigen::Vector3d(0, 0, 0);
   // Optical axes converge: the right camera sees the left's optical axis point at ~510 mm
   // close to its own principal point.
   const Eigen::Vector3d on_axis_in_left(0, 0, 509.9);

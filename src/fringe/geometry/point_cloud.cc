@@ -10,8 +10,8 @@ namespace {
 template <typename T>
 void CheckAttribute(const std::vector<T>& v, size_t n, const char* name) {
   if (!v.empty() && v.size() != n) {
-    throw Error(util::StrCat("point cloud: ", name, " has ", v.size(), " entries for ", n,
-                             " points"));
+    throw Error(
+        util::StrCat("point cloud: ", name, " has ", v.size(), " entries for ", n, " points"));
   }
 }
 

@@ -43,13 +43,13 @@ struct PointCloud {
 struct OrganizedPointCloud {
   int width = 0;
   int height = 0;
-  PointCloud cloud;           // width * height entries
+  PointCloud cloud;            // width * height entries
   std::vector<uint8_t> valid;  // width * height entries, 1 where the point is measured
 
   OrganizedPointCloud() = default;
   // All slots invalid, positions NaN; attributes allocated per the flags.
-  OrganizedPointCloud(int width, int height, bool with_normals = false,
-                      bool with_intensity = false, bool with_quality = false);
+  OrganizedPointCloud(int width, int height, bool with_normals = false, bool with_intensity = false,
+                      bool with_quality = false);
 
   size_t index(int col, int row) const { return static_cast<size_t>(row) * width + col; }
   size_t NumValid() const;

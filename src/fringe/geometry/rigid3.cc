@@ -27,8 +27,7 @@ Rigid3d Rigid3d::FromMatrix(const Eigen::Matrix<double, 3, 4>& m) {
 
 Rigid3d Rigid3d::FromAxisAngle(const Eigen::Vector3d& axis, double angle_rad,
                                const Eigen::Vector3d& translation) {
-  return Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(angle_rad, axis.normalized())),
-                 translation);
+  return Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(angle_rad, axis.normalized())), translation);
 }
 
 Eigen::Matrix<double, 3, 4> Rigid3d::ToMatrix3x4() const {

@@ -49,11 +49,13 @@ CameraModel CameraFromJson(const json& j, const std::string& context) {
   if (j.contains("distortion")) {
     const json& d = j["distortion"];
     if (!d.is_array() || d.size() < 4 || d.size() > 5) {
-      throw Error(StrCat(context, ".distortion: expected [k1, k2, p1, p2] or [k1, k2, p1, p2, k3]"));
+      throw Error(
+          StrCat(context, ".distortion: expected [k1, k2, p1, p2] or [k1, k2, p1, p2, k3]"));
     }
     std::array<double, 5> v{0, 0, 0, 0, 0};
     for (size_t i = 0; i < d.size(); ++i) {
-      if (!d[i].is_number()) throw Error(StrCat(context, ".distortion[", i, "]: expected a number"));
+      if (!d[i].is_number())
+        throw Error(StrCat(context, ".distortion[", i, "]: expected a number"));
       v[i] = d[i].get<double>();
     }
     c.SetDistortion(v);
@@ -113,7 +115,8 @@ Rigid3d RigidFromJson(const json& j, const std::string& context) {
     }
     Eigen::Quaterniond quat(q[0].get<double>(), q[1].get<double>(), q[2].get<double>(),
                             q[3].get<double>());
-    if (!(quat.norm() > 0.5)) throw Error(StrCat(context, ".quaternion_wxyz: not a unit quaternion"));
+    if (!(quat.norm() > 0.5))
+      throw Error(StrCat(context, ".quaternion_wxyz: not a unit quaternion"));
     return Rigid3d(quat.normalized(), t);
   }
   throw Error(StrCat(context, ": missing 'rotation' (or 'quaternion_wxyz')"));
@@ -192,6 +195,57 @@ void WriteRig(const std::filesystem::path& path, const StereoRig& rig, const jso
   WriteJson(path, j);
 }
 
+json TargetToJson(const CalibrationTarget& t) {
+  json distinct = json::array();
+  for (const auto& [r, c] : t.distinct_features) distinct.push_back({r, c});
+  return json{{"format", "fringe-target"},
+              {"type", TargetTypeName(t.type)},
+              {"rows", t.rows},
+              {"cols", t.cols},
+              {"spacing_mm", t.spacing_mm},
+              {"outer_radius_mm", t.outer_radius_mm},
+              {"inner_radius_mm", t.inner_radius_mm},
+              {"dot_radius_mm", t.dot_radius_mm},
+              {"distinct_features", distinct},
+              {"margin_mm", t.margin_mm}};
+}
+
+CalibrationTarget TargetFromJson(const json& j, const std::string& context) {
+  if (!j.is_object()) throw Error(StrCat(context, ": expected a JSON object"));
+  CalibrationTarget t;
+  try {
+    if (j.contains("type")) t.type = TargetTypeFromName(j["type"].get<std::string>());
+    if (j.contains("rows")) t.rows = Integer(j, "rows", context);
+    if (j.contains("cols")) t.cols = Integer(j, "cols", context);
+    if (j.contains("spacing_mm")) t.spacing_mm = Number(j, "spacing_mm", context);
+    if (j.contains("outer_radius_mm")) t.outer_radius_mm = Number(j, "outer_radius_mm", context);
+    if (j.contains("inner_radius_mm")) t.inner_radius_mm = Number(j, "inner_radius_mm", context);
+    if (j.contains("dot_radius_mm")) t.dot_radius_mm = Number(j, "dot_radius_mm", context);
+    if (j.contains("margin_mm")) t.margin_mm = Number(j, "margin_mm", context);
+    if (j.contains("distinct_features")) {
+      t.distinct_features.clear();
+      for (const json& f : j["distinct_features"]) {
+        if (!f.is_array() || f.size() != 2) {
+          throw Error(StrCat(context, ".distinct_features: expected [[row, col], ...]"));
+        }
+        t.distinct_features.emplace_back(f[0].get<int>(), f[1].get<int>());
+      }
+    }
+    t.Check();
+  } catch (const json::exception& e) {
+    throw Error(StrCat(context, ": ", e.what()));
+  } catch (const Error& e) {
+    const std::string msg = e.what();
+    if (msg.rfind(context, 0) == 0) throw;
+    throw Error(StrCat(context, ": ", msg));
+  }
+  return t;
+}
+
+CalibrationTarget ReadTarget(const std::filesystem::path& path) {
+  return TargetFromJson(ReadJson(path), path.string());
+}
+
 StereoRig ImportOpenCvStereo(const std::filesystem::path& intrinsics,
                              const std::filesystem::path& extrinsics, int width, int height) {
   util::RequireFile(intrinsics, "OpenCV intrinsics");
@@ -227,7 +281,8 @@ StereoRig ImportOpenCvStereo(const std::filesystem::path& intrinsics,
     c.fy = k.at<double>(4);
     c.cy = k.at<double>(5);
     std::array<double, 5> dist{0, 0, 0, 0, 0};
-    for (int i = 0; i < std::min<int>(5, static_cast<int>(d.total())); ++i) dist[i] = d.at<double>(i);
+    for (int i = 0; i < std::min<int>(5, static_cast<int>(d.total())); ++i)
+      dist[i] = d.at<double>(i);
     c.SetDistortion(dist);
     c.Check();
     return c;
@@ -239,7 +294,8 @@ StereoRig ImportOpenCvStereo(const std::filesystem::path& intrinsics,
   const cv::Mat t = read_mat(fe, "T", extrinsics, 3, 1);
   Eigen::Matrix3d rm;
   for (int i = 0; i < 9; ++i) rm(i / 3, i % 3) = r.at<double>(i);
-  rig.right_from_left = Rigid3d(rm, Eigen::Vector3d(t.at<double>(0), t.at<double>(1), t.at<double>(2)));
+  rig.right_from_left =
+      Rigid3d(rm, Eigen::Vector3d(t.at<double>(0), t.at<double>(1), t.at<double>(2)));
   return rig;
 }
 

@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
+#include "fringe/geometry/calibration_target.h"
 #include "fringe/geometry/camera.h"
 #include "fringe/geometry/rigid3.h"
 #include "fringe/geometry/stereo_rig.h"
@@ -32,6 +33,13 @@ void WriteRig(const std::filesystem::path& path, const StereoRig& rig,
 // Reads JSON from a file with errors naming the file; writes JSON atomically, pretty printed.
 nlohmann::json ReadJson(const std::filesystem::path& path);
 void WriteJson(const std::filesystem::path& path, const nlohmann::json& j);
+
+// Calibration target description (docs/formats.md, "Calibration target"):
+// {"format": "fringe-target", "type": "rings", "rows": 7, "cols": 9, "spacing_mm": 24, ...}.
+// Missing fields take CalibrationTarget's defaults; the result is Check()ed.
+nlohmann::json TargetToJson(const CalibrationTarget& target);
+CalibrationTarget TargetFromJson(const nlohmann::json& j, const std::string& context);
+CalibrationTarget ReadTarget(const std::filesystem::path& path);
 
 // OpenCV stereo calibration (cv::FileStorage YAML/XML): intrinsics with M1 D1 M2 D2, extrinsics
 // with R T (T in the file's length unit, assumed millimetres). Image size must be given

@@ -47,6 +47,31 @@ TEST(CalibrationIo, ErrorsNameFileAndField) {
   EXPECT_THROW(ReadRig(dir / "junk.json"), Error);
 }
 
+TEST(CalibrationIo, TargetRoundTripAndErrors) {
+  test::TempDir dir;
+  CalibrationTarget t;
+  t.type = TargetType::kAsymmetricCircleGrid;
+  t.rows = 4;
+  t.cols = 11;
+  t.spacing_mm = 20;
+  t.outer_radius_mm = 5;
+  WriteJson(dir / "t.json", TargetToJson(t));
+  const CalibrationTarget r = ReadTarget(dir / "t.json");
+  EXPECT_EQ(r.type, t.type);
+  EXPECT_EQ(r.cols, 11);
+  EXPECT_DOUBLE_EQ(r.spacing_mm, 20);
+  nlohmann::json bad = TargetToJson(t);
+  bad["outer_radius_mm"] = 50;
+  WriteJson(dir / "bad.json", bad);
+  try {
+    ReadTarget(dir / "bad.json");
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("bad.json"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("outer_radius_mm"), std::string::npos) << e.what();
+  }
+}
+
 TEST(CalibrationIo, ImportsOpenCvStereoYaml) {
   FRINGE_SHARED_DATA_OR_SKIP(data, "slsdk-stereo-phasegray");
   const StereoRig rig =

@@ -38,10 +38,8 @@ std::string DescribePly(const fs::path& path) {
   }
   if (d.header.grid_width > 0) {
     os << "  organized grid: " << d.header.grid_width << " x " << d.header.grid_height << ", "
-       << d.cloud.size() << " valid ("
-       << std::setprecision(1)
-       << 100.0 * d.cloud.size() / (double(d.header.grid_width) * d.header.grid_height)
-       << " %)\n";
+       << d.cloud.size() << " valid (" << std::setprecision(1)
+       << 100.0 * d.cloud.size() / (double(d.header.grid_width) * d.header.grid_height) << " %)\n";
   }
   return os.str();
 }
@@ -49,8 +47,9 @@ std::string DescribePly(const fs::path& path) {
 std::string DescribeCamera(const CameraModel& c) {
   std::ostringstream os;
   os << std::fixed << std::setprecision(3) << c.width << "x" << c.height << ", f = (" << c.fx
-     << ", " << c.fy << ") px, c = (" << c.cx << ", " << c.cy << ") px, k1 k2 p1 p2 k3 = "
-     << std::setprecision(6) << c.k1 << " " << c.k2 << " " << c.p1 << " " << c.p2 << " " << c.k3;
+     << ", " << c.fy << ") px, c = (" << c.cx << ", " << c.cy
+     << ") px, k1 k2 p1 p2 k3 = " << std::setprecision(6) << c.k1 << " " << c.k2 << " " << c.p1
+     << " " << c.p2 << " " << c.k3;
   return os.str();
 }
 
@@ -64,8 +63,7 @@ std::string DescribeJson(const fs::path& path) {
     os << "  left:      " << DescribeCamera(rig.left) << "\n";
     os << "  right:     " << DescribeCamera(rig.right) << "\n";
     os << std::fixed << std::setprecision(3) << "  baseline:  " << rig.BaselineMm()
-       << " mm, angle between cameras " << rig.right_from_left.AngleRad() * 180 / M_PI
-       << " deg\n";
+       << " mm, angle between cameras " << rig.right_from_left.AngleRad() * 180 / M_PI << " deg\n";
     if (rig.projector) os << "  projector: " << DescribeCamera(*rig.projector) << "\n";
     return os.str();
   }

@@ -19,7 +19,8 @@ cv::Mat ReadAny(const std::filesystem::path& path) {
   } catch (const cv::Exception& e) {
     throw Error(StrCat(path.string(), ": cannot decode image: ", e.what()));
   }
-  if (img.empty()) throw Error(StrCat(path.string(), ": cannot decode image (corrupt or not an image)"));
+  if (img.empty())
+    throw Error(StrCat(path.string(), ": cannot decode image (corrupt or not an image)"));
   return img;
 }
 

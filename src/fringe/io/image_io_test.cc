@@ -57,10 +57,10 @@ TEST(ImageIo, ClearErrors) {
   }
   ExpectErrorContains([&] { ReadGrayImage(dir / "corrupt.png"); }, "corrupt.png", "decode");
   WriteImage(dir / "small.png", cv::Mat(10, 12, CV_8UC1, cv::Scalar(3)));
-  ExpectErrorContains([&] { ReadGrayImage(dir / "small.png", cv::Size(1280, 1024)); },
-                      "small.png", "12x10, expected 1280x1024");
-  ExpectErrorContains([&] { WriteImage(dir / "nodir" / "x.png", cv::Mat(2, 2, CV_8UC1)); },
-                      "x.png", "does not exist");
+  ExpectErrorContains([&] { ReadGrayImage(dir / "small.png", cv::Size(1280, 1024)); }, "small.png",
+                      "12x10, expected 1280x1024");
+  ExpectErrorContains([&] { WriteImage(dir / "nodir" / "x.png", cv::Mat(2, 2, CV_8UC1)); }, "x.png",
+                      "does not exist");
 }
 
 }  // namespace

@@ -19,11 +19,11 @@ enum class Type { kInt8, kUInt8, kInt16, kUInt16, kInt32, kUInt32, kFloat32, kFl
 
 bool ParseType(const std::string& s, Type* t) {
   static const std::pair<const char*, Type> kNames[] = {
-      {"char", Type::kInt8},     {"int8", Type::kInt8},     {"uchar", Type::kUInt8},
-      {"uint8", Type::kUInt8},   {"short", Type::kInt16},   {"int16", Type::kInt16},
-      {"ushort", Type::kUInt16}, {"uint16", Type::kUInt16}, {"int", Type::kInt32},
-      {"int32", Type::kInt32},   {"uint", Type::kUInt32},   {"uint32", Type::kUInt32},
-      {"float", Type::kFloat32}, {"float32", Type::kFloat32}, {"double", Type::kFloat64},
+      {"char", Type::kInt8},      {"int8", Type::kInt8},       {"uchar", Type::kUInt8},
+      {"uint8", Type::kUInt8},    {"short", Type::kInt16},     {"int16", Type::kInt16},
+      {"ushort", Type::kUInt16},  {"uint16", Type::kUInt16},   {"int", Type::kInt32},
+      {"int32", Type::kInt32},    {"uint", Type::kUInt32},     {"uint32", Type::kUInt32},
+      {"float", Type::kFloat32},  {"float32", Type::kFloat32}, {"double", Type::kFloat64},
       {"float64", Type::kFloat64}};
   for (const auto& [name, type] : kNames) {
     if (s == name) {
@@ -55,7 +55,8 @@ size_t TypeSize(Type t) {
 // Where the header ends and the parsed header; throws on a malformed header.
 PlyHeader ParseHeader(const std::string& data, const std::string& file, size_t* body_offset) {
   PlyHeader h;
-  if (data.compare(0, 3, "ply") != 0) throw Error(StrCat(file, ": not a PLY file (no 'ply' magic)"));
+  if (data.compare(0, 3, "ply") != 0)
+    throw Error(StrCat(file, ": not a PLY file (no 'ply' magic)"));
   size_t pos = 0;
   int line_no = 0;
   bool ended = false;
@@ -115,11 +116,12 @@ PlyHeader ParseHeader(const std::string& data, const std::string& file, size_t* 
         p.type = type;
         ls >> p.name;
         if (!ParseType(p.type, &t)) {
-          throw Error(StrCat(file, ": header line ", line_no, ": unknown property type '", type,
-                             "'"));
+          throw Error(
+              StrCat(file, ": header line ", line_no, ": unknown property type '", type, "'"));
         }
       }
-      if (p.name.empty()) throw Error(StrCat(file, ": header line ", line_no, ": unnamed property"));
+      if (p.name.empty())
+        throw Error(StrCat(file, ": header line ", line_no, ": unnamed property"));
       h.elements.back().properties.push_back(p);
     } else if (key == "end_header") {
       ended = true;
@@ -157,14 +159,40 @@ class BodyReader {
     if (swap_) std::reverse(b, b + n);
     pos_ += n;
     switch (t) {
-      case Type::kInt8: return static_cast<int8_t>(b[0]);
-      case Type::kUInt8: return b[0];
-      case Type::kInt16: { int16_t v; std::memcpy(&v, b, 2); return v; }
-      case Type::kUInt16: { uint16_t v; std::memcpy(&v, b, 2); return v; }
-      case Type::kInt32: { int32_t v; std::memcpy(&v, b, 4); return v; }
-      case Type::kUInt32: { uint32_t v; std::memcpy(&v, b, 4); return v; }
-      case Type::kFloat32: { float v; std::memcpy(&v, b, 4); return v; }
-      case Type::kFloat64: { double v; std::memcpy(&v, b, 8); return v; }
+      case Type::kInt8:
+        return static_cast<int8_t>(b[0]);
+      case Type::kUInt8:
+        return b[0];
+      case Type::kInt16: {
+        int16_t v;
+        std::memcpy(&v, b, 2);
+        return v;
+      }
+      case Type::kUInt16: {
+        uint16_t v;
+        std::memcpy(&v, b, 2);
+        return v;
+      }
+      case Type::kInt32: {
+        int32_t v;
+        std::memcpy(&v, b, 4);
+        return v;
+      }
+      case Type::kUInt32: {
+        uint32_t v;
+        std::memcpy(&v, b, 4);
+        return v;
+      }
+      case Type::kFloat32: {
+        float v;
+        std::memcpy(&v, b, 4);
+        return v;
+      }
+      case Type::kFloat64: {
+        double v;
+        std::memcpy(&v, b, 8);
+        return v;
+      }
     }
     return 0;
   }
@@ -180,8 +208,9 @@ class BodyReader {
     char* end = nullptr;
     const double v = std::strtod(begin, &end);
     if (end == begin) {
-      throw Error(StrCat(file_, ": bad number '", std::string(begin, std::min<size_t>(12, std::strlen(begin))),
-                         "' in ", element, " ", item, " (property ", prop, ")"));
+      throw Error(StrCat(file_, ": bad number '",
+                         std::string(begin, std::min<size_t>(12, std::strlen(begin))), "' in ",
+                         element, " ", item, " (property ", prop, ")"));
     }
     pos_ += static_cast<size_t>(end - begin);
     return v;
@@ -206,18 +235,30 @@ VertexSlots FindVertexSlots(const PlyElement& e) {
     const std::string& n = e.properties[i].name;
     const int k = static_cast<int>(i);
     if (!e.properties[i].list_count_type.empty()) continue;
-    if (n == "x") s.x = k;
-    else if (n == "y") s.y = k;
-    else if (n == "z") s.z = k;
-    else if (n == "nx") s.nx = k;
-    else if (n == "ny") s.ny = k;
-    else if (n == "nz") s.nz = k;
-    else if (n == "red" || n == "r" || n == "diffuse_red") s.r = k;
-    else if (n == "green" || n == "g" || n == "diffuse_green") s.g = k;
-    else if (n == "blue" || n == "b" || n == "diffuse_blue") s.b = k;
-    else if (n == "intensity" || n == "scalar_intensity") s.intensity = k;
-    else if (n == "quality" || n == "confidence" || n == "scalar_quality") s.quality = k;
-    else if (n == "grid_index") s.grid = k;
+    if (n == "x")
+      s.x = k;
+    else if (n == "y")
+      s.y = k;
+    else if (n == "z")
+      s.z = k;
+    else if (n == "nx")
+      s.nx = k;
+    else if (n == "ny")
+      s.ny = k;
+    else if (n == "nz")
+      s.nz = k;
+    else if (n == "red" || n == "r" || n == "diffuse_red")
+      s.r = k;
+    else if (n == "green" || n == "g" || n == "diffuse_green")
+      s.g = k;
+    else if (n == "blue" || n == "b" || n == "diffuse_blue")
+      s.b = k;
+    else if (n == "intensity" || n == "scalar_intensity")
+      s.intensity = k;
+    else if (n == "quality" || n == "confidence" || n == "scalar_quality")
+      s.quality = k;
+    else if (n == "grid_index")
+      s.grid = k;
   }
   if (s.r >= 0) {
     const std::string& t = e.properties[s.r].type;
@@ -320,13 +361,14 @@ PlyData ReadPly(const std::filesystem::path& path) {
           }
           poly.clear();
           for (int k = 0; k < static_cast<int>(n); ++k) {
-            poly.push_back(static_cast<int64_t>(reader.Read(types[p], ename, item, e.properties[p].name)));
+            poly.push_back(
+                static_cast<int64_t>(reader.Read(types[p], ename, item, e.properties[p].name)));
           }
           if (static_cast<int>(p) != face_list) continue;
           for (int64_t idx : poly) {
             if (idx < 0 || static_cast<size_t>(idx) >= out.cloud.size()) {
-              throw Error(StrCat(file, ": face ", item, ": vertex index ", idx,
-                                 " out of range (", out.cloud.size(), " vertices)"));
+              throw Error(StrCat(file, ": face ", item, ": vertex index ", idx, " out of range (",
+                                 out.cloud.size(), " vertices)"));
             }
           }
           for (size_t k = 2; k < poly.size(); ++k) {
@@ -346,8 +388,9 @@ OrganizedPointCloud ReadOrganizedPly(const std::filesystem::path& path) {
   PlyData d = ReadPly(path);
   const int w = d.header.grid_width, h = d.header.grid_height;
   if (w <= 0 || h <= 0 || d.grid_index.size() != d.cloud.size()) {
-    throw Error(StrCat(path.string(), ": not an organized cloud (no fringe_grid comment or "
-                                      "grid_index property)"));
+    throw Error(StrCat(path.string(),
+                       ": not an organized cloud (no fringe_grid comment or "
+                       "grid_index property)"));
   }
   OrganizedPointCloud grid(w, h, d.cloud.has_normals(), d.cloud.has_intensity(),
                            d.cloud.has_quality());
@@ -355,8 +398,8 @@ OrganizedPointCloud ReadOrganizedPly(const std::filesystem::path& path) {
   for (size_t i = 0; i < d.cloud.size(); ++i) {
     const uint32_t g = d.grid_index[i];
     if (g >= grid.valid.size()) {
-      throw Error(StrCat(path.string(), ": vertex ", i, ": grid_index ", g, " outside the ", w,
-                         "x", h, " grid"));
+      throw Error(StrCat(path.string(), ": vertex ", i, ": grid_index ", g, " outside the ", w, "x",
+                         h, " grid"));
     }
     grid.valid[g] = 1;
     grid.cloud.points[g] = d.cloud.points[i];
@@ -390,7 +433,8 @@ void WritePlyImpl(const std::filesystem::path& path, const PointCloud& cloud,
     out << "element vertex " << n << "\n";
     out << "property float x\nproperty float y\nproperty float z\n";
     if (cloud.has_normals()) out << "property float nx\nproperty float ny\nproperty float nz\n";
-    if (cloud.has_colors()) out << "property uchar red\nproperty uchar green\nproperty uchar blue\n";
+    if (cloud.has_colors())
+      out << "property uchar red\nproperty uchar green\nproperty uchar blue\n";
     if (cloud.has_intensity()) out << "property float intensity\n";
     if (cloud.has_quality()) out << "property float quality\n";
     if (grid_index) out << "property uint grid_index\n";
@@ -464,8 +508,8 @@ void WritePly(const std::filesystem::path& path, const PointCloud& cloud,
   WritePlyImpl(path, cloud, nullptr, 0, 0, triangles, format, comments);
 }
 
-void WritePly(const std::filesystem::path& path, const OrganizedPointCloud& grid,
-              PlyFormat format, const std::vector<std::string>& comments) {
+void WritePly(const std::filesystem::path& path, const OrganizedPointCloud& grid, PlyFormat format,
+              const std::vector<std::string>& comments) {
   grid.CheckConsistent();
   std::vector<uint32_t> idx;
   idx.reserve(grid.NumValid());

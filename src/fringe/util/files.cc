@@ -25,12 +25,12 @@ void RequireWritableParent(const fs::path& path) {
   const fs::path parent = path.parent_path().empty() ? fs::path(".") : path.parent_path();
   std::error_code ec;
   if (!fs::is_directory(parent, ec)) {
-    throw Error(StrCat(path.string(), ": cannot write: folder ", parent.string(),
-                       " does not exist"));
+    throw Error(
+        StrCat(path.string(), ": cannot write: folder ", parent.string(), " does not exist"));
   }
   if (::access(parent.c_str(), W_OK) != 0) {
-    throw Error(StrCat(path.string(), ": cannot write: folder ", parent.string(),
-                       " is not writable"));
+    throw Error(
+        StrCat(path.string(), ": cannot write: folder ", parent.string(), " is not writable"));
   }
 }
 
@@ -51,8 +51,7 @@ void WriteAtomically(const fs::path& path, const std::function<void(const fs::pa
   }
 }
 
-void WriteFolderAtomically(const fs::path& dir,
-                           const std::function<void(const fs::path&)>& write) {
+void WriteFolderAtomically(const fs::path& dir, const std::function<void(const fs::path&)>& write) {
   RequireWritableParent(dir);
   const fs::path tmp = TemporarySibling(dir);
   try {

@@ -1,0 +1,383 @@
+#include "fringe/phase/pattern_scheme.h"
+
+#include <algorithm>
+#include <cassert>
+#include <cmath>
+#include <cstdio>
+#include <opencv2/imgcodecs.hpp>
+
+#include "fringe/io/calibration_io.h"
+#include "fringe/util/error.h"
+#include "fringe/util/files.h"
+
+namespace fringe::phase {
+namespace {
+
+using nlohmann::json;
+using util::CheckOption;
+using util::StrCat;
+
+constexpr double kTwoPi = 2.0 * M_PI;
+
+// Beat period of two phase sets with periods p < q (the period of phi_p - phi_q).
+double BeatPeriod(double p, double q) { return p * q / (q - p); }
+
+// Smallest eigenvalue over largest of M^T M for the design rows [1, cos d, -sin d]: the
+// least-squares demodulation is well posed when this is not tiny.
+double ShiftConditioning(const std::vector<double>& shifts) {
+  cv::Matx33d m = cv::Matx33d::zeros();
+  for (double d : shifts) {
+    const cv::Vec3d r(1.0, std::cos(d), -std::sin(d));
+    m += r * r.t();
+  }
+  cv::Mat evals;
+  cv::eigen(cv::Mat(m), evals);
+  return evals.at<double>(2) / evals.at<double>(0);
+}
+
+unsigned Gray(unsigned k) { return k ^ (k >> 1); }
+
+}  // namespace
+
+std::string DirectionName(FringeDirection d) {
+  return d == FringeDirection::kVertical ? "vertical" : "horizontal";
+}
+
+std::vector<double> PhaseShiftSet::Shifts() const {
+  if (!shifts_rad.empty()) return shifts_rad;
+  std::vector<double> s(std::max(steps, 0));
+  for (int k = 0; k < steps; ++k) s[k] = kTwoPi * k / steps;
+  return s;
+}
+
+int PatternScheme::NumPhaseImages() const {
+  int n = 0;
+  for (const auto& s : phase_sets) n += s.steps;
+  return n;
+}
+
+int PatternScheme::NumImages() const {
+  return NumPhaseImages() + NumGrayImages() + (white_frame ? 1 : 0) + (dark_frame ? 1 : 0);
+}
+
+int PatternScheme::PhaseImageIndex(int set) const {
+  int n = 0;
+  for (int s = 0; s < set; ++s) n += phase_sets[s].steps;
+  return n;
+}
+
+int PatternScheme::GrayImageIndex(int bit) const { return NumPhaseImages() + bit; }
+
+int PatternScheme::WhiteImageIndex() const {
+  return white_frame ? NumPhaseImages() + NumGrayImages() : -1;
+}
+
+int PatternScheme::DarkImageIndex() const {
+  return dark_frame ? NumPhaseImages() + NumGrayImages() + (white_frame ? 1 : 0) : -1;
+}
+
+std::vector<std::string> PatternScheme::ImageNames() const {
+  if (!image_names.empty()) return image_names;
+  std::vector<std::string> names;
+  for (int i = 0; i < NumImages(); ++i) {
+    char buf[32];
+    std::snprintf(buf, sizeof(buf), "%02d.png", i);
+    names.emplace_back(buf);
+  }
+  return names;
+}
+
+void PatternScheme::Check() const {
+  const char* o = "PatternScheme";
+  CheckOption(projector_width > 0, o, "projector_width", projector_width, "must be > 0");
+  CheckOption(projector_height > 0, o, "projector_height", projector_height, "must be > 0");
+  CheckOption(!phase_sets.empty(), o, "phase_sets", phase_sets.size(),
+              "need at least one phase-shift set");
+  for (size_t i = 0; i < phase_sets.size(); ++i) {
+    const auto& s = phase_sets[i];
+    const std::string f = StrCat("phase_sets[", i, "]");
+    CheckOption(std::isfinite(s.period_px) && s.period_px > 2.0, o, (f + ".period_px").c_str(),
+                s.period_px, "must be > 2 projector pixels");
+    CheckOption(s.steps >= 3, o, (f + ".steps").c_str(), s.steps, "must be >= 3");
+    CheckOption(s.shifts_rad.empty() || static_cast<int>(s.shifts_rad.size()) == s.steps, o,
+                (f + ".shifts_rad").c_str(), s.shifts_rad.size(),
+                "must be empty or have one shift per step");
+    CheckOption(std::isfinite(s.phase_offset_rad), o, (f + ".phase_offset_rad").c_str(),
+                s.phase_offset_rad, "must be finite");
+    const double cond = ShiftConditioning(s.Shifts());
+    CheckOption(cond > 1e-3, o, (f + ".shifts_rad").c_str(), cond,
+                "shifts do not determine the phase (conditioning of the least-squares system)");
+  }
+  CheckOption(gray_bits >= 0 && gray_bits <= 16, o, "gray_bits", gray_bits, "must be in [0, 16]");
+  CheckOption(intensity_mean > 0 && intensity_mean < 1, o, "intensity_mean", intensity_mean,
+              "must be in (0, 1)");
+  CheckOption(intensity_amplitude > 0 && intensity_amplitude <= intensity_mean &&
+                  intensity_mean + intensity_amplitude <= 1.0 + 1e-12,
+              o, "intensity_amplitude", intensity_amplitude,
+              "must be in (0, intensity_mean] with mean + amplitude <= 1");
+  CheckOption(gamma_precompensation > 0 && std::isfinite(gamma_precompensation), o,
+              "gamma_precompensation", gamma_precompensation, "must be > 0");
+  CheckOption(image_names.empty() || static_cast<int>(image_names.size()) == NumImages(), o,
+              "image_names", image_names.size(),
+              StrCat("must be empty or name all ", NumImages(), " images").c_str());
+  const double span = Span();
+  if (gray_bits > 0) {
+    const double covered = std::ldexp(1.0, gray_bits) * phase_sets[0].period_px;
+    CheckOption(covered >= span, o, "gray_bits", gray_bits,
+                StrCat("2^bits periods of ", phase_sets[0].period_px,
+                       " px must cover the projector span of ", span, " px")
+                    .c_str());
+  } else {
+    // Heterodyne chain: beat adjacent sets level by level; periods must grow at every level and
+    // the last (coarsest) period must cover the span so that the order is unambiguous.
+    std::vector<double> p;
+    for (const auto& s : phase_sets) p.push_back(s.period_px);
+    while (p.size() > 1) {
+      std::vector<double> next;
+      for (size_t i = 0; i + 1 < p.size(); ++i) {
+        CheckOption(p[i + 1] > p[i] * (1 + 1e-9), o, "phase_sets", p[i + 1],
+                    "periods (and their beat periods) must increase for heterodyne unwrapping");
+        next.push_back(BeatPeriod(p[i], p[i + 1]));
+      }
+      p = next;
+    }
+    CheckOption(p[0] >= span, o, "phase_sets", p[0],
+                StrCat("the coarsest (beat) period must cover the projector span of ", span,
+                       " px (or add Gray code)")
+                    .c_str());
+  }
+}
+
+std::vector<std::string> SchemePresetNames() {
+  return {"heterodyne-4x3", "thesis-4+3+3", "heterodyne-3x3", "gray+4", "slsdk-phasegray"};
+}
+
+PatternScheme MakeScheme(const std::string& preset, int projector_width, int projector_height) {
+  PatternScheme s;
+  s.name = preset;
+  s.projector_width = projector_width;
+  s.projector_height = projector_height;
+  CheckOption(projector_width > 0, "MakeScheme", "projector_width", projector_width, "must be > 0");
+  CheckOption(projector_height > 0, "MakeScheme", "projector_height", projector_height,
+              "must be > 0");
+  const double span = s.Span();
+  auto heterodyne = [&](int n0, int n1, int n2) {
+    // Fringe counts 70, 64, 59 over L: beats of L/6 and L/5, beat of beats L (> span).
+    const double l = 1.1 * span;
+    for (int i = 0; i < 3; ++i) {
+      PhaseShiftSet set;
+      set.period_px = l / (i == 0 ? 70 : i == 1 ? 64 : 59);
+      set.steps = i == 0 ? n0 : i == 1 ? n1 : n2;
+      s.phase_sets.push_back(set);
+    }
+  };
+  if (preset == "heterodyne-4x3") {
+    heterodyne(4, 4, 4);
+  } else if (preset == "thesis-4+3+3") {
+    heterodyne(4, 3, 3);
+  } else if (preset == "heterodyne-3x3") {
+    heterodyne(3, 3, 3);
+  } else if (preset == "gray+4") {
+    int bits = 1;
+    while (span / std::ldexp(1.0, bits) > 32.0) ++bits;
+    PhaseShiftSet set;
+    set.period_px = span / std::ldexp(1.0, bits);
+    set.steps = 4;
+    s.phase_sets.push_back(set);
+    s.gray_bits = bits;
+    s.gray_complementary = true;
+  } else if (preset == "slsdk-phasegray") {
+    // ../shared/data/README.md: wrapped phase atan2(I3 - I1, I0 - I2) is -pi at the start of
+    // each period, so I_k = A + B cos(phi + k pi / 2) with phi = Phi - pi; 32 periods of 60 px
+    // on the 1920-wide DLP4710.
+    s.projector_width = 1920;
+    s.projector_height = 1080;
+    PhaseShiftSet set;
+    set.period_px = 60.0;
+    set.steps = 4;
+    set.phase_offset_rad = -M_PI;
+    s.phase_sets.push_back(set);
+    s.gray_bits = 5;
+    s.gray_complementary = true;
+    for (int i = 0; i < 10; ++i) s.image_names.push_back(StrCat(i, ".png"));
+  } else {
+    std::string names;
+    for (const auto& n : SchemePresetNames()) names += (names.empty() ? "" : ", ") + n;
+    throw Error(StrCat("unknown pattern scheme preset '", preset, "' (presets: ", names,
+                       "; or give a manifest JSON file)"));
+  }
+  s.Check();
+  return s;
+}
+
+json SchemeToJson(const PatternScheme& scheme) {
+  json j;
+  j["format"] = "fringe-patterns";
+  j["version"] = 1;
+  j["name"] = scheme.name;
+  j["projector"] = {{"width", scheme.projector_width}, {"height", scheme.projector_height}};
+  j["direction"] = DirectionName(scheme.direction);
+  j["intensity"] = {{"mean", scheme.intensity_mean}, {"amplitude", scheme.intensity_amplitude}};
+  j["gamma_precompensation"] = scheme.gamma_precompensation;
+  json sets = json::array();
+  for (const auto& s : scheme.phase_sets) {
+    sets.push_back({{"period_px", s.period_px},
+                    {"steps", s.steps},
+                    {"shifts_rad", s.Shifts()},
+                    {"phase_offset_rad", s.phase_offset_rad}});
+  }
+  j["phase_sets"] = sets;
+  j["gray_code"] = {{"bits", scheme.gray_bits}, {"complementary", scheme.gray_complementary}};
+  j["white_frame"] = scheme.white_frame;
+  j["dark_frame"] = scheme.dark_frame;
+  j["images"] = scheme.ImageNames();
+  return j;
+}
+
+PatternScheme SchemeFromJson(const json& j, const std::string& context) {
+  if (!j.is_object()) throw Error(StrCat(context, ": expected a JSON object"));
+  PatternScheme s;
+  try {
+    if (j.contains("format") && j["format"] != "fringe-patterns") {
+      throw Error(
+          StrCat(context, ": format is ", j["format"].dump(), ", expected \"fringe-patterns\""));
+    }
+    if (j.contains("name")) s.name = j["name"].get<std::string>();
+    if (!j.contains("projector")) throw Error(StrCat(context, ": missing \"projector\""));
+    s.projector_width = j["projector"].at("width").get<int>();
+    s.projector_height = j["projector"].at("height").get<int>();
+    if (j.contains("direction")) {
+      const auto d = j["direction"].get<std::string>();
+      if (d == "vertical") {
+        s.direction = FringeDirection::kVertical;
+      } else if (d == "horizontal") {
+        s.direction = FringeDirection::kHorizontal;
+      } else {
+        throw Error(StrCat(context, ": direction \"", d, "\": expected vertical or horizontal"));
+      }
+    }
+    if (j.contains("intensity")) {
+      s.intensity_mean = j["intensity"].value("mean", s.intensity_mean);
+      s.intensity_amplitude = j["intensity"].value("amplitude", s.intensity_amplitude);
+    }
+    s.gamma_precompensation = j.value("gamma_precompensation", 1.0);
+    if (!j.contains("phase_sets") || !j["phase_sets"].is_array()) {
+      throw Error(StrCat(context, ": missing array \"phase_sets\""));
+    }
+    for (const json& js : j["phase_sets"]) {
+      PhaseShiftSet set;
+      set.period_px = js.at("period_px").get<double>();
+      set.steps = js.at("steps").get<int>();
+      if (js.contains("shifts_rad")) set.shifts_rad = js["shifts_rad"].get<std::vector<double>>();
+      set.phase_offset_rad = js.value("phase_offset_rad", 0.0);
+      s.phase_sets.push_back(set);
+    }
+    if (j.contains("gray_code")) {
+      s.gray_bits = j["gray_code"].value("bits", 0);
+      s.gray_complementary = j["gray_code"].value("complementary", false);
+    }
+    s.white_frame = j.value("white_frame", false);
+    s.dark_frame = j.value("dark_frame", false);
+    if (j.contains("images")) s.image_names = j["images"].get<std::vector<std::string>>();
+    s.Check();
+  } catch (const json::exception& e) {
+    throw Error(StrCat(context, ": ", e.what()));
+  } catch (const Error& e) {
+    const std::string msg = e.what();
+    if (msg.rfind(context, 0) == 0) throw;
+    throw Error(StrCat(context, ": ", msg));
+  }
+  return s;
+}
+
+PatternScheme ReadScheme(const std::filesystem::path& path) {
+  return SchemeFromJson(io::ReadJson(path), path.string());
+}
+
+void WriteScheme(const std::filesystem::path& path, const PatternScheme& scheme) {
+  scheme.Check();
+  io::WriteJson(path, SchemeToJson(scheme));
+}
+
+PatternScheme SchemeFromNameOrFile(const std::string& name_or_path, int projector_width,
+                                   int projector_height) {
+  const auto presets = SchemePresetNames();
+  if (std::find(presets.begin(), presets.end(), name_or_path) != presets.end()) {
+    return MakeScheme(name_or_path, projector_width, projector_height);
+  }
+  if (std::filesystem::exists(name_or_path)) return ReadScheme(name_or_path);
+  return MakeScheme(name_or_path, projector_width, projector_height);  // throws, listing presets
+}
+
+double PatternIntensity(const PatternScheme& s, int index, double u) {
+  assert(index >= 0 && index < s.NumImages());
+  const double v = u + 0.5;  // from the projector's leading edge
+  int i = index;
+  for (const auto& set : s.phase_sets) {
+    if (i < set.steps) {
+      const double shift = set.shifts_rad.empty() ? kTwoPi * i / set.steps : set.shifts_rad[i];
+      return s.intensity_mean + s.intensity_amplitude * std::cos(kTwoPi * v / set.period_px +
+                                                                 set.phase_offset_rad + shift);
+    }
+    i -= set.steps;
+  }
+  if (i < s.NumGrayImages()) {
+    // Bit i (0 = most significant) of the (bits+1)-bit Gray code of the half-period index; its
+    // first `bits` bits equal the bits-bit Gray code of the period index.
+    const double p = s.phase_sets[0].period_px;
+    const long half = static_cast<long>(std::floor(2.0 * v / p));
+    const unsigned code = Gray(static_cast<unsigned>(std::max(half, 0L)));
+    return ((code >> (s.gray_bits - i)) & 1u) ? 1.0 : 0.0;
+  }
+  i -= s.NumGrayImages();
+  if (s.white_frame && i == 0) return 1.0;
+  return 0.0;  // dark frame
+}
+
+std::vector<cv::Mat> GeneratePatterns(const PatternScheme& scheme, double precompensate_gamma) {
+  scheme.Check();
+  CheckOption(precompensate_gamma > 0 && std::isfinite(precompensate_gamma), "GeneratePatterns",
+              "precompensate_gamma", precompensate_gamma, "must be > 0");
+  const int w = scheme.projector_width, h = scheme.projector_height;
+  const bool vertical = scheme.direction == FringeDirection::kVertical;
+  const int span = scheme.Span();
+  std::vector<cv::Mat> out;
+  std::vector<uint8_t> profile(span);
+  for (int i = 0; i < scheme.NumImages(); ++i) {
+    for (int u = 0; u < span; ++u) {
+      const double lin = std::clamp(PatternIntensity(scheme, i, u), 0.0, 1.0);
+      profile[u] =
+          static_cast<uint8_t>(std::lround(255.0 * std::pow(lin, 1.0 / precompensate_gamma)));
+    }
+    cv::Mat img(h, w, CV_8UC1);
+    for (int r = 0; r < h; ++r) {
+      uint8_t* row = img.ptr<uint8_t>(r);
+      if (vertical) {
+        std::copy(profile.begin(), profile.end(), row);
+      } else {
+        std::fill(row, row + w, profile[r]);
+      }
+    }
+    out.push_back(img);
+  }
+  return out;
+}
+
+void WritePatternFolder(const std::filesystem::path& dir, const PatternScheme& scheme_in,
+                        double precompensate_gamma) {
+  PatternScheme scheme = scheme_in;
+  scheme.gamma_precompensation = precompensate_gamma;
+  scheme.image_names = scheme.ImageNames();
+  const auto images = GeneratePatterns(scheme, precompensate_gamma);
+  util::WriteFolderAtomically(dir, [&](const std::filesystem::path& tmp) {
+    for (size_t i = 0; i < images.size(); ++i) {
+      const auto path = tmp / scheme.image_names[i];
+      if (!cv::imwrite(path.string(), images[i])) {
+        throw Error(StrCat((dir / scheme.image_names[i]).string(), ": cannot write image"));
+      }
+    }
+    io::WriteJson(tmp / "manifest.json", SchemeToJson(scheme));
+  });
+}
+
+}  // namespace fringe::phase

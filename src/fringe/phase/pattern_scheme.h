@@ -1,0 +1,138 @@
+// Fringe pattern schemes: what the projector shows, in which order, and how to make the images.
+//
+// Phase convention (docs/conventions.md, "Fringe patterns" in docs/formats.md). Let u be the
+// projector coordinate along which the phase varies (the column for vertical fringes, the row for
+// horizontal ones; pixel centres at integers) and v = u + 0.5 the same coordinate measured from
+// the projector's leading edge. For a phase-shift set with period P (projector pixels, need not be
+// an integer) the *absolute phase* is Phi(u) = 2*pi*v / P, and step k shows
+//     I_k(u) = mean + amplitude * cos(Phi(u) + phase_offset_rad + shift_k)
+// (fractions of full scale; 8-bit images are round(255 * I^(1/gamma)) with gamma the
+// pre-compensation). Decoders report absolute phase in projector pixels, u = Phi * P / (2 pi) -
+// 0.5.
+//
+// Gray code (optional, counts the periods of phase set 0): with n bits, column u lies in period
+// K = floor(v / P); the n images show the bits of gray(K) most significant first (bright = 1).
+// The optional complementary bit is the least significant bit of the (n+1)-bit Gray code of the
+// half-period index floor(2 v / P): its stripes switch in the middle of each period, which lets
+// the decoder remove the period-edge jumps of plain Gray code (Q. Zhang, X. Su, L. Xiang, X. Sun,
+// "3-D shape measurement based on complementary Gray-code light", Opt. Lasers Eng. 50, 2012).
+//
+// Image order in a stack: phase set 0 (its N steps), phase set 1, ..., Gray bits (most
+// significant first), complementary bit, white frame, dark frame.
+//
+// Thread safety: plain value types and pure functions.
+#pragma once
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+#include <string>
+#include <vector>
+
+namespace fringe::phase {
+
+// Vertical fringes: stripes are vertical, the phase varies along projector columns (absolute
+// phase is a projector column). Horizontal fringes: the phase varies along projector rows.
+enum class FringeDirection { kVertical, kHorizontal };
+
+std::string DirectionName(FringeDirection d);  // "vertical" | "horizontal"
+
+// One frequency of N-step phase shifting.
+struct PhaseShiftSet {
+  double period_px = 20.0;  // fringe period in projector pixels, > 2 (non-integer allowed)
+  int steps = 4;            // N >= 3
+  // N phase shifts in radians; empty means the equally spaced 2*pi*k/N.
+  std::vector<double> shifts_rad;
+  // Constant added to the phase of every step (radians), e.g. -pi when the capture software
+  // defines the wrapped phase as -pi at the start of each period.
+  double phase_offset_rad = 0.0;
+
+  // The shifts actually used (shifts_rad or the equally spaced default).
+  std::vector<double> Shifts() const;
+};
+
+struct PatternScheme {
+  std::string name = "custom";
+  int projector_width = 1280;  // projector pixels, > 0
+  int projector_height = 800;  // projector pixels, > 0
+  FringeDirection direction = FringeDirection::kVertical;
+  // Phase-shift sets; set 0 is the measuring (finest) frequency. Multi-frequency (heterodyne)
+  // unwrapping needs the periods in increasing order with increasing beat periods.
+  std::vector<PhaseShiftSet> phase_sets;
+  int gray_bits = 0;                 // Gray-code bits counting periods of set 0 (0 = none), <= 16
+  bool gray_complementary = false;   // one extra Gray image shifted by half a period
+  bool white_frame = false;          // a fully lit frame after the Gray code
+  bool dark_frame = false;           // a dark frame after that
+  double intensity_mean = 0.5;       // pattern mean, fraction of full scale, (0, 1)
+  double intensity_amplitude = 0.5;  // pattern amplitude, fraction of full scale, (0, mean] and
+                                     // mean + amplitude <= 1
+  // Gamma the 8-bit images were pre-compensated for when written (1 = none); informational for
+  // decoders, recorded in the manifest.
+  double gamma_precompensation = 1.0;
+  // File names of the images in stack order (optional; empty = "00.png", "01.png", ...).
+  std::vector<std::string> image_names;
+
+  // Number of projector pixels along the phase direction (width for vertical fringes).
+  int Span() const {
+    return direction == FringeDirection::kVertical ? projector_width : projector_height;
+  }
+  int NumPhaseImages() const;
+  int NumGrayImages() const { return gray_bits + (gray_bits > 0 && gray_complementary ? 1 : 0); }
+  int NumImages() const;
+  // Index of the first image of phase set s, of Gray bit b (0 = most significant; b == gray_bits
+  // is the complementary bit), of the white / dark frame (-1 when absent).
+  int PhaseImageIndex(int set) const;
+  int GrayImageIndex(int bit) const;
+  int WhiteImageIndex() const;
+  int DarkImageIndex() const;
+  // image_names or the default names.
+  std::vector<std::string> ImageNames() const;
+
+  // Throws fringe::Error naming the field when the scheme is inconsistent (no phase set, N < 3,
+  // shifts that do not determine the phase, too few Gray bits to count the periods, ...).
+  void Check() const;
+};
+
+// Presets (projector size in pixels):
+//  "heterodyne-4x3"  three frequencies x 4 steps (12 images); periods L/70, L/64, L/59 with
+//                    L = 1.1 * span, so the beat of beats (period L) covers the whole projector
+//                    with margin and the beats have periods L/6 and L/5.
+//  "thesis-4+3+3"    the same three periods, 4 steps on the fine measuring frequency and 3 steps
+//                    on the two coarse unwrapping frequencies (10 images).
+//  "heterodyne-3x3"  three frequencies x 3 steps (9 images).
+//  "gray+4"          4-step phase shift with period span / 2^n, n the fewest Gray bits that make
+//                    the period <= 32 px, + complementary Gray code (4 + n + 1 images).
+//  "slsdk-phasegray" the capture in ../shared/data/slsdk-stereo-phasegray: 1920x1080 projector,
+//                    4-step period 60 px with offset -pi, 5 Gray bits + complementary, images
+//                    0.png ... 9.png (size arguments ignored).
+PatternScheme MakeScheme(const std::string& preset, int projector_width = 1280,
+                         int projector_height = 800);
+std::vector<std::string> SchemePresetNames();
+
+// Manifest (docs/formats.md, "Pattern scheme manifest").
+nlohmann::json SchemeToJson(const PatternScheme& scheme);
+// `context` names the source for errors ("manifest.json"). The result is Check()ed.
+PatternScheme SchemeFromJson(const nlohmann::json& j, const std::string& context);
+PatternScheme ReadScheme(const std::filesystem::path& path);
+void WriteScheme(const std::filesystem::path& path, const PatternScheme& scheme);
+// A preset name or a manifest file path.
+PatternScheme SchemeFromNameOrFile(const std::string& name_or_path, int projector_width = 1280,
+                                   int projector_height = 800);
+
+// Projector images (CV_8UC1, projector_height x projector_width) in the scheme's image order.
+// precompensate_gamma > 0: each value is round(255 * I^(1 / gamma)) so that a projector with
+// response out = in^gamma shows the intended sinusoid.
+std::vector<cv::Mat> GeneratePatterns(const PatternScheme& scheme,
+                                      double precompensate_gamma = 1.0);
+
+// The ideal (continuous, linear) intensity in [0, 1] of image `index` at projector coordinate u
+// along the phase direction. Used by GeneratePatterns and by renderers that want the pattern
+// without 8-bit quantisation.
+double PatternIntensity(const PatternScheme& scheme, int index, double u);
+
+// Writes the patterns as 8-bit PNGs plus "manifest.json" (the scheme with its image names and
+// gamma_precompensation) into `dir`, atomically (the folder appears complete or not at all).
+void WritePatternFolder(const std::filesystem::path& dir, const PatternScheme& scheme,
+                        double precompensate_gamma = 1.0);
+
+}  // namespace fringe::phase

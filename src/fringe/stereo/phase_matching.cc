@@ -1,0 +1,329 @@
+#include "fringe/stereo/phase_matching.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include "fringe/util/error.h"
+#include "fringe/util/timer.h"
+
+namespace fringe::stereo {
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// A strictly monotonic stretch [begin, end] (end > begin) of valid samples in a rectified row
+// whose neighbouring samples differ by at most max_phase_step_px.
+struct Run {
+  int begin = 0;
+  int end = 0;
+  bool increasing = true;
+};
+
+using RowRuns = std::vector<std::vector<Run>>;
+
+RowRuns FindRuns(const cv::Mat& rect_phase, double max_step) {
+  RowRuns runs(rect_phase.rows);
+  tbb::parallel_for(tbb::blocked_range<int>(0, rect_phase.rows), [&](const auto& range) {
+    for (int v = range.begin(); v < range.end(); ++v) {
+      const float* row = rect_phase.ptr<float>(v);
+      auto& out = runs[v];
+      int begin = -1;
+      int dir = 0;
+      auto close = [&](int end) {
+        if (begin >= 0 && end > begin) out.push_back({begin, end, dir > 0});
+      };
+      for (int u = 0; u + 1 < rect_phase.cols; ++u) {
+        const float a = row[u], b = row[u + 1];
+        const float step = b - a;
+        const bool ok =
+            std::isfinite(a) && std::isfinite(b) && step != 0 && std::abs(step) <= max_step;
+        if (!ok) {
+          close(u);
+          begin = -1;
+          continue;
+        }
+        const int d = step > 0 ? 1 : -1;
+        if (begin < 0) {
+          begin = u;
+          dir = d;
+        } else if (d != dir) {
+          close(u);  // turning point: a new run starts at this sample
+          begin = u;
+          dir = d;
+        }
+      }
+      close(rect_phase.cols - 1);
+    }
+  });
+  return runs;
+}
+
+// Position u where the row's phase equals phi, in one run (the caller checked the range).
+double CrossingInRun(const float* row, const Run& run, double phi, CrossingInterpolation interp) {
+  int lo = run.begin, hi = run.end;  // invariant: phi between row[lo] and row[hi]
+  while (hi - lo > 1) {
+    const int mid = (lo + hi) / 2;
+    const bool below = run.increasing ? row[mid] <= phi : row[mid] >= phi;
+    (below ? lo : hi) = mid;
+  }
+  const double p0 = row[lo], p1 = row[lo + 1];
+  double t = (phi - p0) / (p1 - p0);
+  if (interp == CrossingInterpolation::kCubic && lo - 1 >= run.begin && lo + 2 <= run.end) {
+    // Lagrange cubic through samples lo-1 .. lo+2 at t = -1, 0, 1, 2; Newton from the linear t.
+    const double pm = row[lo - 1], p2 = row[lo + 2];
+    const double c0 = p0;
+    const double c1 = -pm / 3 - p0 / 2 + p1 - p2 / 6;
+    const double c2 = pm / 2 - p0 + p1 / 2;
+    const double c3 = -pm / 6 + p0 / 2 - p1 / 2 + p2 / 6;
+    for (int it = 0; it < 4; ++it) {
+      const double f = c0 + t * (c1 + t * (c2 + t * c3)) - phi;
+      const double df = c1 + t * (2 * c2 + t * 3 * c3);
+      if (df == 0) break;
+      t -= f / df;
+    }
+    t = std::clamp(t, 0.0, 1.0);
+  }
+  return lo + t;
+}
+
+// Number of crossings of phi in rectified row v (0, 1 or 2 meaning "several"); *u set when 1.
+int FindCrossing(const cv::Mat& rect_phase, const RowRuns& runs, int v, double phi,
+                 CrossingInterpolation interp, double* u) {
+  if (v < 0 || v >= rect_phase.rows) return 0;
+  const float* row = rect_phase.ptr<float>(v);
+  int count = 0;
+  for (const Run& run : runs[v]) {
+    const double a = row[run.begin], b = row[run.end];
+    if (phi < std::min(a, b) || phi > std::max(a, b)) continue;
+    if (++count > 1) return 2;
+    *u = CrossingInRun(row, run, phi, interp);
+  }
+  return count;
+}
+
+enum class RowMatch { kOk, kNone, kAmbiguous, kDiscontinuity };
+
+// Crossing at fractional rectified row v: from rows floor(v) and floor(v)+1, interpolated.
+RowMatch MatchAtRow(const cv::Mat& rect_phase, const RowRuns& runs, double v, double phi,
+                    const MatchingOptions& options, double* u) {
+  constexpr double kOnRow = 1e-3;  // closer than this to a row: that row alone decides
+  const int v0 = static_cast<int>(std::floor(v));
+  const double w = v - v0;
+  double u0 = 0, u1 = 0;
+  int n0 = 1, n1 = 1;
+  if (w < 1 - kOnRow) n0 = FindCrossing(rect_phase, runs, v0, phi, options.interpolation, &u0);
+  if (w > kOnRow) n1 = FindCrossing(rect_phase, runs, v0 + 1, phi, options.interpolation, &u1);
+  if (n0 == 0 || n1 == 0) return RowMatch::kNone;
+  if (n0 > 1 || n1 > 1) return RowMatch::kAmbiguous;
+  if (w <= kOnRow) {
+    *u = u0;
+  } else if (w >= 1 - kOnRow) {
+    *u = u1;
+  } else {
+    if (std::abs(u0 - u1) > options.max_row_crossing_diff_px) return RowMatch::kDiscontinuity;
+    *u = (1 - w) * u0 + w * u1;
+  }
+  return RowMatch::kOk;
+}
+
+cv::Mat ValidPhase(const PhaseImage& img, const CameraModel& cam, const char* side) {
+  auto fail = [&](const std::string& what) {
+    throw Error(util::StrCat("phase matching: ", side, " ", what, " must be ", cam.width, "x",
+                             cam.height, " (the rig's camera size)"));
+  };
+  if (img.phase.type() != CV_32FC1 || img.phase.cols != cam.width || img.phase.rows != cam.height) {
+    fail("phase (CV_32F)");
+  }
+  if (!img.mask.empty() && (img.mask.type() != CV_8UC1 || img.mask.size() != img.phase.size())) {
+    fail("mask (CV_8U)");
+  }
+  if (!img.modulation.empty() &&
+      (img.modulation.type() != CV_32FC1 || img.modulation.size() != img.phase.size())) {
+    fail("modulation (CV_32F)");
+  }
+  if (!img.texture.empty() && img.texture.size() != img.phase.size()) fail("texture");
+  cv::Mat phase = img.phase.clone();
+  if (!img.mask.empty()) phase.setTo(kNaN, img.mask == 0);
+  return phase;
+}
+
+}  // namespace
+
+void MatchingOptions::Check() const {
+  using util::CheckOption;
+  const char* kName = "MatchingOptions";
+  CheckOption(min_modulation >= 0, kName, "min_modulation", min_modulation, "must be >= 0");
+  CheckOption(max_phase_step_px > 0, kName, "max_phase_step_px", max_phase_step_px, "must be > 0");
+  CheckOption(max_row_crossing_diff_px > 0, kName, "max_row_crossing_diff_px",
+              max_row_crossing_diff_px, "must be > 0");
+  CheckOption(max_lr_error_px > 0, kName, "max_lr_error_px", max_lr_error_px, "must be > 0");
+  CheckOption(max_reprojection_error_px > 0, kName, "max_reprojection_error_px",
+              max_reprojection_error_px, "must be > 0");
+  CheckOption(max_projector_error_px >= 0, kName, "max_projector_error_px", max_projector_error_px,
+              "must be >= 0 (0 = off)");
+  CheckOption(min_depth_mm >= 0 && min_depth_mm < max_depth_mm, kName, "min_depth_mm", min_depth_mm,
+              "must be >= 0 and < max_depth_mm");
+  triangulation.Check();
+  rectification.Check();
+}
+
+std::string MatchingSummary::BriefReport() const {
+  return util::StrCat(
+      "matching: ", points, " points from ", left_valid, " valid left pixels (no crossing ",
+      no_crossing, ", ambiguous ", ambiguous, ", discontinuity ", discontinuity, ", left-right ",
+      lr_inconsistent, ", triangulation ", triangulation_failed, ", residual ", large_residual,
+      ", projector ", projector_inconsistent, ", depth range ", out_of_depth_range,
+      "), mean reprojection error ", mean_reprojection_error_px, " px, ", time_s, " s");
+}
+
+PhaseMatcher::PhaseMatcher(const StereoRig& rig, const MatchingOptions& options)
+    : rig_(rig), options_(options), rect_((options.Check(), rig), options.rectification) {
+  const CameraModel& cam = rig_.left;
+  left_rect_px_.create(cam.height, cam.width, CV_32FC2);
+  left_rays_.create(cam.height, cam.width, CV_32FC3);
+  tbb::parallel_for(tbb::blocked_range<int>(0, cam.height), [&](const auto& rows) {
+    for (int r = rows.begin(); r < rows.end(); ++r) {
+      auto* rect = left_rect_px_.ptr<cv::Vec2f>(r);
+      auto* ray = left_rays_.ptr<cv::Vec3f>(r);
+      for (int c = 0; c < cam.width; ++c) {
+        const Eigen::Vector2d xy = cam.Unproject(Eigen::Vector2d(c, r));
+        const Eigen::Vector3d d = Eigen::Vector3d(xy.x(), xy.y(), 1.0).normalized();
+        ray[c] = cv::Vec3f(d.x(), d.y(), d.z());
+        const Eigen::Vector3d dr = rect_.rect_from_left() * d;
+        rect[c] = cv::Vec2f(rect_.focal_px() * dr.x() / dr.z() + rect_.cx(Side::kLeft),
+                            rect_.focal_px() * dr.y() / dr.z() + rect_.cy());
+      }
+    }
+  });
+}
+
+MatchResult PhaseMatcher::Match(const PhaseImage& left, const PhaseImage& right) const {
+  util::Timer timer;
+  const cv::Mat phase_left = ValidPhase(left, rig_.left, "left");
+  const cv::Mat phase_right = ValidPhase(right, rig_.right, "right");
+  const cv::Mat rect_left = rect_.RectifyFloat(Side::kLeft, phase_left);
+  const cv::Mat rect_right = rect_.RectifyFloat(Side::kRight, phase_right);
+  const RowRuns runs_left = FindRuns(rect_left, options_.max_phase_step_px);
+  const RowRuns runs_right = FindRuns(rect_right, options_.max_phase_step_px);
+  cv::Mat texture;
+  if (!left.texture.empty()) left.texture.convertTo(texture, CV_32F);
+
+  const int w = rig_.left.width, h = rig_.left.height;
+  MatchResult result;
+  result.cloud = OrganizedPointCloud(w, h, false, !texture.empty(), !left.modulation.empty());
+  result.right_px = cv::Mat(h, w, CV_32FC2, cv::Scalar::all(kNaN));
+  result.reprojection_error_px = cv::Mat(h, w, CV_32FC1, cv::Scalar::all(kNaN));
+  const bool check_projector = rig_.projector.has_value() && options_.max_projector_error_px > 0;
+  std::vector<MatchingSummary> row_summary(h);
+  std::vector<double> row_error_sum(h, 0.0);
+
+  tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const auto& rows) {
+    for (int r = rows.begin(); r < rows.end(); ++r) {
+      MatchingSummary& s = row_summary[r];
+      const float* phi_row = phase_left.ptr<float>(r);
+      const float* mod_row = left.modulation.empty() ? nullptr : left.modulation.ptr<float>(r);
+      const auto* rect_px = left_rect_px_.ptr<cv::Vec2f>(r);
+      const auto* rays = left_rays_.ptr<cv::Vec3f>(r);
+      auto* right_px_row = result.right_px.ptr<cv::Vec2f>(r);
+      float* err_row = result.reprojection_error_px.ptr<float>(r);
+      for (int c = 0; c < w; ++c) {
+        const double phi = phi_row[c];
+        if (!std::isfinite(phi)) continue;
+        if (mod_row && mod_row[c] < options_.min_modulation) continue;
+        ++s.left_valid;
+        const double ul = rect_px[c][0], vl = rect_px[c][1];
+        double ur = 0;
+        switch (MatchAtRow(rect_right, runs_right, vl, phi, options_, &ur)) {
+          case RowMatch::kOk:
+            break;
+          case RowMatch::kNone:
+            ++s.no_crossing;
+            continue;
+          case RowMatch::kAmbiguous:
+            ++s.ambiguous;
+            continue;
+          case RowMatch::kDiscontinuity:
+            ++s.discontinuity;
+            continue;
+        }
+        double ul_back = 0;
+        if (MatchAtRow(rect_left, runs_left, vl, phi, options_, &ul_back) != RowMatch::kOk ||
+            std::abs(ul_back - ul) > options_.max_lr_error_px) {
+          ++s.lr_inconsistent;
+          continue;
+        }
+        const Eigen::Vector2d right_px =
+            rect_.OriginalFromRectified(Side::kRight, Eigen::Vector2d(ur, vl));
+        if (!rig_.right.InImage(right_px)) {
+          ++s.no_crossing;
+          continue;
+        }
+        const Eigen::Vector3d ray(rays[c][0], rays[c][1], rays[c][2]);
+        const TriangulatedPoint tp =
+            TriangulateFromRays(rig_, ray, Eigen::Vector2d(c, r), rig_.right.Unproject(right_px),
+                                right_px, options_.triangulation);
+        if (!tp.ok()) {
+          ++s.triangulation_failed;
+          continue;
+        }
+        if (tp.reprojection_error_px > options_.max_reprojection_error_px) {
+          ++s.large_residual;
+          continue;
+        }
+        if (check_projector) {
+          const Eigen::Vector3d p_in_projector = rig_.projector_from_left * tp.p_in_left;
+          if (p_in_projector.z() <= 0 || std::abs(rig_.projector->Project(p_in_projector).x() -
+                                                  phi) > options_.max_projector_error_px) {
+            ++s.projector_inconsistent;
+            continue;
+          }
+        }
+        if (tp.p_in_left.z() < options_.min_depth_mm || tp.p_in_left.z() > options_.max_depth_mm) {
+          ++s.out_of_depth_range;
+          continue;
+        }
+        const size_t i = result.cloud.index(c, r);
+        result.cloud.valid[i] = 1;
+        result.cloud.cloud.points[i] = tp.p_in_left;
+        if (mod_row) result.cloud.cloud.quality[i] = mod_row[c];
+        if (!texture.empty()) result.cloud.cloud.intensity[i] = texture.at<float>(r, c);
+        right_px_row[c] = cv::Vec2f(right_px.x(), right_px.y());
+        err_row[c] = static_cast<float>(tp.reprojection_error_px);
+        row_error_sum[r] += tp.reprojection_error_px;
+        ++s.points;
+      }
+    }
+  });
+
+  MatchingSummary& total = result.summary;
+  double error_sum = 0;
+  for (int r = 0; r < h; ++r) {
+    const MatchingSummary& s = row_summary[r];
+    total.left_valid += s.left_valid;
+    total.no_crossing += s.no_crossing;
+    total.ambiguous += s.ambiguous;
+    total.discontinuity += s.discontinuity;
+    total.lr_inconsistent += s.lr_inconsistent;
+    total.triangulation_failed += s.triangulation_failed;
+    total.large_residual += s.large_residual;
+    total.projector_inconsistent += s.projector_inconsistent;
+    total.out_of_depth_range += s.out_of_depth_range;
+    total.points += s.points;
+    error_sum += row_error_sum[r];
+  }
+  total.mean_reprojection_error_px = total.points > 0 ? error_sum / total.points : 0.0;
+  total.time_s = timer.ElapsedSeconds();
+  return result;
+}
+
+MatchResult MatchPhase(const StereoRig& rig, const PhaseImage& left, const PhaseImage& right,
+                       const MatchingOptions& options) {
+  return PhaseMatcher(rig, options).Match(left, right);
+}
+
+}  // namespace fringe::stereo

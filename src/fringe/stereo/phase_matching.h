@@ -1,0 +1,127 @@
+// Subpixel absolute-phase stereo matching and triangulation to an organized point cloud.
+//
+// Inputs are the two cameras' absolute phase maps (CV_32F, projector pixels of VERTICAL fringes,
+// i.e. the projector column, on the ORIGINAL distorted camera grids; NaN or mask 0 = invalid).
+// For every valid left pixel, the right image's phase is searched along the epipolar line, which
+// after rectification (rectification.h) is the rectified row through the left pixel: the right
+// phase map is resampled once on the rectified grid; for the (fractional) rectified row v of the
+// left pixel the phase crossing phi_right(u) = phi_left is located in the rows floor(v) and
+// floor(v) + 1 by interpolating the phase between the bracketing samples (linear, or a local cubic
+// through four samples) and the two crossings are interpolated linearly in v. This follows the
+// phase-based stereo matching of fringe projection systems (e.g. Zhang & Yau, "Absolute phase-
+// assisted three-dimensional data registration", 2006; the thesis, ch. 3): the phase is
+// interpolated, not a matching cost.
+//
+// Rejections (each counted in the summary): no crossing, several crossings (ambiguous), phase
+// not monotonic / jump between neighbouring samples larger than max_phase_step_px (a depth
+// discontinuity or a fringe-order error), the crossings of the two bracketing rows disagreeing
+// (discontinuity across rows), left-right inconsistency (the rectified LEFT row searched for the
+// same phase must give back the left pixel), low modulation, failed triangulation, large
+// reprojection residual, disagreement with the calibrated projector. Triangulation is done in the
+// original distorted geometry (triangulation.h).
+//
+// Output: an OrganizedPointCloud on the LEFT camera grid, points in the LEFT camera frame (mm),
+// quality = left fringe modulation (DN), intensity = left texture when given; plus per-pixel maps
+// of the matched right pixel and the reprojection residual.
+//
+// Thread safety: a PhaseMatcher is immutable after construction; Match() may be called
+// concurrently. Results do not depend on the number of threads.
+#pragma once
+
+#include <opencv2/core.hpp>
+#include <string>
+
+#include "fringe/geometry/point_cloud.h"
+#include "fringe/stereo/rectification.h"
+#include "fringe/stereo/triangulation.h"
+
+namespace fringe::stereo {
+
+// One camera's decoded phase. Only `phase` is required.
+struct PhaseImage {
+  cv::Mat phase;       // CV_32F absolute phase in projector pixels; NaN = invalid
+  cv::Mat mask;        // CV_8U, non-zero = valid; empty = all finite phases valid
+  cv::Mat modulation;  // CV_32F fringe modulation in DN; empty = unknown
+  cv::Mat texture;     // CV_32F or CV_8U grey value (0-255 scale) for the cloud; may be empty
+};
+
+enum class CrossingInterpolation {
+  kLinear = 0,  // straight line between the two bracketing samples
+  kCubic = 1,   // cubic through the four samples around the crossing (linear at run ends)
+};
+
+struct MatchingOptions {
+  // Pixels whose left modulation is below this are skipped, DN, >= 0 (0: rely on the mask).
+  double min_modulation = 0;
+  // Largest phase change between neighbouring rectified samples of a monotonic run, projector
+  // pixels, > 0. Larger steps are discontinuities; matching never interpolates across them.
+  double max_phase_step_px = 4.0;
+  CrossingInterpolation interpolation = CrossingInterpolation::kLinear;
+  // Largest difference of the crossings in the two rectified rows bracketing a left pixel,
+  // rectified pixels, > 0.
+  double max_row_crossing_diff_px = 3.0;
+  // Left-right consistency tolerance, rectified pixels, > 0.
+  double max_lr_error_px = 0.5;
+  // Points with a larger RMS reprojection residual are dropped, pixels, > 0.
+  double max_reprojection_error_px = 1.0;
+  // When the rig has a calibrated projector: the triangulated point must project into the
+  // projector at the column given by its phase within this tolerance, projector pixels; 0 turns
+  // the check off. It removes the matches that phase alone cannot tell from true ones: at
+  // occlusions the same phase can occur once in each row on different surfaces.
+  double max_projector_error_px = 1.0;
+  // Points outside this depth range (left camera z) are dropped, mm, 0 <= min < max.
+  double min_depth_mm = 1.0;
+  double max_depth_mm = 1e5;
+  TriangulationOptions triangulation;
+  RectificationOptions rectification;
+
+  void Check() const;
+};
+
+struct MatchingSummary {
+  int left_valid = 0;     // left pixels with a valid phase (and enough modulation)
+  int no_crossing = 0;    // the phase does not occur on the rectified right row
+  int ambiguous = 0;      // it occurs more than once
+  int discontinuity = 0;  // the two bracketing rows disagree
+  int lr_inconsistent = 0;
+  int triangulation_failed = 0;
+  int large_residual = 0;
+  int projector_inconsistent = 0;
+  int out_of_depth_range = 0;
+  int points = 0;
+  double mean_reprojection_error_px = 0;
+  double time_s = 0;
+  std::string BriefReport() const;
+};
+
+struct MatchResult {
+  OrganizedPointCloud cloud;  // LEFT grid, LEFT camera frame
+  cv::Mat right_px;           // CV_32FC2 matched original right pixel per left pixel, NaN if none
+  cv::Mat reprojection_error_px;  // CV_32F per left pixel, NaN if none
+  MatchingSummary summary;
+};
+
+class PhaseMatcher {
+ public:
+  // Precomputes the rectification and the left viewing rays. Throws for a bad rig / options.
+  PhaseMatcher(const StereoRig& rig, const MatchingOptions& options = {});
+
+  // Throws fringe::Error when an image's size or type does not fit the rig.
+  MatchResult Match(const PhaseImage& left, const PhaseImage& right) const;
+
+  const Rectification& rectification() const { return rect_; }
+  const MatchingOptions& options() const { return options_; }
+
+ private:
+  StereoRig rig_;
+  MatchingOptions options_;
+  Rectification rect_;
+  cv::Mat left_rect_px_;  // CV_32FC2: rectified pixel of every original left pixel
+  cv::Mat left_rays_;     // CV_32FC3: unit viewing ray of every original left pixel
+};
+
+// One-off convenience.
+MatchResult MatchPhase(const StereoRig& rig, const PhaseImage& left, const PhaseImage& right,
+                       const MatchingOptions& options = {});
+
+}  // namespace fringe::stereo

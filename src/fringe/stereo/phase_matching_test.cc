@@ -1,0 +1,164 @@
+#include "fringe/stereo/phase_matching.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "fringe/stereo/test_scene.h"
+#include "fringe/util/error.h"
+
+namespace fringe::stereo {
+namespace {
+
+using testing::Plane;
+using testing::Scene;
+using testing::Sphere;
+
+constexpr double kRigScale = 0.25;  // 320x256 cameras keep the tests fast
+
+PhaseImage Ph(const cv::Mat& phase) {
+  PhaseImage p;
+  p.phase = phase;
+  return p;
+}
+
+struct Errors {
+  double max_point_mm = 0;
+  double rms_point_mm = 0;
+  double max_right_px = 0;
+  int points = 0;
+};
+
+// Compares matched points with the exact surface point of each left pixel and the matched right
+// pixel with the true projection of that point.
+Errors Compare(const StereoRig& rig, const testing::TrueView& truth, const MatchResult& m) {
+  Errors e;
+  double sum_sq = 0;
+  for (size_t i = 0; i < m.cloud.valid.size(); ++i) {
+    if (!m.cloud.valid[i]) continue;
+    const Eigen::Vector3d& p = truth.p_in_left[i];
+    const double d = (m.cloud.cloud.points[i] - p).norm();
+    e.max_point_mm = std::max(e.max_point_mm, d);
+    sum_sq += d * d;
+    const int c = static_cast<int>(i % m.cloud.width), r = static_cast<int>(i / m.cloud.width);
+    const cv::Vec2f q = m.right_px.at<cv::Vec2f>(r, c);
+    const Eigen::Vector2d q_true = rig.right.Project(rig.right_from_left * p);
+    e.max_right_px = std::max(e.max_right_px, (Eigen::Vector2d(q[0], q[1]) - q_true).norm());
+    ++e.points;
+  }
+  e.rms_point_mm = e.points ? std::sqrt(sum_sq / e.points) : 0;
+  return e;
+}
+
+int LitPixels(const cv::Mat& phase) {
+  int n = 0;
+  for (int r = 0; r < phase.rows; ++r) {
+    for (int c = 0; c < phase.cols; ++c) n += std::isfinite(phase.at<float>(r, c));
+  }
+  return n;
+}
+
+TEST(PhaseMatching, DefaultOptionsPassCheck) { EXPECT_NO_THROW(MatchingOptions().Check()); }
+
+TEST(PhaseMatching, TiltedPlaneRecoversKnownDisparities) {
+  // Named tolerances: bilinear resampling of a smooth phase field leaves errors far below the
+  // phase noise of real data (0.01 projector px ~ 0.005 mm here).
+  constexpr double kMaxRightPxError = 0.01;
+  constexpr double kMaxPointErrorMm = 0.01;
+  constexpr double kMinCoverage = 0.9;
+  const StereoRig rig = testing::ScaledReferenceRig(kRigScale);
+  Scene scene;
+  scene.planes.push_back({Eigen::Vector3d(0.2, -0.1, -1).normalized(), -500});
+  const auto left = testing::TraceView(rig, scene, false);
+  const auto right = testing::TraceView(rig, scene, true);
+  for (auto interp : {CrossingInterpolation::kLinear, CrossingInterpolation::kCubic}) {
+    MatchingOptions options;
+    options.interpolation = interp;
+    const MatchResult m = MatchPhase(rig, Ph(left.phase), Ph(right.phase), options);
+    const Errors e = Compare(rig, left, m);
+    SCOPED_TRACE(m.summary.BriefReport());
+    EXPECT_EQ(e.points, m.summary.points);
+    EXPECT_GT(e.points, kMinCoverage * LitPixels(left.phase));
+    EXPECT_LT(e.max_right_px, kMaxRightPxError);
+    EXPECT_LT(e.max_point_mm, kMaxPointErrorMm);
+    EXPECT_LT(m.summary.mean_reprojection_error_px, 1e-3);
+    EXPECT_EQ(m.summary.ambiguous, 0);
+  }
+}
+
+TEST(PhaseMatching, SphereBeforePlaneHasNoWrongMatches) {
+  // On the 4x downscaled rig one pixel of disparity is ~2.5 mm of depth, and at the grazing limb
+  // of the sphere the bilinear resampling of the phase is least accurate: most points are exact,
+  // a thin band at the limb is within kMaxLimbErrorMm, and no point is a wrong match.
+  constexpr double kPointErrorMm = 0.02;
+  constexpr double kMinFractionWithin = 0.98;
+  constexpr double kMaxLimbErrorMm = 0.5;
+  constexpr double kMinCoverage = 0.8;
+  const StereoRig rig = testing::ScaledReferenceRig(kRigScale);
+  Scene scene;
+  scene.spheres.push_back(
+      {Eigen::Vector3d(0, 0, 480) + rig.right_from_left.Inverse().translation() / 2, 40});
+  scene.planes.push_back({Eigen::Vector3d(0, 0, -1), -560});
+  const auto left = testing::TraceView(rig, scene, false);
+  const auto right = testing::TraceView(rig, scene, true);
+  MatchingOptions options;
+  options.max_projector_error_px = 0.05;
+  const MatchResult m = MatchPhase(rig, Ph(left.phase), Ph(right.phase), options);
+  SCOPED_TRACE(m.summary.BriefReport());
+  const Errors e = Compare(rig, left, m);
+  EXPECT_GT(e.points, kMinCoverage * LitPixels(left.phase));
+  EXPECT_LT(e.max_point_mm, kMaxLimbErrorMm);
+  int within = 0;
+  for (size_t i = 0; i < m.cloud.valid.size(); ++i) {
+    within +=
+        m.cloud.valid[i] && (m.cloud.cloud.points[i] - left.p_in_left[i]).norm() < kPointErrorMm;
+  }
+  EXPECT_GT(within, kMinFractionWithin * e.points);
+  EXPECT_GT(m.summary.projector_inconsistent, 0);  // the occlusion ambiguities were seen
+}
+
+TEST(PhaseMatching, ViewWithoutValidPixelsGivesEmptyCloud) {
+  const StereoRig rig = testing::ScaledReferenceRig(kRigScale);
+  const cv::Mat nan(rig.left.height, rig.left.width, CV_32FC1,
+                    cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
+  const MatchResult m = MatchPhase(rig, Ph(nan), Ph(nan.clone()));
+  EXPECT_EQ(m.summary.left_valid, 0);
+  EXPECT_EQ(m.summary.points, 0);
+  EXPECT_EQ(m.cloud.NumValid(), 0u);
+  EXPECT_EQ(m.cloud.width, rig.left.width);
+}
+
+TEST(PhaseMatching, MaskAndModulationRejectPixels) {
+  const StereoRig rig = testing::ScaledReferenceRig(kRigScale);
+  Scene scene;
+  scene.planes.push_back({Eigen::Vector3d(0, 0, -1), -500});
+  const auto left = testing::TraceView(rig, scene, false);
+  const auto right = testing::TraceView(rig, scene, true);
+  PhaseImage l = Ph(left.phase);
+  l.mask = cv::Mat(left.phase.size(), CV_8UC1, cv::Scalar(255));
+  l.mask.colRange(0, l.mask.cols / 2).setTo(0);
+  l.modulation = cv::Mat(left.phase.size(), CV_32FC1, cv::Scalar(50));
+  l.modulation.rowRange(0, l.modulation.rows / 2).setTo(2);
+  MatchingOptions options;
+  options.min_modulation = 10;
+  const MatchResult m = MatchPhase(rig, l, Ph(right.phase), options);
+  ASSERT_GT(m.summary.points, 0);
+  for (int r = 0; r < m.cloud.height; ++r) {
+    for (int c = 0; c < m.cloud.width; ++c) {
+      if (m.cloud.valid[m.cloud.index(c, r)]) {
+        EXPECT_GE(c, m.cloud.width / 2);
+        EXPECT_GE(r, m.cloud.height / 2);
+        EXPECT_EQ(m.cloud.cloud.quality[m.cloud.index(c, r)], 50.f);
+      }
+    }
+  }
+}
+
+TEST(PhaseMatching, WrongImageSizeThrows) {
+  const StereoRig rig = testing::ScaledReferenceRig(kRigScale);
+  const cv::Mat small(10, 10, CV_32FC1, cv::Scalar(0));
+  EXPECT_THROW(MatchPhase(rig, Ph(small), Ph(small)), Error);
+}
+
+}  // namespace
+}  // namespace fringe::stereo

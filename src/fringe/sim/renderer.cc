@@ -1,0 +1,611 @@
+#include "fringe/sim/renderer.h"
+
+#include <embree3/rtcore.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <opencv2/imgproc.hpp>
+#include <random>
+
+#include "fringe/util/error.h"
+#include "fringe/util/random.h"
+
+namespace fringe::sim {
+
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// A projector image prepared for sampling: linear light in [black, 1], padded by one replicated
+// pixel on every side so bilinear lookups at the image's outer half pixel need no branches.
+struct PreparedPattern {
+  std::vector<float> data;
+  int stride = 0;
+};
+
+PreparedPattern PreparePattern(const cv::Mat& pattern, const CameraModel& projector,
+                               const ProjectorOptions& opt, size_t index) {
+  if (pattern.channels() != 1 || (pattern.depth() != CV_8U && pattern.depth() != CV_32F)) {
+    throw Error(util::StrCat("pattern ", index, ": expected CV_8UC1 (0..255) or CV_32FC1 (0..1)"));
+  }
+  if (pattern.cols != projector.width || pattern.rows != projector.height) {
+    throw Error(util::StrCat("pattern ", index, ": size ", pattern.cols, "x", pattern.rows,
+                             " differs from the projector's ", projector.width, "x",
+                             projector.height));
+  }
+  cv::Mat f;
+  if (pattern.depth() == CV_8U) {
+    pattern.convertTo(f, CV_32F, 1.0 / 255.0);
+  } else {
+    f = pattern.clone();
+  }
+  const float black = static_cast<float>(opt.black_level);
+  const float gamma = static_cast<float>(opt.gamma);
+  for (int r = 0; r < f.rows; ++r) {
+    float* p = f.ptr<float>(r);
+    for (int c = 0; c < f.cols; ++c) {
+      const float v = std::clamp(p[c], 0.0f, 1.0f);
+      p[c] = black + (1.0f - black) * (gamma == 1.0f ? v : std::pow(v, gamma));
+    }
+  }
+  if (opt.defocus_sigma_px > 0) {
+    cv::GaussianBlur(f, f, cv::Size(0, 0), opt.defocus_sigma_px, opt.defocus_sigma_px,
+                     cv::BORDER_REPLICATE);
+  }
+  cv::Mat padded;
+  cv::copyMakeBorder(f, padded, 1, 1, 1, 1, cv::BORDER_REPLICATE);
+  PreparedPattern out;
+  out.stride = padded.cols;
+  out.data.assign(padded.begin<float>(), padded.end<float>());
+  return out;
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+
+void SensorOptions::Check() const {
+  using util::CheckOption;
+  CheckOption(supersampling >= 1 && supersampling <= 16, "SensorOptions", "supersampling",
+              supersampling, "must be in [1, 16]");
+  CheckOption(exposure > 0 && exposure <= 100, "SensorOptions", "exposure", exposure,
+              "must be in (0, 100]");
+  CheckOption(bit_depth == 8 || bit_depth == 12, "SensorOptions", "bit_depth", bit_depth,
+              "must be 8 or 12");
+  CheckOption(read_noise_dn >= 0, "SensorOptions", "read_noise_dn", read_noise_dn, "must be >= 0");
+  CheckOption(electrons_per_dn > 0, "SensorOptions", "electrons_per_dn", electrons_per_dn,
+              "must be > 0");
+  CheckOption(defocus_sigma_px >= 0, "SensorOptions", "defocus_sigma_px", defocus_sigma_px,
+              "must be >= 0");
+}
+
+void ProjectorOptions::Check() const {
+  using util::CheckOption;
+  CheckOption(gamma > 0 && gamma <= 10, "ProjectorOptions", "gamma", gamma, "must be in (0, 10]");
+  CheckOption(black_level >= 0 && black_level < 1, "ProjectorOptions", "black_level", black_level,
+              "must be in [0, 1)");
+  CheckOption(brightness >= 0, "ProjectorOptions", "brightness", brightness, "must be >= 0");
+  CheckOption(ambient >= 0, "ProjectorOptions", "ambient", ambient, "must be >= 0");
+  CheckOption(defocus_sigma_px >= 0, "ProjectorOptions", "defocus_sigma_px", defocus_sigma_px,
+              "must be >= 0");
+}
+
+void RenderOptions::Check() const {
+  sensor.Check();
+  projector.Check();
+  util::CheckOption(shadow_offset_mm > 0, "RenderOptions", "shadow_offset_mm", shadow_offset_mm,
+                    "must be > 0");
+  util::CheckOption(marker_visibility_tolerance_mm > 0, "RenderOptions",
+                    "marker_visibility_tolerance_mm", marker_visibility_tolerance_mm,
+                    "must be > 0");
+}
+
+// ---------------------------------------------------------------------------------------------
+
+Eigen::Vector2d UnprojectFrom(const CameraModel& camera, const Eigen::Vector2d& pixel,
+                              const Eigen::Vector2d& guess) {
+  const Eigen::Vector2d target = camera.NormalizedDistortedFromPixel(pixel);
+  if (!camera.HasDistortion()) return target;
+  Eigen::Vector2d xy = guess;
+  for (int it = 0; it < 8; ++it) {
+    const Eigen::Vector2d r = camera.Distort(xy) - target;
+    const Eigen::Matrix2d j = camera.DistortJacobian(xy);
+    const double det = j(0, 0) * j(1, 1) - j(0, 1) * j(1, 0);
+    if (!(std::abs(det) > 1e-12)) break;
+    const Eigen::Vector2d step((j(1, 1) * r.x() - j(0, 1) * r.y()) / det,
+                               (j(0, 0) * r.y() - j(1, 0) * r.x()) / det);
+    xy -= step;
+    if (step.squaredNorm() < 1e-30) return xy;
+  }
+  return camera.Unproject(pixel);
+}
+
+cv::Mat ApplySensor(const cv::Mat& radiance, const SensorOptions& opt, uint64_t stream) {
+  assert(radiance.type() == CV_32F);
+  cv::Mat rad = radiance;
+  if (opt.defocus_sigma_px > 0) {
+    cv::GaussianBlur(radiance, rad, cv::Size(0, 0), opt.defocus_sigma_px, opt.defocus_sigma_px,
+                     cv::BORDER_REPLICATE);
+  }
+  const int type = opt.float_output ? CV_32F : (opt.bit_depth == 8 ? CV_8U : CV_16U);
+  cv::Mat out(rad.size(), type);
+  const double full = opt.FullScale();
+  const double scale = opt.exposure * full;
+  tbb::parallel_for(tbb::blocked_range<int>(0, rad.rows), [&](const tbb::blocked_range<int>& rr) {
+    for (int r = rr.begin(); r < rr.end(); ++r) {
+      util::Rng rng(util::MixSeed(stream, static_cast<uint64_t>(r)));
+      std::normal_distribution<double> normal(0.0, 1.0);
+      const float* in = rad.ptr<float>(r);
+      for (int c = 0; c < rad.cols; ++c) {
+        double dn = scale * in[c];
+        if (opt.noise) {
+          if (opt.shot_noise)
+            dn += std::sqrt(std::max(dn, 0.0) / opt.electrons_per_dn) * normal(rng);
+          if (opt.read_noise_dn > 0) dn += opt.read_noise_dn * normal(rng);
+        }
+        if (type == CV_32F) {
+          out.ptr<float>(r)[c] = static_cast<float>(dn);
+        } else {
+          const double q = std::clamp(std::round(dn), 0.0, full);
+          if (type == CV_8U) {
+            out.ptr<uint8_t>(r)[c] = static_cast<uint8_t>(q);
+          } else {
+            out.ptr<uint16_t>(r)[c] = static_cast<uint16_t>(q);
+          }
+        }
+      }
+    }
+  });
+  return out;
+}
+
+// ---------------------------------------------------------------------------------------------
+
+struct Renderer::Impl {
+  Scene scene;
+  RTCDevice device = nullptr;
+  RTCScene rtc = nullptr;
+  // Per object: CSR lists of markers whose disk may touch each triangle (empty: no markers).
+  std::vector<std::vector<int>> marker_begin;
+  std::vector<std::vector<int>> marker_ids;
+
+  ~Impl() {
+    if (rtc) rtcReleaseScene(rtc);
+    if (device) rtcReleaseDevice(device);
+  }
+
+  void Build() {
+    device = rtcNewDevice(nullptr);
+    if (!device) throw Error("Embree: cannot create a device");
+    rtc = rtcNewScene(device);
+    rtcSetSceneFlags(rtc, RTC_SCENE_FLAG_ROBUST);
+    rtcSetSceneBuildQuality(rtc, RTC_BUILD_QUALITY_HIGH);
+    for (size_t i = 0; i < scene.objects().size(); ++i) {
+      const TriangleMesh& mesh = scene.objects()[i].mesh;
+      RTCGeometry geom = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
+      auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0,
+                                                            RTC_FORMAT_FLOAT3, 3 * sizeof(float),
+                                                            mesh.vertices.size()));
+      for (size_t k = 0; k < mesh.vertices.size(); ++k) {
+        for (int d = 0; d < 3; ++d) v[3 * k + d] = static_cast<float>(mesh.vertices[k][d]);
+      }
+      auto* t = static_cast<uint32_t*>(
+          rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                                  3 * sizeof(uint32_t), mesh.triangles.size()));
+      for (size_t k = 0; k < mesh.triangles.size(); ++k) {
+        for (int d = 0; d < 3; ++d) t[3 * k + d] = static_cast<uint32_t>(mesh.triangles[k][d]);
+      }
+      rtcCommitGeometry(geom);
+      rtcAttachGeometryByID(rtc, geom, static_cast<unsigned>(i));
+      rtcReleaseGeometry(geom);
+    }
+    rtcCommitScene(rtc);
+    if (rtcGetDeviceError(device) != RTC_ERROR_NONE) {
+      throw Error("Embree: building the scene failed");
+    }
+    IndexMarkers();
+  }
+
+  void IndexMarkers() {
+    const auto& markers = scene.markers();
+    marker_begin.assign(scene.objects().size(), {});
+    marker_ids.assign(scene.objects().size(), {});
+    if (markers.empty()) return;
+    for (size_t o = 0; o < scene.objects().size(); ++o) {
+      const TriangleMesh& mesh = scene.objects()[o].mesh;
+      std::vector<std::vector<int>> per_tri(mesh.triangles.size());
+      Eigen::Vector3d omin, omax;
+      mesh.Bounds(&omin, &omax);
+      for (const Marker& m : markers) {
+        const Eigen::Vector3d r = Eigen::Vector3d::Constant(m.outer_radius_mm);
+        const Eigen::Vector3d mmin = m.centre_in_world - r, mmax = m.centre_in_world + r;
+        if ((mmax.array() < omin.array()).any() || (mmin.array() > omax.array()).any()) continue;
+        for (size_t k = 0; k < mesh.triangles.size(); ++k) {
+          const auto& tri = mesh.triangles[k];
+          Eigen::Vector3d tmin = mesh.vertices[tri[0]], tmax = tmin;
+          for (int d = 1; d < 3; ++d) {
+            tmin = tmin.cwiseMin(mesh.vertices[tri[d]]);
+            tmax = tmax.cwiseMax(mesh.vertices[tri[d]]);
+          }
+          if ((mmax.array() < tmin.array()).any() || (mmin.array() > tmax.array()).any()) continue;
+          per_tri[k].push_back(m.id);
+        }
+      }
+      auto& begin = marker_begin[o];
+      auto& ids = marker_ids[o];
+      begin.resize(mesh.triangles.size() + 1);
+      for (size_t k = 0; k < per_tri.size(); ++k) {
+        begin[k] = static_cast<int>(ids.size());
+        ids.insert(ids.end(), per_tri[k].begin(), per_tri[k].end());
+      }
+      begin.back() = static_cast<int>(ids.size());
+    }
+  }
+
+  std::optional<Hit> Cast(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double t_min) const {
+    RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    RTCRayHit rh;
+    rh.ray.org_x = static_cast<float>(o.x());
+    rh.ray.org_y = static_cast<float>(o.y());
+    rh.ray.org_z = static_cast<float>(o.z());
+    rh.ray.dir_x = static_cast<float>(d.x());
+    rh.ray.dir_y = static_cast<float>(d.y());
+    rh.ray.dir_z = static_cast<float>(d.z());
+    rh.ray.tnear = static_cast<float>(t_min);
+    rh.ray.tfar = std::numeric_limits<float>::infinity();
+    rh.ray.mask = 0xFFFFFFFFu;
+    rh.ray.flags = 0;
+    rh.ray.time = 0;
+    rh.ray.id = 0;
+    rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+    rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+    rtcIntersect1(rtc, &ctx, &rh);
+    if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return std::nullopt;
+    Hit hit;
+    hit.object = static_cast<int>(rh.hit.geomID);
+    hit.triangle = static_cast<int>(rh.hit.primID);
+    const SceneObject& obj = scene.objects()[hit.object];
+    double t = rh.ray.tfar;
+    if (obj.sphere) {
+      // Exact sphere: the root nearest Embree's hit on the inscribed tessellation.
+      const Eigen::Vector3d oc = o - obj.sphere->centre;
+      const double b = d.dot(oc);
+      const double c = oc.squaredNorm() - obj.sphere->radius_mm * obj.sphere->radius_mm;
+      const double disc = b * b - c;
+      if (disc >= 0) {
+        const double s = std::sqrt(disc);
+        const double t1 = -b - s, t2 = -b + s;
+        t = (std::abs(t1 - t) <= std::abs(t2 - t)) ? t1 : t2;
+      } else {
+        t = -b;
+      }
+      hit.t = t;
+      hit.point = o + t * d;
+      hit.normal = (hit.point - obj.sphere->centre).normalized();
+    } else {
+      // The triangle's plane in double precision.
+      const auto& tri = obj.mesh.triangles[hit.triangle];
+      const Eigen::Vector3d& v0 = obj.mesh.vertices[tri[0]];
+      const Eigen::Vector3d n =
+          (obj.mesh.vertices[tri[1]] - v0).cross(obj.mesh.vertices[tri[2]] - v0);
+      const double nn = n.norm();
+      const double den = d.dot(n);
+      if (nn > 0 && std::abs(den) > 1e-12 * nn) t = (v0 - o).dot(n) / den;
+      hit.t = t;
+      hit.point = o + t * d;
+      hit.normal = nn > 0 ? Eigen::Vector3d(n / nn)
+                          : Eigen::Vector3d(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z).normalized();
+    }
+    return hit;
+  }
+
+  // True when something lies between `from` and `to`.
+  bool Occluded(const Eigen::Vector3d& from, const Eigen::Vector3d& to) const {
+    const Eigen::Vector3d delta = to - from;
+    const double dist = delta.norm();
+    const Eigen::Vector3d d = delta / dist;
+    RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    RTCRay ray;
+    ray.org_x = static_cast<float>(from.x());
+    ray.org_y = static_cast<float>(from.y());
+    ray.org_z = static_cast<float>(from.z());
+    ray.dir_x = static_cast<float>(d.x());
+    ray.dir_y = static_cast<float>(d.y());
+    ray.dir_z = static_cast<float>(d.z());
+    ray.tnear = 0.0f;
+    ray.tfar = static_cast<float>(dist);
+    ray.mask = 0xFFFFFFFFu;
+    ray.flags = 0;
+    ray.time = 0;
+    ray.id = 0;
+    rtcOccluded1(rtc, &ctx, &ray);
+    return ray.tfar < 0;
+  }
+
+  double Albedo(const Hit& hit) const {
+    const SceneObject& obj = scene.objects()[hit.object];
+    if (!marker_begin[hit.object].empty()) {
+      const auto& begin = marker_begin[hit.object];
+      const auto& ids = marker_ids[hit.object];
+      for (int k = begin[hit.triangle]; k < begin[hit.triangle + 1]; ++k) {
+        const Marker& m = scene.markers()[ids[k]];
+        if (std::abs(hit.normal.dot(m.normal_in_world)) < 0.5) continue;  // another face
+        const Eigen::Vector3d rel = hit.point - m.centre_in_world;
+        const double along = rel.dot(m.normal_in_world);
+        if (std::abs(along) > m.outer_radius_mm) continue;
+        const double radial = (rel - along * m.normal_in_world).norm();
+        if (radial < m.inner_radius_mm) return scene.marker_white_albedo;
+        if (radial < m.outer_radius_mm) return scene.marker_black_albedo;
+      }
+    }
+    if (obj.texture) return std::clamp(obj.texture(hit.point), 0.0, 1.0);
+    return obj.albedo;
+  }
+};
+
+// ---------------------------------------------------------------------------------------------
+
+Renderer::Renderer(const Scene& scene, const StereoRig& rig, const RenderOptions& options)
+    : impl_(std::make_unique<Impl>()), rig_(rig), options_(options) {
+  options_.Check();
+  rig_.Check();
+  if (!rig_.projector) throw Error("Renderer: the rig has no projector (projector_from_left)");
+  if (scene.objects().empty()) throw Error("Renderer: the scene has no objects");
+  impl_->scene = scene;
+  // Marker ids index the scene's marker list.
+  for (size_t i = 0; i < scene.markers().size(); ++i) {
+    if (scene.markers()[i].id != static_cast<int>(i)) {
+      throw Error(util::StrCat("Renderer: marker ", i, " has id ", scene.markers()[i].id,
+                               " (ids must be 0, 1, 2, ... in order)"));
+    }
+  }
+  impl_->Build();
+}
+
+Renderer::~Renderer() = default;
+
+const Scene& Renderer::scene() const { return impl_->scene; }
+
+std::optional<Hit> Renderer::CastRay(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir,
+                                     double t_min) const {
+  return impl_->Cast(origin, dir.normalized(), t_min);
+}
+
+double Renderer::AlbedoAt(const Hit& hit) const { return impl_->Albedo(hit); }
+
+CameraImages Renderer::RenderCamera(const CameraModel& camera, const Rigid3d& world_from_camera,
+                                    const Rigid3d& world_from_projector,
+                                    const std::vector<cv::Mat>& patterns, uint64_t view_index,
+                                    int camera_index) const {
+  camera.Check();
+  const CameraModel& projector = *rig_.projector;
+  std::vector<PreparedPattern> prepared;
+  prepared.reserve(patterns.size());
+  for (size_t i = 0; i < patterns.size(); ++i) {
+    prepared.push_back(PreparePattern(patterns[i], projector, options_.projector, i));
+  }
+  const int W = camera.width, H = camera.height;
+  const int n = options_.sensor.supersampling;
+  const int samples_per_px = n * n;
+  const bool centre_is_sample = (n % 2) == 1;
+  const Eigen::Matrix3d R = world_from_camera.rotation_matrix();
+  const Eigen::Vector3d origin = world_from_camera.translation();
+  const Rigid3d projector_from_world = world_from_projector.Inverse();
+  const Eigen::Vector3d projector_centre = world_from_projector.translation();
+  const ProjectorOptions& popt = options_.projector;
+  const double shadow_offset = options_.shadow_offset_mm;
+  const int pstride = projector.width + 2;
+
+  CameraImages out;
+  std::vector<cv::Mat> radiance(patterns.size());
+  for (auto& m : radiance) m.create(H, W, CV_32F);
+  CameraTruth& truth = out.truth;
+  if (options_.truth) {
+    truth.depth.create(H, W, CV_64F);
+    truth.points.create(H, W, CV_64FC3);
+    truth.normals.create(H, W, CV_64FC3);
+    truth.projector.create(H, W, CV_64FC2);
+    truth.valid.create(H, W, CV_8U);
+    truth.object_id.create(H, W, CV_32S);
+  }
+
+  struct Sample {
+    Eigen::Vector2d uv;  // projector pixel
+    double weight;       // albedo * brightness * cos * lit
+    bool lit;
+  };
+  // Shades one hit: albedo, projector coordinate, cosine and shadow.
+  auto shade = [&](const Hit& hit, const Eigen::Vector3d& d_world, double* albedo, Sample* s) {
+    Eigen::Vector3d normal = hit.normal;
+    if (normal.dot(d_world) > 0) normal = -normal;  // two-sided: face the camera
+    *albedo = impl_->Albedo(hit);
+    s->weight = 0;
+    s->lit = false;
+    s->uv = Eigen::Vector2d(kNaN, kNaN);
+    const Eigen::Vector3d p_in_projector = projector_from_world * hit.point;
+    if (p_in_projector.z() <= 0) return;
+    s->uv = projector.Project(p_in_projector);
+    if (!projector.InImage(s->uv)) return;
+    const Eigen::Vector3d to_projector = (projector_centre - hit.point).normalized();
+    const double cos_term = normal.dot(to_projector);
+    if (cos_term <= 0) return;
+    if (impl_->Occluded(hit.point + shadow_offset * normal, projector_centre)) return;
+    s->lit = true;
+    s->weight = *albedo * popt.brightness * cos_term;
+  };
+
+  tbb::parallel_for(tbb::blocked_range<int>(0, H), [&](const tbb::blocked_range<int>& rows) {
+    const size_t row_samples = static_cast<size_t>(W) * samples_per_px;
+    std::vector<int32_t> base(row_samples);
+    std::vector<float> fx(row_samples), fy(row_samples), weight(row_samples);
+    std::vector<double> ambient(W);
+    for (int r = rows.begin(); r < rows.end(); ++r) {
+      std::fill(ambient.begin(), ambient.end(), 0.0);
+      for (int sj = 0; sj < n; ++sj) {
+        const double y = r + (sj + 0.5) / n - 0.5;
+        Eigen::Vector2d guess = camera.Unproject(Eigen::Vector2d(-0.5, y));
+        for (int c = 0; c < W; ++c) {
+          for (int si = 0; si < n; ++si) {
+            const double x = c + (si + 0.5) / n - 0.5;
+            const Eigen::Vector2d xy = UnprojectFrom(camera, Eigen::Vector2d(x, y), guess);
+            guess = xy;
+            const Eigen::Vector3d d_cam = Eigen::Vector3d(xy.x(), xy.y(), 1.0).normalized();
+            const Eigen::Vector3d d_world = R * d_cam;
+            const size_t k = static_cast<size_t>(c) * samples_per_px + sj * n + si;
+            base[k] = -1;
+            weight[k] = 0;
+            const std::optional<Hit> hit = impl_->Cast(origin, d_world, 0);
+            Sample s{Eigen::Vector2d(kNaN, kNaN), 0, false};
+            double albedo = 0;
+            if (hit) {
+              shade(*hit, d_world, &albedo, &s);
+              ambient[c] += albedo * popt.ambient;
+              if (s.lit) {
+                double u = s.uv.x(), v = s.uv.y();
+                if (popt.pixelated) {
+                  u = std::floor(u + 0.5);
+                  v = std::floor(v + 0.5);
+                }
+                const double fu = std::floor(u), fv = std::floor(v);
+                // +1: the padded border.
+                base[k] = static_cast<int32_t>((fv + 1) * pstride + (fu + 1));
+                fx[k] = static_cast<float>(u - fu);
+                fy[k] = static_cast<float>(v - fv);
+                weight[k] = static_cast<float>(s.weight);
+              }
+            }
+            const bool is_centre = centre_is_sample && 2 * sj + 1 == n && 2 * si + 1 == n;
+            if (options_.truth && (is_centre || (!centre_is_sample && sj == 0 && si == 0))) {
+              // Truth from the ray through the pixel centre (the middle sample for odd n).
+              std::optional<Hit> ch = hit;
+              Eigen::Vector3d dc = d_cam;
+              Sample cs = s;
+              if (!centre_is_sample) {
+                const Eigen::Vector2d cxy = UnprojectFrom(camera, Eigen::Vector2d(c, r), xy);
+                dc = Eigen::Vector3d(cxy.x(), cxy.y(), 1.0).normalized();
+                const Eigen::Vector3d dw = R * dc;
+                ch = impl_->Cast(origin, dw, 0);
+                if (ch) shade(*ch, dw, &albedo, &cs);
+              }
+              if (ch) {
+                const Eigen::Vector3d p_cam = ch->t * dc;
+                Eigen::Vector3d n_cam = world_from_camera.rotation().conjugate() * ch->normal;
+                if (n_cam.dot(dc) > 0) n_cam = -n_cam;
+                truth.depth.at<double>(r, c) = p_cam.z();
+                truth.points.at<cv::Vec3d>(r, c) = cv::Vec3d(p_cam.x(), p_cam.y(), p_cam.z());
+                truth.normals.at<cv::Vec3d>(r, c) = cv::Vec3d(n_cam.x(), n_cam.y(), n_cam.z());
+                truth.projector.at<cv::Vec2d>(r, c) = cv::Vec2d(cs.uv.x(), cs.uv.y());
+                truth.valid.at<uint8_t>(r, c) = cs.lit ? 255 : 0;
+                truth.object_id.at<int32_t>(r, c) = ch->object;
+              } else {
+                truth.depth.at<double>(r, c) = kNaN;
+                truth.points.at<cv::Vec3d>(r, c) = cv::Vec3d(kNaN, kNaN, kNaN);
+                truth.normals.at<cv::Vec3d>(r, c) = cv::Vec3d(kNaN, kNaN, kNaN);
+                truth.projector.at<cv::Vec2d>(r, c) = cv::Vec2d(kNaN, kNaN);
+                truth.valid.at<uint8_t>(r, c) = 0;
+                truth.object_id.at<int32_t>(r, c) = -1;
+              }
+            }
+          }
+        }
+      }
+      // Shade every pattern from the cached samples.
+      const float inv = 1.0f / static_cast<float>(samples_per_px);
+      for (size_t p = 0; p < prepared.size(); ++p) {
+        const float* img = prepared[p].data.data();
+        float* dst = radiance[p].ptr<float>(r);
+        for (int c = 0; c < W; ++c) {
+          float acc = 0;
+          const size_t k0 = static_cast<size_t>(c) * samples_per_px;
+          for (int s = 0; s < samples_per_px; ++s) {
+            const size_t k = k0 + s;
+            if (base[k] < 0) continue;
+            const float* q = img + base[k];
+            const float a = fx[k], b = fy[k];
+            const float top = q[0] + a * (q[1] - q[0]);
+            const float bottom = q[pstride] + a * (q[pstride + 1] - q[pstride]);
+            acc += weight[k] * (top + b * (bottom - top));
+          }
+          dst[c] = static_cast<float>(ambient[c]) * inv + acc * inv;
+        }
+      }
+    }
+  });
+
+  out.images.resize(patterns.size());
+  const uint64_t view_stream = util::MixSeed(options_.sensor.seed, view_index);
+  const uint64_t camera_stream = util::MixSeed(view_stream, static_cast<uint64_t>(camera_index));
+  for (size_t p = 0; p < patterns.size(); ++p) {
+    out.images[p] = ApplySensor(radiance[p], options_.sensor, util::MixSeed(camera_stream, p));
+  }
+  return out;
+}
+
+ViewImages Renderer::RenderView(const Rigid3d& world_from_sensor,
+                                const std::vector<cv::Mat>& patterns, uint64_t view_index) const {
+  ViewImages view;
+  view.world_from_sensor = world_from_sensor;
+  const Rigid3d world_from_projector = world_from_sensor * rig_.projector_from_left.Inverse();
+  view.left =
+      RenderCamera(rig_.left, world_from_sensor, world_from_projector, patterns, view_index, 0);
+  view.right = RenderCamera(rig_.right, world_from_sensor * rig_.right_from_left.Inverse(),
+                            world_from_projector, patterns, view_index, 1);
+  view.markers = ObserveMarkers(world_from_sensor);
+  return view;
+}
+
+std::vector<MarkerObservation> Renderer::ObserveMarkers(const Rigid3d& world_from_sensor) const {
+  std::vector<MarkerObservation> out;
+  const Rigid3d sensor_from_world = world_from_sensor.Inverse();
+  const Rigid3d world_from_right = world_from_sensor * rig_.right_from_left.Inverse();
+  for (const Marker& m : impl_->scene.markers()) {
+    MarkerObservation o;
+    o.id = m.id;
+    o.centre_in_sensor = sensor_from_world * m.centre_in_world;
+    auto observe = [&](const CameraModel& cam, const Rigid3d& world_from_cam, Eigen::Vector2d* px) {
+      const Eigen::Vector3d p_cam = world_from_cam.Inverse() * m.centre_in_world;
+      if (p_cam.z() <= 0) {
+        *px = Eigen::Vector2d(kNaN, kNaN);
+        return false;
+      }
+      *px = cam.Project(p_cam);
+      if (!cam.InImage(*px)) return false;
+      const Eigen::Vector3d eye = world_from_cam.translation();
+      const Eigen::Vector3d to_eye = eye - m.centre_in_world;
+      if (m.normal_in_world.dot(to_eye) <= 0) return false;
+      const double dist = to_eye.norm();
+      const std::optional<Hit> hit = impl_->Cast(eye, -to_eye / dist, 0);
+      return hit && hit->t >= dist - options_.marker_visibility_tolerance_mm;
+    };
+    o.visible_left = observe(rig_.left, world_from_sensor, &o.left_px);
+    o.visible_right = observe(rig_.right, world_from_right, &o.right_px);
+    out.push_back(o);
+  }
+  return out;
+}
+
+StereoRig ScaledRig(const StereoRig& rig, double scale) {
+  util::CheckOption(scale > 0, "ScaledRig", "scale", scale, "must be > 0");
+  auto scaled = [scale](CameraModel c) {
+    c.width = std::max(1, static_cast<int>(std::lround(c.width * scale)));
+    c.height = std::max(1, static_cast<int>(std::lround(c.height * scale)));
+    c.fx *= scale;
+    c.fy *= scale;
+    // Pixel centres at integers: the image edge -0.5 maps to -0.5.
+    c.cx = (c.cx + 0.5) * scale - 0.5;
+    c.cy = (c.cy + 0.5) * scale - 0.5;
+    return c;
+  };
+  StereoRig out = rig;
+  out.left = scaled(rig.left);
+  out.right = scaled(rig.right);
+  if (rig.projector) out.projector = scaled(*rig.projector);
+  return out;
+}
+
+}  // namespace fringe::sim

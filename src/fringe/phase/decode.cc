@@ -1,0 +1,599 @@
+#include "fringe/phase/decode.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <array>
+#include <cassert>
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <optional>
+
+#include "fringe/phase/gamma.h"
+#include "fringe/util/error.h"
+#include "fringe/util/timer.h"
+
+namespace fringe::phase {
+namespace {
+
+using util::CheckOption;
+using util::StrCat;
+
+constexpr int kMaxSets = 8;
+constexpr float kPiF = 3.14159265358979f;
+constexpr float kInvTwoPiF = 0.159154943091895f;
+
+// atan2 in float, branch free so that the row loops vectorise; max error 3e-7 rad (polynomial of
+// Abramowitz & Stegun 4.4.49), far below any phase noise of 8- or 16-bit images.
+inline float FastAtan2(float y, float x) {
+  const float ax = std::fabs(x), ay = std::fabs(y);
+  const float mx = std::fmax(ax, ay), mn = std::fmin(ax, ay);
+  const float a = mn / (mx + 1e-30f);
+  const float s = a * a;
+  float p = 0.0028662257f;
+  p = p * s - 0.0161657367f;
+  p = p * s + 0.0429096138f;
+  p = p * s - 0.0752896400f;
+  p = p * s + 0.1065626393f;
+  p = p * s - 0.1420889944f;
+  p = p * s + 0.1999355085f;
+  p = p * s - 0.3333314528f;
+  p = p * s + 1.0f;
+  float r = p * a;
+  r = ay > ax ? 1.57079637f - r : r;
+  r = x < 0 ? 3.14159274f - r : r;
+  return y < 0 ? -r : r;
+}
+
+// Round to nearest by the 1.5 * 2^23 trick (vectorises without SSE4.1); |x| < 2^22.
+inline float RoundF(float x) { return (x + 12582912.0f) - 12582912.0f; }
+// x in (-1, 1) -> [0, 1).
+inline float Wrap01Small(float x) { return x < 0.0f ? x + 1.0f : x; }
+
+// Least-squares coefficients: A = sum ca_k I_k, B cos(phi) = sum cc_k I_k,
+// B sin(phi) = sum cs_k I_k for the model I_k = A + B cos(phi + shift_k).
+struct SetCoefficients {
+  std::vector<float> ca, cc, cs;
+  cv::Matx33d cov;  // (M^T M)^-1: covariance of (A, a, b) per unit noise variance
+};
+
+SetCoefficients LeastSquaresCoefficients(const PhaseShiftSet& set) {
+  const auto shifts = set.Shifts();
+  const int n = static_cast<int>(shifts.size());
+  cv::Mat m(n, 3, CV_64F);
+  for (int k = 0; k < n; ++k) {
+    m.at<double>(k, 0) = 1.0;
+    m.at<double>(k, 1) = std::cos(shifts[k]);
+    m.at<double>(k, 2) = -std::sin(shifts[k]);
+  }
+  const cv::Mat q = (m.t() * m).inv(cv::DECOMP_SVD);
+  const cv::Mat c = q * m.t();  // 3 x n
+  SetCoefficients out;
+  for (int k = 0; k < n; ++k) {
+    out.ca.push_back(static_cast<float>(c.at<double>(0, k)));
+    out.cc.push_back(static_cast<float>(c.at<double>(1, k)));
+    out.cs.push_back(static_cast<float>(c.at<double>(2, k)));
+  }
+  out.cov = cv::Matx33d(q.ptr<double>());
+  return out;
+}
+
+// The heterodyne chain: level 0 holds the sets' phases (in cycles), level l element i is
+// level l-1 element i minus element i+1. Each element is an integer combination of the sets'
+// phases (weights) with its period.
+struct ChainElement {
+  double period = 0;
+  std::array<double, kMaxSets> weights{};
+};
+using Chain = std::vector<std::vector<ChainElement>>;
+
+Chain HeterodyneChain(const PatternScheme& s) {
+  Chain chain(1);
+  for (size_t i = 0; i < s.phase_sets.size(); ++i) {
+    ChainElement e;
+    e.period = s.phase_sets[i].period_px;
+    e.weights[i] = 1.0;
+    chain[0].push_back(e);
+  }
+  while (chain.back().size() > 1) {
+    const auto& prev = chain.back();
+    std::vector<ChainElement> next;
+    for (size_t i = 0; i + 1 < prev.size(); ++i) {
+      ChainElement e;
+      e.period = prev[i].period * prev[i + 1].period / (prev[i + 1].period - prev[i].period);
+      for (int k = 0; k < kMaxSets; ++k) e.weights[k] = prev[i].weights[k] - prev[i + 1].weights[k];
+      next.push_back(e);
+    }
+    chain.push_back(next);
+  }
+  return chain;
+}
+
+// Standard deviations (in fine periods, at B = 1 and sigma = 1) of the rounding residual of each
+// unwrapping step, and the margin (fraction of the fine period) an error must exceed.
+struct UnwrapStepNoise {
+  double sigma_per_unit = 0;
+  double margin = 0.5;
+};
+
+double PhaseVariancePerUnit(const PatternScheme& s, int set) {
+  // RMS over phi of var(phi) = (sin^2 Q11 + cos^2 Q22 - 2 sin cos Q12) / B^2.
+  const auto c = LeastSquaresCoefficients(s.phase_sets[set]);
+  return 0.5 * (c.cov(1, 1) + c.cov(2, 2));
+}
+
+std::vector<UnwrapStepNoise> StepNoise(const PatternScheme& s) {
+  std::vector<double> var_cycles(s.phase_sets.size());
+  for (size_t i = 0; i < s.phase_sets.size(); ++i) {
+    var_cycles[i] = PhaseVariancePerUnit(s, static_cast<int>(i)) / (4.0 * M_PI * M_PI);
+  }
+  std::vector<UnwrapStepNoise> steps;
+  if (s.gray_bits > 0) {
+    // Complementary Gray code: the order is wrong when the phase errs by a quarter period.
+    UnwrapStepNoise st;
+    st.sigma_per_unit = std::sqrt(var_cycles[0]);
+    st.margin = s.gray_complementary ? 0.25 : 0.0;
+    steps.push_back(st);
+    return steps;
+  }
+  const Chain chain = HeterodyneChain(s);
+  for (size_t l = chain.size() - 1; l >= 1; --l) {
+    const ChainElement& coarse = chain[l][0];
+    const ChainElement& fine = chain[l - 1][0];
+    double var = 0;
+    for (size_t k = 0; k < s.phase_sets.size(); ++k) {
+      const double w = coarse.period / fine.period * coarse.weights[k] - fine.weights[k];
+      var += w * w * var_cycles[k];
+    }
+    steps.push_back({std::sqrt(var), 0.5});
+  }
+  return steps;
+}
+
+double TwoSidedTail(double z) { return std::erfc(z / std::sqrt(2.0)); }
+
+template <typename T>
+struct Kernel {
+  const PatternScheme& scheme;
+  const DecodeOptions& opt;
+  const std::vector<cv::Mat>& images;
+  const std::vector<SetCoefficients>& coeffs;
+  const Chain& chain;
+  const std::vector<std::unique_ptr<GammaPhaseCorrection>>& gamma;
+  float b_min_sq, saturation, min_background, min_ratio_sq, max_residual;
+  DecodeResult* out;
+  std::vector<std::array<int64_t, 6>>* row_counts;  // valid, sat, under, lowmod, shadow, order
+
+  void operator()(const tbb::blocked_range<int>& range) const {
+    const int w = images[0].cols;
+    const int num_sets = static_cast<int>(scheme.phase_sets.size());
+    // Row buffers, allocated once per task.
+    std::vector<float> frac(static_cast<size_t>(num_sets) * w),
+        bsq(static_cast<size_t>(num_sets) * w);
+    std::vector<float> a0(w), maxi(w), v(w), resid(w), level(w * static_cast<size_t>(num_sets));
+    std::vector<int32_t> code1(w), code2(w), bin(w);
+    std::vector<const T*> rows(images.size());
+    for (int r = range.begin(); r < range.end(); ++r) {
+      for (size_t i = 0; i < images.size(); ++i) rows[i] = images[i].ptr<T>(r);
+      float* out_abs = out->absolute_phase.ptr<float>(r);
+      float* out_wrapped = out->wrapped_phase.ptr<float>(r);
+      float* out_mod = out->modulation.ptr<float>(r);
+      float* out_bg = out->background.ptr<float>(r);
+      uint8_t* out_mask = out->mask.ptr<uint8_t>(r);
+
+      // Saturation: the largest value over all images.
+      {
+        const T* p = rows[0];
+        for (int c = 0; c < w; ++c) maxi[c] = static_cast<float>(p[c]);
+        for (size_t i = 1; i < images.size(); ++i) {
+          const T* q = rows[i];
+          for (int c = 0; c < w; ++c) maxi[c] = std::max(maxi[c], static_cast<float>(q[c]));
+        }
+      }
+      // Least squares per set: phase (as a fraction of the period), B^2; A of set 0.
+      for (int s = 0; s < num_sets; ++s) {
+        const int first = scheme.PhaseImageIndex(s);
+        const int n = scheme.phase_sets[s].steps;
+        const SetCoefficients& cf = coeffs[s];
+        const float offset = static_cast<float>(scheme.phase_sets[s].phase_offset_rad);
+        float* f = &frac[static_cast<size_t>(s) * w];
+        float* b2 = &bsq[static_cast<size_t>(s) * w];
+        float* av = s == 0 ? a0.data() : nullptr;
+        // Accumulate A, a, b over the steps into v (a), resid (b), level (A) as scratch.
+        float* sa = level.data();
+        float* sc = v.data();
+        float* ss = resid.data();
+        std::fill(sa, sa + w, 0.0f);
+        std::fill(sc, sc + w, 0.0f);
+        std::fill(ss, ss + w, 0.0f);
+        for (int k = 0; k < n; ++k) {
+          const T* p = rows[first + k];
+          const float ka = cf.ca[k], kc = cf.cc[k], ks = cf.cs[k];
+          for (int c = 0; c < w; ++c) {
+            const float x = static_cast<float>(p[c]);
+            sa[c] += ka * x;
+            sc[c] += kc * x;
+            ss[c] += ks * x;
+          }
+        }
+        for (int c = 0; c < w; ++c) {
+          const float psi = FastAtan2(ss[c], sc[c]);
+          b2[c] = sc[c] * sc[c] + ss[c] * ss[c];
+          // Fraction of the period: (psi - offset) / 2 pi wrapped to [0, 1).
+          float t = (psi - offset) * kInvTwoPiF;
+          t -= RoundF(t - 0.5f);
+          f[c] = t >= 1.0f ? t - 1.0f : t;
+          if (s == 0) out_wrapped[c] = psi;
+        }
+        if (av) std::copy(sa, sa + w, av);
+        if (gamma[s]) {
+          for (int c = 0; c < w; ++c) {
+            float psi = FastAtan2(ss[c], sc[c]);
+            psi = gamma[s]->Correct(psi);
+            if (s == 0) out_wrapped[c] = psi;
+            float t = (psi - offset) * kInvTwoPiF;
+            t -= RoundF(t - 0.5f);
+            f[c] = t >= 1.0f ? t - 1.0f : t;
+          }
+        }
+      }
+      for (int c = 0; c < w; ++c) {
+        out_bg[c] = a0[c];
+        out_mod[c] = std::sqrt(bsq[c]);
+      }
+
+      std::fill(resid.begin(), resid.end(), 0.0f);
+      const float p0 = static_cast<float>(scheme.phase_sets[0].period_px);
+      if (scheme.gray_bits > 0) {
+        // Threshold: mid-level of white and dark frames when present, else the background A.
+        const int wi = scheme.WhiteImageIndex(), di = scheme.DarkImageIndex();
+        float* thr = level.data();
+        if (wi >= 0 && di >= 0) {
+          for (int c = 0; c < w; ++c) {
+            thr[c] = 0.5f * (static_cast<float>(rows[wi][c]) + static_cast<float>(rows[di][c]));
+          }
+        } else {
+          std::copy(a0.begin(), a0.end(), thr);
+        }
+        std::fill(bin.begin(), bin.end(), 0);
+        std::fill(code1.begin(), code1.end(), 0);
+        for (int b = 0; b < scheme.gray_bits; ++b) {
+          const T* p = rows[scheme.GrayImageIndex(b)];
+          for (int c = 0; c < w; ++c) {
+            bin[c] ^= static_cast<float>(p[c]) > thr[c] ? 1 : 0;  // Gray -> binary
+            code1[c] = (code1[c] << 1) | bin[c];
+          }
+        }
+        const float* f = frac.data();
+        if (scheme.gray_complementary) {
+          const T* p = rows[scheme.GrayImageIndex(scheme.gray_bits)];
+          for (int c = 0; c < w; ++c) {
+            const int last = bin[c] ^ (static_cast<float>(p[c]) > thr[c] ? 1 : 0);
+            const int k2 = (((code1[c] << 1) | last) + 1) >> 1;
+            const int k = f[c] < 0.25f ? k2 : (f[c] > 0.75f ? k2 - 1 : code1[c]);
+            v[c] = (static_cast<float>(k) + f[c]) * p0;
+          }
+        } else {
+          for (int c = 0; c < w; ++c) v[c] = (static_cast<float>(code1[c]) + f[c]) * p0;
+        }
+      } else {
+        // Heterodyne: build the levels on the fly, top element first, then fix orders downward.
+        // levels[l][i] for i < num_sets - l; stored in place in `frac` copies per level.
+        const int num_levels = static_cast<int>(chain.size());
+        // `level` holds every element of the current level (wrapped differences, in cycles);
+        // `keep` the element 0 of each level, which the top-down pass needs.
+        std::copy(frac.begin(), frac.end(), level.begin());
+        std::vector<std::vector<float>>& keep = level_keep();
+        keep.resize(num_levels);
+        for (int l = 0; l < num_levels; ++l) keep[l].resize(w);
+        std::copy(frac.begin(), frac.begin() + w, keep[0].begin());
+        for (int l = 1; l < num_levels; ++l) {
+          const int count = num_sets - l;
+          for (int i = 0; i < count; ++i) {
+            float* a = &level[static_cast<size_t>(i) * w];
+            const float* b = &level[static_cast<size_t>(i + 1) * w];
+            for (int c = 0; c < w; ++c) a[c] = Wrap01Small(a[c] - b[c]);
+          }
+          std::copy(level.begin(), level.begin() + w, keep[l].begin());
+        }
+        // Top: the coarsest period covers the span; take the representative nearest its centre.
+        const float pt = static_cast<float>(chain.back()[0].period);
+        const float centre = 0.5f * static_cast<float>(scheme.Span());
+        const float* top = keep[num_levels - 1].data();
+        for (int c = 0; c < w; ++c) {
+          const float x = top[c] * pt;
+          v[c] = x + pt * RoundF((centre - x) / pt);
+        }
+        for (int l = num_levels - 2; l >= 0; --l) {
+          const float pf = static_cast<float>(chain[l][0].period);
+          const float inv = 1.0f / pf;
+          const float* ff = keep[l].data();
+          for (int c = 0; c < w; ++c) {
+            const float t = v[c] * inv - ff[c];
+            const float k = RoundF(t);
+            resid[c] = std::max(resid[c], std::fabs(t - k));
+            v[c] = (ff[c] + k) * pf;
+          }
+        }
+      }
+
+      // Mask and outputs.
+      std::array<int64_t, 6> counts{};
+      for (int c = 0; c < w; ++c) {
+        int reason;
+        if (maxi[c] >= saturation) {
+          reason = 1;
+        } else if (a0[c] < min_background) {
+          reason = 2;
+        } else {
+          // The modulation test uses set 0 (the finest frequency has the lowest modulation
+          // under defocus, and its N steps estimate B best).
+          reason = bsq[c] < b_min_sq ? 3 : 0;
+          if (reason == 0) {
+            if (bsq[c] < min_ratio_sq * a0[c] * a0[c]) {
+              reason = 4;
+            } else if (resid[c] > max_residual) {
+              reason = 5;
+            }
+          }
+        }
+        ++counts[reason];
+        out_mask[c] = reason == 0 ? 255 : 0;
+        out_abs[c] = reason == 0 ? v[c] - 0.5f : std::numeric_limits<float>::quiet_NaN();
+      }
+      (*row_counts)[r] = counts;
+    }
+  }
+
+  static std::vector<std::vector<float>>& level_keep() {
+    thread_local std::vector<std::vector<float>> keep;
+    return keep;
+  }
+};
+
+float MedianOfValid(const cv::Mat& abs, const cv::Mat& mask, int r, int c, int radius, int* count) {
+  float vals[25];
+  int n = 0;
+  for (int y = std::max(0, r - radius); y <= std::min(abs.rows - 1, r + radius); ++y) {
+    const float* a = abs.ptr<float>(y);
+    const uint8_t* m = mask.ptr<uint8_t>(y);
+    for (int x = std::max(0, c - radius); x <= std::min(abs.cols - 1, c + radius); ++x) {
+      if ((y != r || x != c) && m[x]) vals[n++] = a[x];
+    }
+  }
+  *count = n;
+  if (n == 0) return std::numeric_limits<float>::quiet_NaN();
+  std::nth_element(vals, vals + n / 2, vals + n);
+  return vals[n / 2];
+}
+
+}  // namespace
+
+void DecodeOptions::Check() const {
+  const char* o = "DecodeOptions";
+  CheckOption(noise_sigma_dn > 0 && std::isfinite(noise_sigma_dn), o, "noise_sigma_dn",
+              noise_sigma_dn, "must be > 0");
+  CheckOption(order_error_probability > 0 && order_error_probability < 0.1, o,
+              "order_error_probability", order_error_probability, "must be in (0, 0.1)");
+  CheckOption(std::isfinite(min_modulation_dn), o, "min_modulation_dn", min_modulation_dn,
+              "must be finite (<= 0 for automatic)");
+  CheckOption(std::isfinite(saturation_dn), o, "saturation_dn", saturation_dn,
+              "must be finite (<= 0 for full scale)");
+  CheckOption(min_background_fraction >= 0 && min_background_fraction < 1, o,
+              "min_background_fraction", min_background_fraction, "must be in [0, 1)");
+  CheckOption(min_modulation_ratio >= 0 && min_modulation_ratio < 1, o, "min_modulation_ratio",
+              min_modulation_ratio, "must be in [0, 1)");
+  CheckOption(max_order_residual > 0 && max_order_residual <= 0.5, o, "max_order_residual",
+              max_order_residual, "must be in (0, 0.5]");
+  CheckOption(spatial_check_fraction <= 1, o, "spatial_check_fraction", spatial_check_fraction,
+              "must be <= 1 (<= 0 disables)");
+  CheckOption(projector_gamma > 0 && projector_gamma <= 10, o, "projector_gamma", projector_gamma,
+              "must be in (0, 10]");
+}
+
+std::string DecodeSummary::BriefReport() const {
+  return StrCat(status == DecodeStatus::kSuccess ? "decoded" : "FAILED", ": ", valid, "/", pixels,
+                " valid (", 100.0 * ValidFraction(), " %), rejected saturated ", rejected_saturated,
+                ", under-exposed ", rejected_underexposed, ", low modulation ",
+                rejected_low_modulation, " (B < ", min_modulation_dn, " DN), shadow ",
+                rejected_shadow, ", ambiguous order ", rejected_order_ambiguous, ", spatial ",
+                rejected_spatial, "; orders repaired ", orders_repaired, "; ", time_ms, " ms",
+                message.empty() ? "" : "; ", message);
+}
+
+double WrappedPhaseSigma(const PatternScheme& scheme, int set, double sigma_dn, double b_dn) {
+  return std::sqrt(PhaseVariancePerUnit(scheme, set)) * sigma_dn / b_dn;
+}
+
+double OrderErrorProbability(const PatternScheme& scheme, double sigma_dn, double b_dn) {
+  double p = 0;
+  for (const auto& st : StepNoise(scheme)) {
+    p += TwoSidedTail(st.margin / (st.sigma_per_unit * sigma_dn / b_dn));
+  }
+  return std::min(p, 1.0);
+}
+
+double ModulationThreshold(const PatternScheme& scheme, double sigma_dn, double probability) {
+  // OrderErrorProbability decreases with B: bisection on log B.
+  double lo = 1e-3 * sigma_dn, hi = 1e6 * sigma_dn;
+  for (int i = 0; i < 200; ++i) {
+    const double mid = std::sqrt(lo * hi);
+    (OrderErrorProbability(scheme, sigma_dn, mid) > probability ? lo : hi) = mid;
+  }
+  return hi;
+}
+
+double JumpFraction(const cv::Mat& absolute_phase, const cv::Mat& mask, double period_px,
+                    double fraction) {
+  int64_t counted = 0, jumps = 0;
+  const float thr = static_cast<float>(fraction * period_px);
+  for (int r = 0; r < absolute_phase.rows; ++r) {
+    const float* a = absolute_phase.ptr<float>(r);
+    const uint8_t* m = mask.ptr<uint8_t>(r);
+    for (int c = 0; c < absolute_phase.cols; ++c) {
+      if (!m[c]) continue;
+      int n = 0;
+      const float med = MedianOfValid(absolute_phase, mask, r, c, 2, &n);
+      if (n < 5) continue;
+      ++counted;
+      if (std::fabs(a[c] - med) > thr) ++jumps;
+    }
+  }
+  return counted ? static_cast<double>(jumps) / counted : 0.0;
+}
+
+void Decode(const PatternScheme& scheme, const std::vector<cv::Mat>& images,
+            const DecodeOptions& options, DecodeResult* result) {
+  util::Timer timer;
+  scheme.Check();
+  options.Check();
+  CheckOption(static_cast<int>(scheme.phase_sets.size()) <= kMaxSets, "PatternScheme", "phase_sets",
+              scheme.phase_sets.size(), "at most 8 sets");
+  if (static_cast<int>(images.size()) != scheme.NumImages()) {
+    throw Error(StrCat("scheme '", scheme.name, "' needs ", scheme.NumImages(), " images, got ",
+                       images.size()));
+  }
+  const auto names = scheme.ImageNames();
+  for (size_t i = 0; i < images.size(); ++i) {
+    if (images[i].empty()) throw Error(StrCat("image ", i, " (", names[i], ") is empty"));
+    if (images[i].type() != CV_8UC1 && images[i].type() != CV_16UC1) {
+      throw Error(StrCat("image ", i, " (", names[i], "): expected 8- or 16-bit single channel"));
+    }
+    if (images[i].type() != images[0].type()) {
+      throw Error(StrCat("image ", i, " (", names[i], ") has a different bit depth than image 0"));
+    }
+    if (images[i].size() != images[0].size()) {
+      throw Error(StrCat("image ", i, " (", names[i], ") is ", images[i].cols, "x", images[i].rows,
+                         ", image 0 is ", images[0].cols, "x", images[0].rows));
+    }
+  }
+  const cv::Size size = images[0].size();
+  const bool is16 = images[0].depth() == CV_16U;
+  const double full = is16 ? 65535.0 : 255.0;
+
+  std::vector<SetCoefficients> coeffs;
+  std::vector<std::unique_ptr<GammaPhaseCorrection>> gamma(scheme.phase_sets.size());
+  for (size_t s = 0; s < scheme.phase_sets.size(); ++s) {
+    coeffs.push_back(LeastSquaresCoefficients(scheme.phase_sets[s]));
+    if (options.projector_gamma != 1.0) {
+      gamma[s] = std::make_unique<GammaPhaseCorrection>(
+          scheme.phase_sets[s].Shifts(), scheme.intensity_mean, scheme.intensity_amplitude,
+          options.projector_gamma);
+    }
+  }
+  const Chain chain = HeterodyneChain(scheme);
+  const double b_min =
+      options.min_modulation_dn > 0
+          ? options.min_modulation_dn
+          : ModulationThreshold(scheme, options.noise_sigma_dn, options.order_error_probability);
+
+  result->absolute_phase.create(size, CV_32F);
+  result->wrapped_phase.create(size, CV_32F);
+  result->modulation.create(size, CV_32F);
+  result->background.create(size, CV_32F);
+  result->mask.create(size, CV_8U);
+  std::vector<std::array<int64_t, 6>> row_counts(size.height);
+
+  auto run = [&](auto tag) {
+    using T = decltype(tag);
+    Kernel<T> k{scheme,
+                options,
+                images,
+                coeffs,
+                chain,
+                gamma,
+                static_cast<float>(b_min * b_min),
+                static_cast<float>(options.saturation_dn > 0 ? options.saturation_dn : full),
+                static_cast<float>(options.min_background_fraction * full),
+                static_cast<float>(options.min_modulation_ratio * options.min_modulation_ratio),
+                static_cast<float>(options.max_order_residual),
+                result,
+                &row_counts};
+    tbb::parallel_for(tbb::blocked_range<int>(0, size.height, 8), k);
+  };
+  if (is16) {
+    run(uint16_t{});
+  } else {
+    run(uint8_t{});
+  }
+
+  DecodeSummary& sum = result->summary;
+  sum = DecodeSummary();
+  sum.min_modulation_dn = b_min;
+  sum.pixels = static_cast<int64_t>(size.area());
+  std::array<int64_t, 6> total{};
+  for (const auto& rc : row_counts) {
+    for (int i = 0; i < 6; ++i) total[i] += rc[i];
+  }
+  sum.valid = total[0];
+  sum.rejected_saturated = total[1];
+  sum.rejected_underexposed = total[2];
+  sum.rejected_low_modulation = total[3];
+  sum.rejected_shadow = total[4];
+  sum.rejected_order_ambiguous = total[5];
+
+  // Spatial fringe-order check. Decisions are taken on the unmodified map (per row, in
+  // parallel) and applied afterwards, so the result does not depend on the thread count.
+  if (options.spatial_check_fraction > 0) {
+    const float p0 = static_cast<float>(scheme.phase_sets[0].period_px);
+    const float thr = static_cast<float>(options.spatial_check_fraction) * p0;
+    cv::Mat& abs = result->absolute_phase;
+    const cv::Mat& mask = result->mask;
+    std::vector<std::vector<std::pair<int, float>>> fixes(size.height);
+    tbb::parallel_for(tbb::blocked_range<int>(0, size.height, 16), [&](const auto& range) {
+      for (int r = range.begin(); r < range.end(); ++r) {
+        const float* a = abs.ptr<float>(r);
+        const uint8_t* m = mask.ptr<uint8_t>(r);
+        const float* up = r > 0 ? abs.ptr<float>(r - 1) : nullptr;
+        const float* dn = r + 1 < size.height ? abs.ptr<float>(r + 1) : nullptr;
+        for (int c = 0; c < size.width; ++c) {
+          if (!m[c]) continue;
+          // Cheap screen: a jump to any 4-neighbour (NaN neighbours compare false).
+          const float x = a[c];
+          const bool jump = (c > 0 && std::fabs(a[c - 1] - x) > thr) ||
+                            (c + 1 < size.width && std::fabs(a[c + 1] - x) > thr) ||
+                            (up && std::fabs(up[c] - x) > thr) ||
+                            (dn && std::fabs(dn[c] - x) > thr);
+          if (!jump) continue;
+          int n = 0;
+          const float med = MedianOfValid(abs, mask, r, c, 2, &n);
+          if (n < 5 || std::fabs(x - med) <= thr) continue;
+          float fixed = std::numeric_limits<float>::quiet_NaN();
+          if (options.repair_orders) {
+            const float shifted = x + p0 * std::round((med - x) / p0);
+            if (std::fabs(shifted - med) <= thr) fixed = shifted;
+          }
+          fixes[r].emplace_back(c, fixed);
+        }
+      }
+    });
+    for (int r = 0; r < size.height; ++r) {
+      for (const auto& [c, value] : fixes[r]) {
+        abs.at<float>(r, c) = value;
+        if (std::isnan(value)) {
+          result->mask.at<uint8_t>(r, c) = 0;
+          ++sum.rejected_spatial;
+          --sum.valid;
+        } else {
+          ++sum.orders_repaired;
+        }
+      }
+    }
+  }
+  if (sum.valid == 0) {
+    sum.status = DecodeStatus::kNoValidPixels;
+    sum.message = "no pixel passed the quality mask";
+  }
+  sum.time_ms = timer.ElapsedMs();
+}
+
+DecodeResult Decode(const PatternScheme& scheme, const std::vector<cv::Mat>& images,
+                    const DecodeOptions& options) {
+  DecodeResult r;
+  Decode(scheme, images, options, &r);
+  return r;
+}
+
+}  // namespace fringe::phase

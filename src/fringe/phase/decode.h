@@ -1,0 +1,125 @@
+// Decoding one camera's fringe image stack to absolute phase, modulation and a quality mask.
+//
+// Per pixel and phase-shift set, the N intensities I_k = A + B cos(phi + shift_k) give A, B and
+// the wrapped phase phi by linear least squares (any N >= 3, any known shifts; for equally spaced
+// shifts this is the classic N-step formula). Absolute phase (docs/formats.md, "Pattern scheme
+// manifest"; projector pixels u along the fringe direction) then comes from
+//  - multi-frequency heterodyne unwrapping (Reich et al. 1997, "Fringe projection with
+//    multi-frequency phase shifting"; the thesis' 4+3+3 scheme): beat phases of adjacent
+//    frequencies level by level until one covers the projector, then orders are fixed top down;
+//  - or complementary Gray code (Zhang, Su, Xiang, Sun, Opt. Lasers Eng. 50, 2012): the extra
+//    half-period-shifted bit decides the order near period edges, so there are no edge jumps.
+// Fringe-order consistency: every unwrapping step's rounding residual must stay below
+// DecodeOptions::max_order_residual (else "order_ambiguous"), and a spatial check compares each
+// pixel with the median of its valid 5x5 neighbourhood, repairing an order that is off by whole
+// periods or rejecting the pixel.
+//
+// Noise analysis: with camera noise sigma_I and modulation B, the wrapped phase of an N-step
+// set has sigma_phi = sqrt(2/N) sigma_I / B (equally spaced shifts). Each unwrapping step is a
+// linear combination of the sets' phases whose error must stay below half a fine period; this
+// gives the modulation below which a wrong order becomes likely (ModulationThreshold), which is
+// the default modulation threshold of the mask.
+//
+// Thread safety: Decode is reentrant; it runs TBB over image rows and its results do not depend
+// on the number of threads.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "fringe/phase/pattern_scheme.h"
+
+namespace fringe::phase {
+
+struct DecodeOptions {
+  // Camera noise standard deviation (DN of the images' bit depth), > 0. Only used to derive the
+  // automatic modulation threshold.
+  double noise_sigma_dn = 2.0;
+  // Probability of a wrong fringe order per pixel at the automatic modulation threshold,
+  // in (0, 0.1).
+  double order_error_probability = 1e-6;
+  // Modulation threshold B_min in DN; <= 0 selects ModulationThreshold(scheme, noise_sigma_dn,
+  // order_error_probability). Tested on set 0 (the measuring frequency).
+  double min_modulation_dn = 0.0;
+  // Saturation level (DN): a pixel is rejected when any image reaches it; <= 0 means the full
+  // scale of the image depth (255 or 65535).
+  double saturation_dn = 0.0;
+  // Under-exposure: background A of set 0 below this fraction of full scale, in [0, 1).
+  double min_background_fraction = 0.01;
+  // Shadow: modulation over background B/A of set 0 below this, in [0, 1). Shadowed pixels keep
+  // ambient light but lose fringe contrast.
+  double min_modulation_ratio = 0.05;
+  // Largest accepted rounding residual of a heterodyne unwrapping step, in fractions of the finer
+  // period, (0, 0.5]. Larger residuals mean the order is ambiguous; the pixel is rejected.
+  double max_order_residual = 0.4;
+  // Spatial order check against the median of the valid 5x5 neighbourhood, in fractions of the
+  // measuring period, (0, 1]; <= 0 disables the check.
+  double spatial_check_fraction = 0.5;
+  // When the spatial check fails: shift the pixel by whole periods if that agrees with the
+  // neighbourhood (true), or reject it (false, or when no shift agrees).
+  bool repair_orders = true;
+  // Gamma of the projector when the patterns were not pre-compensated (1 = none, the default):
+  // the decoder removes the resulting periodic phase error with a look-up table (gamma.h).
+  double projector_gamma = 1.0;
+
+  void Check() const;  // throws fringe::Error naming the field
+};
+
+enum class DecodeStatus { kSuccess, kNoValidPixels };
+
+struct DecodeSummary {
+  DecodeStatus status = DecodeStatus::kSuccess;
+  std::string message;
+  int64_t pixels = 0;
+  int64_t valid = 0;
+  // Rejections by first failing reason, in this order.
+  int64_t rejected_saturated = 0;
+  int64_t rejected_underexposed = 0;
+  int64_t rejected_low_modulation = 0;
+  int64_t rejected_shadow = 0;
+  int64_t rejected_order_ambiguous = 0;
+  int64_t rejected_spatial = 0;  // spatial check failed and could not be repaired
+  int64_t orders_repaired = 0;   // fringe-order errors detected by the spatial check and fixed
+  double min_modulation_dn = 0;  // threshold used
+  double time_ms = 0;
+
+  double ValidFraction() const { return pixels ? static_cast<double>(valid) / pixels : 0.0; }
+  std::string BriefReport() const;
+};
+
+struct DecodeResult {
+  cv::Mat absolute_phase;  // CV_32F, projector pixels along the fringe direction; NaN if invalid
+  cv::Mat wrapped_phase;   // CV_32F, radians in [-pi, pi]: atan2 of set 0 (includes its offset)
+  cv::Mat modulation;      // CV_32F, B of set 0 in DN
+  cv::Mat background;      // CV_32F, A of set 0 in DN
+  cv::Mat mask;            // CV_8U, 255 valid, 0 invalid
+  DecodeSummary summary;
+};
+
+// images: the stack in the scheme's order, all CV_8UC1 or all CV_16UC1, same size. Throws
+// fringe::Error for a wrong number of images, mixed sizes or types (naming the image index).
+DecodeResult Decode(const PatternScheme& scheme, const std::vector<cv::Mat>& images,
+                    const DecodeOptions& options = {});
+// Same, reusing result's buffers when they already have the right size (no allocation in a
+// steady loop).
+void Decode(const PatternScheme& scheme, const std::vector<cv::Mat>& images,
+            const DecodeOptions& options, DecodeResult* result);
+
+// Standard deviation of set `set`'s wrapped phase (radians) for camera noise sigma_dn and
+// modulation b_dn: sqrt(trace-based LS variance) = sqrt(2/N) sigma / B for equal shifts.
+double WrappedPhaseSigma(const PatternScheme& scheme, int set, double sigma_dn, double b_dn);
+// Probability that some unwrapping step picks a wrong order at modulation b_dn (Gaussian noise).
+double OrderErrorProbability(const PatternScheme& scheme, double sigma_dn, double b_dn);
+// Smallest modulation with OrderErrorProbability <= probability.
+double ModulationThreshold(const PatternScheme& scheme, double sigma_dn, double probability);
+
+// Fraction of valid pixels whose absolute phase differs from the median of the valid pixels in
+// their 5x5 neighbourhood by more than fraction * period_px (period-edge jumps and wrong orders
+// show up there). Pixels with fewer than 5 valid neighbours are not counted.
+double JumpFraction(const cv::Mat& absolute_phase, const cv::Mat& mask, double period_px,
+                    double fraction = 0.25);
+
+}  // namespace fringe::phase

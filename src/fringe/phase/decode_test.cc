@@ -1,0 +1,345 @@
+#include "fringe/phase/decode.h"
+
+#include <gtest/gtest.h>
+#include <tbb/task_arena.h>
+
+#include <cmath>
+#include <opencv2/imgproc.hpp>
+
+#include "fringe/io/image_io.h"
+#include "fringe/phase/gamma.h"
+#include "fringe/phase/synthetic.h"
+#include "fringe/util/error.h"
+#include "fringe_test.h"
+
+namespace fringe::phase {
+namespace {
+
+// Named tolerances.
+constexpr double kCrbRatioMax = 1.05;           // issue 4: RMS / noise limit for Gaussian noise
+constexpr double kCrbRatioMin = 0.95;           // and not suspiciously below it
+constexpr double kNoiseFreeErrorPx = 0.01;      // 16-bit, no noise: float arithmetic only
+constexpr double kOrderErrorFractionPx = 0.25;  // |u - truth| above a quarter period = wrong order
+
+const cv::Size kSize(320, 256);
+
+double WrapPi(double x) { return x - 2 * M_PI * std::round(x / (2 * M_PI)); }
+
+struct Errors {
+  double wrapped_rms_rad = 0;
+  double abs_rms_px = 0;
+  int64_t wrong_orders = 0;
+  int64_t valid = 0;
+};
+
+Errors Compare(const PatternScheme& s, const DecodeResult& r, const cv::Mat& u_true) {
+  Errors e;
+  const auto& set = s.phase_sets[0];
+  double sw = 0, sa = 0;
+  for (int y = 0; y < u_true.rows; ++y) {
+    for (int x = 0; x < u_true.cols; ++x) {
+      if (!r.mask.at<uint8_t>(y, x)) continue;
+      const double u = u_true.at<float>(y, x);
+      const double psi = 2 * M_PI * (u + 0.5) / set.period_px + set.phase_offset_rad;
+      const double dw = WrapPi(r.wrapped_phase.at<float>(y, x) - psi);
+      const double da = r.absolute_phase.at<float>(y, x) - u;
+      sw += dw * dw;
+      ++e.valid;
+      if (std::fabs(da) > kOrderErrorFractionPx * set.period_px) {
+        ++e.wrong_orders;
+      } else {
+        sa += da * da;
+      }
+    }
+  }
+  e.wrapped_rms_rad = std::sqrt(sw / std::max<int64_t>(e.valid, 1));
+  e.abs_rms_px = std::sqrt(sa / std::max<int64_t>(e.valid - e.wrong_orders, 1));
+  return e;
+}
+
+TEST(Decode, DefaultOptionsPassCheck) {
+  EXPECT_NO_THROW(DecodeOptions().Check());
+  EXPECT_NO_THROW(GammaEstimateOptions().Check());
+  EXPECT_NO_THROW(SyntheticStackOptions().Check());
+  DecodeOptions o;
+  o.max_order_residual = 0.7;
+  EXPECT_THROW(o.Check(), Error);
+}
+
+TEST(Decode, NoiseFreeSixteenBitRecoversProjectorCoordinate) {
+  for (const std::string name : {"heterodyne-4x3", "thesis-4+3+3", "heterodyne-3x3", "gray+4"}) {
+    const PatternScheme s = MakeScheme(name, 1280, 800);
+    const cv::Mat u = LinearProjectorMap(s, kSize);
+    SyntheticStackOptions so;
+    so.bit_depth = 16;
+    so.background_dn = 30000;
+    so.modulation_dn = 20000;
+    so.noise_sigma_dn = 0;
+    so.quantize_patterns = false;
+    const DecodeResult r = Decode(s, RenderSyntheticStack(s, u, so));
+    const Errors e = Compare(s, r, u);
+    EXPECT_EQ(e.valid, kSize.area()) << name << ": " << r.summary.BriefReport();
+    EXPECT_EQ(e.wrong_orders, 0) << name;
+    EXPECT_LT(e.abs_rms_px, kNoiseFreeErrorPx) << name;
+    EXPECT_NEAR(cv::mean(r.modulation)[0], so.modulation_dn, 1.0) << name;
+    EXPECT_NEAR(cv::mean(r.background)[0], so.background_dn, 1.0) << name;
+  }
+}
+
+TEST(Decode, WrappedPhaseNoiseIsAtTheNoiseLimit) {
+  // sigma_phi = sqrt(2/N) sigma / B; 8-bit rounding adds 1/12 DN^2 to the noise variance.
+  const double sigma = 2.0, b = 60.0;
+  for (const std::string name : {"heterodyne-3x3", "heterodyne-4x3", "thesis-4+3+3"}) {
+    const PatternScheme s = MakeScheme(name, 1280, 800);
+    const cv::Mat u = LinearProjectorMap(s, kSize);
+    SyntheticStackOptions so;
+    so.modulation_dn = b;
+    so.noise_sigma_dn = sigma;
+    so.quantize_patterns = false;
+    const DecodeResult r = Decode(s, RenderSyntheticStack(s, u, so));
+    const Errors e = Compare(s, r, u);
+    const int n = s.phase_sets[0].steps;
+    const double limit = std::sqrt(2.0 / n) * std::sqrt(sigma * sigma + 1.0 / 12) / b;
+    EXPECT_NEAR(WrappedPhaseSigma(s, 0, 1.0, 1.0), std::sqrt(2.0 / n), 1e-9);
+    EXPECT_LT(e.wrapped_rms_rad / limit, kCrbRatioMax) << name;
+    EXPECT_GT(e.wrapped_rms_rad / limit, kCrbRatioMin) << name;
+    EXPECT_EQ(e.wrong_orders, 0) << name;
+    EXPECT_GT(r.summary.ValidFraction(), 0.999) << name << ": " << r.summary.BriefReport();
+  }
+}
+
+TEST(Decode, ModulationThresholdFollowsTheNoiseAnalysis) {
+  const PatternScheme s = MakeScheme("heterodyne-4x3");
+  // Issue 4: a wrong order becomes likely below B ~ 30-40 DN at sigma ~ 2 DN.
+  const double b = ModulationThreshold(s, 2.0, 1e-6);
+  EXPECT_GT(b, 25.0);
+  EXPECT_LT(b, 40.0);
+  EXPECT_NEAR(OrderErrorProbability(s, 2.0, b), 1e-6, 1e-7);
+  EXPECT_LT(OrderErrorProbability(s, 2.0, 40.0), 1e-7);
+  EXPECT_NEAR(ModulationThreshold(s, 4.0, 1e-6), 2 * b, 1e-6 * b);
+  // Fewer steps on the coarse sets -> more noise -> higher threshold.
+  EXPECT_GT(ModulationThreshold(MakeScheme("thesis-4+3+3"), 2.0, 1e-6), b);
+}
+
+TEST(Decode, HeterodyneOrdersAreCorrectOverTheFullWidthNearTheThreshold) {
+  // At B = 40 DN, sigma = 2 DN the predicted wrong-order rate is < 1e-7 per pixel: none of
+  // the 82k pixels may be wrong.
+  for (const std::string name : {"heterodyne-4x3", "thesis-4+3+3"}) {
+    const PatternScheme s = MakeScheme(name, 1280, 800);
+    const cv::Mat u = LinearProjectorMap(s, kSize);
+    SyntheticStackOptions so;
+    so.modulation_dn = 40;
+    so.noise_sigma_dn = 2;
+    DecodeOptions opt;
+    opt.spatial_check_fraction = 0;  // count raw unwrapping errors
+    const DecodeResult r = Decode(s, RenderSyntheticStack(s, u, so), opt);
+    const Errors e = Compare(s, r, u);
+    EXPECT_EQ(e.wrong_orders, 0) << name;
+    // Estimated B scatters around 40 with sigma ~1.4 DN; the threshold is ~33-38 DN.
+    EXPECT_GT(r.summary.ValidFraction(), 0.9) << name << ": " << r.summary.BriefReport();
+    double lo, hi;
+    cv::minMaxLoc(r.absolute_phase, &lo, &hi, nullptr, nullptr, r.mask);
+    EXPECT_LT(lo, 1.0);
+    EXPECT_GT(hi, 1278.0);
+  }
+}
+
+TEST(Decode, GrayCodeHasNoPeriodEdgeJumps) {
+  const PatternScheme s = MakeScheme("gray+4", 1280, 800);
+  const cv::Mat u = LinearProjectorMap(s, kSize);
+  SyntheticStackOptions so;
+  so.modulation_dn = 50;
+  so.noise_sigma_dn = 2;
+  DecodeOptions opt;
+  opt.spatial_check_fraction = 0;
+  const DecodeResult r = Decode(s, RenderSyntheticStack(s, u, so), opt);
+  const Errors e = Compare(s, r, u);
+  EXPECT_EQ(e.wrong_orders, 0);
+  EXPECT_GT(r.summary.ValidFraction(), 0.999) << r.summary.BriefReport();
+  EXPECT_EQ(JumpFraction(r.absolute_phase, r.mask, s.phase_sets[0].period_px), 0.0);
+}
+
+TEST(Decode, HorizontalFringesGiveProjectorRows) {
+  PatternScheme s = MakeScheme("thesis-4+3+3", 1280, 800);
+  s.direction = FringeDirection::kHorizontal;
+  s.phase_sets = MakeScheme("thesis-4+3+3", 800, 800).phase_sets;  // periods for an 800 span
+  const cv::Mat u = LinearProjectorMap(s, kSize);
+  SyntheticStackOptions so;
+  so.noise_sigma_dn = 1;
+  const DecodeResult r = Decode(s, RenderSyntheticStack(s, u, so));
+  const Errors e = Compare(s, r, u);
+  EXPECT_EQ(e.wrong_orders, 0);
+  EXPECT_GT(r.summary.ValidFraction(), 0.999);
+}
+
+TEST(Decode, QualityMaskRejectsSaturatedDarkAndFlatPixels) {
+  const PatternScheme s = MakeScheme("heterodyne-4x3", 1280, 800);
+  const cv::Mat u = LinearProjectorMap(s, kSize);
+  SyntheticStackOptions so;
+  auto images = RenderSyntheticStack(s, u, so);
+  const cv::Rect sat(10, 10, 20, 20), dark(50, 10, 20, 20), flat(90, 10, 20, 20);
+  for (auto& im : images) {
+    im(sat).setTo(255);
+    im(dark).setTo(1);
+    im(flat).setTo(120);  // no fringe contrast: shadow or a surface the projector misses
+  }
+  const DecodeResult r = Decode(s, images);
+  EXPECT_EQ(r.summary.rejected_saturated, sat.area());
+  EXPECT_EQ(r.summary.rejected_underexposed, dark.area());
+  EXPECT_EQ(r.summary.rejected_low_modulation, flat.area());
+  EXPECT_EQ(cv::countNonZero(r.mask(sat)), 0);
+  EXPECT_TRUE(std::isnan(r.absolute_phase.at<float>(15, 95)));
+  EXPECT_EQ(r.summary.valid + r.summary.rejected_saturated + r.summary.rejected_underexposed +
+                r.summary.rejected_low_modulation + r.summary.rejected_shadow +
+                r.summary.rejected_order_ambiguous + r.summary.rejected_spatial,
+            r.summary.pixels);
+}
+
+TEST(Decode, SpatialCheckRepairsWrongOrders) {
+  const PatternScheme s = MakeScheme("heterodyne-4x3", 1280, 800);
+  const cv::Mat u = LinearProjectorMap(s, kSize);
+  SyntheticStackOptions so;
+  so.noise_sigma_dn = 1;
+  auto images = RenderSyntheticStack(s, u, so);
+  // Corrupt the coarsest set of isolated pixels with the values of a pixel ~ 2 beat periods
+  // away: their fine phase is right, their fringe order wrong.
+  const int first = s.PhaseImageIndex(2);
+  std::vector<cv::Point> bad;
+  for (int y = 20; y < kSize.height - 20; y += 37) {
+    for (int x = 20; x < kSize.width - 120; x += 41) bad.emplace_back(x, y);
+  }
+  for (const auto& p : bad) {
+    for (int k = 0; k < 4; ++k) {
+      images[first + k].at<uint8_t>(p) = images[first + k].at<uint8_t>(p.y, p.x + 100);
+    }
+  }
+  DecodeOptions no_check;
+  no_check.spatial_check_fraction = 0;
+  no_check.max_order_residual = 0.5;
+  const Errors before = Compare(s, Decode(s, images, no_check), u);
+  EXPECT_GT(before.wrong_orders, static_cast<int64_t>(bad.size()) / 2);
+  const DecodeResult r = Decode(s, images);
+  const Errors after = Compare(s, r, u);
+  EXPECT_EQ(after.wrong_orders, 0);
+  EXPECT_GE(
+      r.summary.orders_repaired + r.summary.rejected_spatial + r.summary.rejected_order_ambiguous,
+      before.wrong_orders);
+}
+
+TEST(Decode, ResultDoesNotDependOnThreadCount) {
+  const PatternScheme s = MakeScheme("thesis-4+3+3", 1280, 800);
+  const cv::Mat u = LinearProjectorMap(s, kSize);
+  SyntheticStackOptions so;
+  so.modulation_dn = 30;
+  so.noise_sigma_dn = 3;
+  const auto images = RenderSyntheticStack(s, u, so);
+  tbb::task_arena one(1);
+  DecodeResult r1;
+  one.execute([&] { r1 = Decode(s, images); });
+  const DecodeResult r2 = Decode(s, images);
+  EXPECT_EQ(cv::norm(r1.mask, r2.mask, cv::NORM_INF), 0.0);
+  cv::Mat a1 = r1.absolute_phase.clone(), a2 = r2.absolute_phase.clone();
+  a1.setTo(0, r1.mask == 0);
+  a2.setTo(0, r2.mask == 0);
+  EXPECT_EQ(cv::norm(a1, a2, cv::NORM_INF), 0.0);
+  EXPECT_EQ(r1.summary.valid, r2.summary.valid);
+}
+
+TEST(Decode, BadStacksAreRejectedNamingTheImage) {
+  const PatternScheme s = MakeScheme("heterodyne-4x3", 1280, 800);
+  const cv::Mat u = LinearProjectorMap(s, cv::Size(64, 48));
+  auto images = RenderSyntheticStack(s, u, SyntheticStackOptions());
+  auto fewer = images;
+  fewer.pop_back();
+  EXPECT_THROW(Decode(s, fewer), Error);
+  auto resized = images;
+  resized[5] = cv::Mat(47, 64, CV_8U, cv::Scalar(0));
+  try {
+    Decode(s, resized);
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("image 5"), std::string::npos) << e.what();
+  }
+  auto mixed = images;
+  mixed[3].convertTo(mixed[3], CV_16U);
+  EXPECT_THROW(Decode(s, mixed), Error);
+  auto colour = images;
+  cv::cvtColor(colour[0], colour[0], cv::COLOR_GRAY2BGR);
+  EXPECT_THROW(Decode(s, colour), Error);
+}
+
+TEST(Gamma, RippleIsMeasurableAndRemovedByCompensation) {
+  // 4-step and 3-step decoding under gamma 2.2: uncompensated error well above the gamma-free
+  // error; pre-compensated patterns, or the decoder's table, within 10 % of it (issue 4).
+  constexpr double kCompensatedMaxRatio = 1.10;
+  constexpr double kTableMaxRatio = 1.5;
+  for (const std::string name : {"heterodyne-4x3", "heterodyne-3x3"}) {
+    const PatternScheme s = MakeScheme(name, 1280, 800);
+    const cv::Mat u = LinearProjectorMap(s, kSize);
+    SyntheticStackOptions so;
+    so.modulation_dn = 90;
+    so.noise_sigma_dn = 0.5;
+    const double free_rms =
+        Compare(s, Decode(s, RenderSyntheticStack(s, u, so)), u).wrapped_rms_rad;
+    so.projector_gamma = 2.2;
+    const auto raw = RenderSyntheticStack(s, u, so);
+    const double raw_rms = Compare(s, Decode(s, raw), u).wrapped_rms_rad;
+    DecodeOptions corr;
+    corr.projector_gamma = 2.2;
+    const double table_rms = Compare(s, Decode(s, raw, corr), u).wrapped_rms_rad;
+    so.precompensate_gamma = 2.2;
+    const double pre_rms = Compare(s, Decode(s, RenderSyntheticStack(s, u, so)), u).wrapped_rms_rad;
+    EXPECT_GT(raw_rms, 1.5 * free_rms) << name;
+    EXPECT_LT(pre_rms, kCompensatedMaxRatio * free_rms) << name;
+    // The table removes the ripple but cannot undo the noise amplification where gamma
+    // compresses the signal (3-step: ripple slope up to ~0.9), so it gets a looser bound than
+    // pre-compensation; it must still beat the uncompensated decode.
+    EXPECT_LT(table_rms, kTableMaxRatio * free_rms) << name;
+    EXPECT_LT(table_rms, raw_rms) << name;
+    std::cout << name << ": gamma-free " << free_rms << ", uncompensated " << raw_rms
+              << ", pre-compensated " << pre_rms << ", table " << table_rms << " rad\n";
+  }
+}
+
+TEST(Gamma, EstimatedFromAFlatSurface) {
+  constexpr double kGammaTolerance = 0.1;
+  const PatternScheme s = MakeScheme("heterodyne-4x3", 1280, 800);
+  // A plane seen at ~2 camera pixels per projector pixel, so the ripple (N cycles per fringe
+  // period) is well sampled.
+  cv::Mat u(kSize, CV_32F);
+  for (int y = 0; y < u.rows; ++y) {
+    for (int x = 0; x < u.cols; ++x) u.at<float>(y, x) = 300.0f + 0.55f * x + 0.02f * y;
+  }
+  SyntheticStackOptions so;
+  so.modulation_dn = 90;
+  so.noise_sigma_dn = 1;
+  so.projector_gamma = 2.2;
+  const GammaEstimate est = EstimateGamma(s, RenderSyntheticStack(s, u, so));
+  ASSERT_TRUE(est.success) << est.message;
+  EXPECT_NEAR(est.gamma, 2.2, kGammaTolerance) << est.BriefReport();
+  EXPECT_LT(est.ripple_rms_after_px, est.ripple_rms_before_px);
+}
+
+TEST(Decode, RealPhaseGrayCaptureIsPlausible) {
+  FRINGE_SHARED_DATA_OR_SKIP(dir, "slsdk-stereo-phasegray");
+  // Issue 4: valid-pixel fraction and jumps (> quarter period from the 5x5 median) <= 0.1 %.
+  constexpr double kMinValidFraction = 0.4;
+  constexpr double kMaxJumpFraction = 1e-3;
+  const PatternScheme s = MakeScheme("slsdk-phasegray");
+  for (const std::string cam : {"L", "R"}) {
+    std::vector<cv::Mat> images;
+    for (const auto& n : s.ImageNames()) images.push_back(io::ReadGrayImage(dir / cam / n));
+    const DecodeResult r = Decode(s, images);
+    const double jumps = JumpFraction(r.absolute_phase, r.mask, s.phase_sets[0].period_px);
+    EXPECT_GT(r.summary.ValidFraction(), kMinValidFraction) << cam << r.summary.BriefReport();
+    EXPECT_LT(jumps, kMaxJumpFraction) << cam;
+    double lo, hi;
+    cv::minMaxLoc(r.absolute_phase, &lo, &hi, nullptr, nullptr, r.mask);
+    EXPECT_GE(lo, -1.0) << cam;
+    EXPECT_LE(hi, 1920.0 + s.phase_sets[0].period_px) << cam;
+    std::cout << cam << ": " << r.summary.BriefReport() << "; jumps " << jumps << "\n";
+  }
+}
+
+}  // namespace
+}  // namespace fringe::phase

@@ -1,0 +1,78 @@
+// Deviation of a measured cloud from a reference surface (a triangle mesh): signed point-to-
+// surface distances and their statistics, and a colour-map picture.
+//
+// Closest points come from an Embree BVH point query (rtcPointQuery) with an exact closest-
+// point-on-triangle test in double precision (Ericson, "Real-Time Collision Detection", 5.1.5).
+// The sign is that of (p - q) . n with n the angle-weighted pseudo-normal of the closest
+// feature (face, edge or vertex; Baerentzen & Aanaes, "Signed distance computation using the
+// angle weighted pseudonormal", IEEE TVCG 2005): positive outside (on the side the counter-
+// clockwise triangles face), negative inside, correct at edges and corners too.
+//
+// Units: millimetres; cloud and mesh must be in the same frame. Thread safety: a MeshDistance
+// is immutable after construction and may be queried concurrently.
+#pragma once
+
+#include <Eigen/Core>
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <opencv2/core.hpp>
+#include <string>
+#include <vector>
+
+#include "fringe/geometry/point_cloud.h"
+
+namespace fringe::eval {
+
+class MeshDistance {
+ public:
+  // Throws fringe::Error for an empty mesh or out-of-range indices.
+  MeshDistance(std::vector<Eigen::Vector3d> vertices,
+               std::vector<std::array<int32_t, 3>> triangles);
+  ~MeshDistance();
+  MeshDistance(const MeshDistance&) = delete;
+  MeshDistance& operator=(const MeshDistance&) = delete;
+
+  // Signed distance of p to the surface (mm); the closest surface point in *closest when given.
+  // NaN when no surface point is within max_distance_mm.
+  double SignedDistance(const Eigen::Vector3d& p, double max_distance_mm = 1e30,
+                        Eigen::Vector3d* closest = nullptr) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+struct DeviationOptions {
+  // Points farther than this from the surface are counted as unmatched and left out of the
+  // statistics (they belong to something the mesh does not model), mm, > 0.
+  double max_distance_mm = 2.0;
+  void Check() const;
+};
+
+struct DeviationStats {
+  int points = 0;      // points with a distance
+  int unmatched = 0;   // farther than max_distance_mm
+  double mean_mm = 0;  // signed mean
+  double rms_mm = 0;
+  double p95_mm = 0;  // 95th percentile of |d|
+  double max_mm = 0;  // max |d|
+  std::string BriefReport() const;
+};
+
+// Signed distance of every point (NaN for unmatched and non-finite points) and the statistics.
+DeviationStats DeviationFromMesh(const PointCloud& cloud, const MeshDistance& mesh,
+                                 const DeviationOptions& options = {},
+                                 std::vector<double>* signed_mm = nullptr);
+
+// Picture of per-point deviations on an organized cloud's grid (CV_8UC3 BGR): blue = -range_mm
+// (inside), green = 0, red = +range_mm (outside), dark grey where there is no value.
+// distances has one entry per grid slot (NaN = none).
+cv::Mat DeviationColorMap(int width, int height, const std::vector<double>& distances,
+                          double range_mm);
+// The same for an unorganized cloud: points projected orthographically along the cloud frame's
+// z axis onto an image of at most max_size_px on its longer side.
+cv::Mat DeviationColorMapTopView(const PointCloud& cloud, const std::vector<double>& distances,
+                                 double range_mm, int max_size_px = 1024);
+
+}  // namespace fringe::eval

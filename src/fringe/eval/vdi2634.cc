@@ -1,0 +1,444 @@
+#include "fringe/eval/vdi2634.h"
+
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
+#include <Eigen/QR>
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <random>
+
+#include "fringe/util/error.h"
+#include "fringe/util/random.h"
+
+namespace fringe::eval {
+namespace {
+
+using Points = std::vector<Eigen::Vector3d>;
+
+// Algebraic sphere |p|^2 + d.p + g = 0 through the points (least squares), centred on their mean
+// for conditioning.
+bool AlgebraicSphere(const Points& pts, Eigen::Vector3d* centre, double* radius) {
+  if (pts.size() < 4) return false;
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (const auto& p : pts) mean += p;
+  mean /= static_cast<double>(pts.size());
+  Eigen::MatrixXd a(pts.size(), 4);
+  Eigen::VectorXd b(pts.size());
+  for (size_t i = 0; i < pts.size(); ++i) {
+    const Eigen::Vector3d q = pts[i] - mean;
+    a.row(i) << q.x(), q.y(), q.z(), 1.0;
+    b(i) = -q.squaredNorm();
+  }
+  const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(a);
+  if (qr.rank() < 4) return false;
+  const Eigen::Vector4d x = qr.solve(b);
+  const Eigen::Vector3d c = -0.5 * x.head<3>();
+  const double r2 = c.squaredNorm() - x(3);
+  if (!(r2 > 0) || !std::isfinite(r2)) return false;
+  *centre = c + mean;
+  *radius = std::sqrt(r2);
+  return true;
+}
+
+std::vector<double> RadialResiduals(const Points& pts, const Eigen::Vector3d& c, double r) {
+  std::vector<double> res(pts.size());
+  for (size_t i = 0; i < pts.size(); ++i) res[i] = (pts[i] - c).norm() - r;
+  return res;
+}
+
+double Rms(const std::vector<double>& v) {
+  double s = 0;
+  for (double x : v) s += x * x;
+  return v.empty() ? 0 : std::sqrt(s / v.size());
+}
+
+double Range(const std::vector<double>& v) {
+  if (v.empty()) return 0;
+  const auto [mn, mx] = std::minmax_element(v.begin(), v.end());
+  return *mx - *mn;
+}
+
+Points Select(const Points& pts, const std::vector<size_t>& idx) {
+  Points out;
+  out.reserve(idx.size());
+  for (size_t i : idx) out.push_back(pts[i]);
+  return out;
+}
+
+Points FinitePoints(const PointCloud& cloud, std::vector<Eigen::Vector3d>* normals) {
+  Points pts;
+  pts.reserve(cloud.size());
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    const auto& p = cloud.points[i];
+    if (!p.allFinite()) continue;
+    if (normals) {
+      if (!cloud.has_normals() || !cloud.normals[i].allFinite()) continue;
+      normals->push_back(cloud.normals[i]);
+    }
+    pts.push_back(p);
+  }
+  return pts;
+}
+
+// Seeded subsample of at most n indices.
+std::vector<size_t> Subsample(size_t size, int n, util::Rng& rng) {
+  std::vector<size_t> idx(size);
+  std::iota(idx.begin(), idx.end(), 0);
+  if (static_cast<int>(size) > n) {
+    std::shuffle(idx.begin(), idx.end(), rng);
+    idx.resize(n);
+  }
+  return idx;
+}
+
+// RANSAC for a sphere of nominal radius r0. With normals, one point p and its (outward) normal
+// give the centre p - r0 n; without, four points near a random point are fitted.
+bool FindSphere(const Points& pts, const Points& normals, double r0, const VdiOptions& o,
+                uint64_t stream, Eigen::Vector3d* best_centre) {
+  util::Rng rng(util::MixSeed(o.seed, stream));
+  const std::vector<size_t> sample = Subsample(pts.size(), o.ransac_sample_points, rng);
+  if (sample.size() < 4) return false;
+  std::uniform_int_distribution<size_t> pick(0, sample.size() - 1);
+  // Wide band for scoring: the normal-based centre is off by r0 * (normal error).
+  const double band = std::max(o.inlier_band_mm, 0.05 * r0);
+  int best_score = 0;
+  std::vector<size_t> near;
+  for (int it = 0; it < o.ransac_iterations; ++it) {
+    const size_t i0 = sample[pick(rng)];
+    Eigen::Vector3d c;
+    if (!normals.empty()) {
+      c = pts[i0] - r0 * normals[i0];
+    } else {
+      near.clear();
+      for (size_t j : sample) {
+        if ((pts[j] - pts[i0]).squaredNorm() < 4 * r0 * r0) near.push_back(j);
+      }
+      if (near.size() < 4) continue;
+      std::uniform_int_distribution<size_t> pn(0, near.size() - 1);
+      Points four = {pts[i0], pts[near[pn(rng)]], pts[near[pn(rng)]], pts[near[pn(rng)]]};
+      double r;
+      if (!AlgebraicSphere(four, &c, &r) || std::abs(r - r0) > o.radius_tolerance * r0) continue;
+    }
+    int score = 0;
+    for (size_t j : sample) score += std::abs((pts[j] - c).norm() - r0) < band;
+    if (score > best_score) {
+      best_score = score;
+      *best_centre = c;
+    }
+  }
+  return best_score >= 4;
+}
+
+// Least-squares sphere on the points near the surface, re-selecting the band around each fit.
+bool RefineSphere(const Points& pts, double r0, const VdiOptions& o, Eigen::Vector3d* centre,
+                  Points* members) {
+  double r = r0;
+  double band = std::max(o.inlier_band_mm, 0.05 * r0);
+  for (int pass = 0; pass < 4; ++pass) {
+    members->clear();
+    for (const auto& p : pts) {
+      if (std::abs((p - *centre).norm() - r) < band) members->push_back(p);
+    }
+    const SphereFit fit = FitSphere(*members);
+    if (!fit.ok) return false;
+    *centre = fit.centre;
+    r = fit.radius_mm;
+    band = o.inlier_band_mm;
+  }
+  members->clear();
+  for (const auto& p : pts) {
+    if (std::abs((p - *centre).norm() - r) < band) members->push_back(p);
+  }
+  return true;
+}
+
+}  // namespace
+
+SphereFit FitSphere(const Points& points) {
+  SphereFit fit;
+  if (!AlgebraicSphere(points, &fit.centre, &fit.radius_mm)) return fit;
+  for (fit.iterations = 1; fit.iterations <= 20; ++fit.iterations) {
+    Eigen::Matrix4d h = Eigen::Matrix4d::Zero();
+    Eigen::Vector4d g = Eigen::Vector4d::Zero();
+    for (const auto& p : points) {
+      const Eigen::Vector3d d = p - fit.centre;
+      const double n = d.norm();
+      if (n == 0) continue;
+      Eigen::Vector4d j;
+      j << -d / n, -1.0;
+      const double r = n - fit.radius_mm;
+      h += j * j.transpose();
+      g += j * r;
+    }
+    const Eigen::Vector4d step = h.ldlt().solve(-g);
+    if (!step.allFinite()) return SphereFit();
+    fit.centre += step.head<3>();
+    fit.radius_mm += step(3);
+    if (step.norm() < 1e-12 * (1 + fit.radius_mm)) break;
+  }
+  fit.rms_mm = Rms(RadialResiduals(points, fit.centre, fit.radius_mm));
+  fit.ok = fit.radius_mm > 0 && std::isfinite(fit.rms_mm);
+  return fit;
+}
+
+PlaneFit FitPlane(const Points& points) {
+  PlaneFit fit;
+  if (points.size() < 3) return fit;
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (const auto& p : points) mean += p;
+  mean /= static_cast<double>(points.size());
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  for (const auto& p : points) cov += (p - mean) * (p - mean).transpose();
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(cov);
+  if (!(eig.eigenvalues()(1) > 1e-12 * eig.eigenvalues()(2))) return fit;
+  fit.normal = eig.eigenvectors().col(0).normalized();
+  fit.centroid = mean;
+  fit.rms_mm = std::sqrt(std::max(eig.eigenvalues()(0), 0.0) / points.size());
+  fit.ok = true;
+  return fit;
+}
+
+std::vector<size_t> KeepAfterDiscard(const std::vector<double>& residuals, double fraction) {
+  const size_t n = residuals.size();
+  std::vector<size_t> order(n);
+  std::iota(order.begin(), order.end(), 0);
+  std::sort(order.begin(), order.end(),
+            [&](size_t a, size_t b) { return residuals[a] < residuals[b]; });
+  const size_t k = std::min(n, static_cast<size_t>(std::floor(fraction * n)));
+  if (n == 0 || k == 0) return order;
+  size_t best_low = 0;
+  double best_range = std::numeric_limits<double>::infinity();
+  for (size_t low = 0; low <= k; ++low) {
+    const size_t high = k - low;  // removed from the top
+    if (low + high >= n) break;
+    const double range = residuals[order[n - 1 - high]] - residuals[order[low]];
+    if (range < best_range) {
+      best_range = range;
+      best_low = low;
+    }
+  }
+  return std::vector<size_t>(order.begin() + best_low, order.end() - (k - best_low));
+}
+
+void VdiOptions::Check() const {
+  using util::CheckOption;
+  const char* k = "VdiOptions";
+  CheckOption(discard_fraction >= 0 && discard_fraction <= 0.003, k, "discard_fraction",
+              discard_fraction, "must be in [0, 0.003] (VDI/VDE 2634-2 allows 0.3 %)");
+  CheckOption(inlier_band_mm > 0, k, "inlier_band_mm", inlier_band_mm, "must be > 0");
+  CheckOption(ransac_iterations >= 1, k, "ransac_iterations", ransac_iterations, "must be >= 1");
+  CheckOption(ransac_sample_points >= 100, k, "ransac_sample_points", ransac_sample_points,
+              "must be >= 100");
+  CheckOption(radius_tolerance > 0 && radius_tolerance < 1, k, "radius_tolerance", radius_tolerance,
+              "must be in (0, 1)");
+  CheckOption(min_points >= 10, k, "min_points", min_points, "must be >= 10");
+}
+
+const char* ToString(VdiStatus s) {
+  switch (s) {
+    case VdiStatus::kOk:
+      return "ok";
+    case VdiStatus::kTooFewPoints:
+      return "too few points";
+    case VdiStatus::kNotFound:
+      return "artefact not found";
+  }
+  return "?";
+}
+
+std::string SphereResult::BriefReport() const {
+  if (!ok()) return util::StrCat("sphere: ", ToString(status), ": ", message);
+  return util::StrCat("sphere: PF ", PF_mm, " mm, PS ", PS_mm, " mm (diameter ", diameter_mm,
+                      " mm, RMS ", rms_mm, " mm, ", points, " points, ", discarded, " left out)");
+}
+
+std::string BallBarResult::BriefReport() const {
+  if (!ok()) return util::StrCat("ball bar: ", ToString(status), ": ", message);
+  return util::StrCat("ball bar: SD ", SD_mm, " mm (distance ", distance_mm, " mm; ",
+                      sphere_a.points, " + ", sphere_b.points, " points)");
+}
+
+std::string PlaneResult::BriefReport() const {
+  if (!ok()) return util::StrCat("plane: ", ToString(status), ": ", message);
+  return util::StrCat("plane: F ", F_mm, " mm (RMS ", rms_mm, " mm, ", points, " points, ",
+                      discarded, " left out)");
+}
+
+SphereResult SphereFigures(const Points& points, double diameter_mm, double discard_fraction) {
+  SphereResult out;
+  SphereFit fit = FitSphere(points);
+  if (!fit.ok) {
+    out.status = VdiStatus::kTooFewPoints;
+    out.message = util::StrCat(points.size(), " points do not define a sphere");
+    return out;
+  }
+  const auto keep =
+      KeepAfterDiscard(RadialResiduals(points, fit.centre, fit.radius_mm), discard_fraction);
+  const Points kept = Select(points, keep);
+  fit = FitSphere(kept);
+  const std::vector<double> res = RadialResiduals(kept, fit.centre, fit.radius_mm);
+  out.status = VdiStatus::kOk;
+  out.centre = fit.centre;
+  out.diameter_mm = 2 * fit.radius_mm;
+  out.PF_mm = Range(res);
+  out.PS_mm = out.diameter_mm - diameter_mm;
+  out.rms_mm = Rms(res);
+  out.points = static_cast<int>(kept.size());
+  out.discarded = static_cast<int>(points.size() - kept.size());
+  return out;
+}
+
+PlaneResult PlaneFigures(const Points& points, double discard_fraction) {
+  PlaneResult out;
+  PlaneFit fit = FitPlane(points);
+  if (!fit.ok) {
+    out.status = VdiStatus::kTooFewPoints;
+    out.message = util::StrCat(points.size(), " points do not define a plane");
+    return out;
+  }
+  auto distances = [](const Points& pts, const PlaneFit& f) {
+    std::vector<double> d(pts.size());
+    for (size_t i = 0; i < pts.size(); ++i) d[i] = f.normal.dot(pts[i] - f.centroid);
+    return d;
+  };
+  const Points kept = Select(points, KeepAfterDiscard(distances(points, fit), discard_fraction));
+  fit = FitPlane(kept);
+  const std::vector<double> d = distances(kept, fit);
+  out.status = VdiStatus::kOk;
+  out.normal = fit.normal;
+  out.F_mm = Range(d);
+  out.rms_mm = Rms(d);
+  out.points = static_cast<int>(kept.size());
+  out.discarded = static_cast<int>(points.size() - kept.size());
+  return out;
+}
+
+namespace {
+
+SphereResult FindAndEvaluateSphere(const Points& pts, const Points& normals, double diameter_mm,
+                                   const VdiOptions& o, uint64_t stream) {
+  SphereResult out;
+  const double r0 = 0.5 * diameter_mm;
+  if (static_cast<int>(pts.size()) < o.min_points) {
+    out.status = VdiStatus::kTooFewPoints;
+    out.message = util::StrCat(pts.size(), " points, at least ", o.min_points, " needed");
+    return out;
+  }
+  Eigen::Vector3d centre;
+  Points members;
+  if (!FindSphere(pts, normals, r0, o, stream, &centre) ||
+      !RefineSphere(pts, r0, o, &centre, &members)) {
+    out.message = util::StrCat("no sphere of diameter ", diameter_mm, " mm found");
+    return out;
+  }
+  if (static_cast<int>(members.size()) < o.min_points) {
+    out.status = VdiStatus::kTooFewPoints;
+    out.message = util::StrCat("sphere found with only ", members.size(), " points");
+    return out;
+  }
+  out = SphereFigures(members, diameter_mm, o.discard_fraction);
+  if (out.ok() && std::abs(out.diameter_mm - diameter_mm) > o.radius_tolerance * diameter_mm) {
+    out.status = VdiStatus::kNotFound;
+    out.message =
+        util::StrCat("fitted diameter ", out.diameter_mm, " mm is far from ", diameter_mm, " mm");
+  }
+  return out;
+}
+
+}  // namespace
+
+SphereResult EvaluateSphere(const PointCloud& cloud, double diameter_mm,
+                            const VdiOptions& options) {
+  options.Check();
+  util::CheckOption(diameter_mm > 0, "EvaluateSphere", "diameter_mm", diameter_mm, "must be > 0");
+  Points normals;
+  const Points pts = FinitePoints(cloud, cloud.has_normals() ? &normals : nullptr);
+  return FindAndEvaluateSphere(pts, normals, diameter_mm, options, 0);
+}
+
+BallBarResult EvaluateBallBar(const PointCloud& cloud, double diameter_mm,
+                              double calibrated_distance_mm, const VdiOptions& options) {
+  options.Check();
+  util::CheckOption(diameter_mm > 0, "EvaluateBallBar", "diameter_mm", diameter_mm, "must be > 0");
+  util::CheckOption(calibrated_distance_mm > diameter_mm, "EvaluateBallBar",
+                    "calibrated_distance_mm", calibrated_distance_mm,
+                    "must exceed the sphere diameter");
+  BallBarResult out;
+  Points normals;
+  Points pts = FinitePoints(cloud, cloud.has_normals() ? &normals : nullptr);
+  out.sphere_a = FindAndEvaluateSphere(pts, normals, diameter_mm, options, 0);
+  if (!out.sphere_a.ok()) {
+    out.status = out.sphere_a.status;
+    out.message = "first sphere: " + out.sphere_a.message;
+    return out;
+  }
+  // Remove the first sphere (and what touches it) before looking for the second.
+  Points rest, rest_normals;
+  const double clear_mm = 0.5 * diameter_mm + 4 * options.inlier_band_mm;
+  for (size_t i = 0; i < pts.size(); ++i) {
+    if ((pts[i] - out.sphere_a.centre).norm() < clear_mm) continue;
+    rest.push_back(pts[i]);
+    if (!normals.empty()) rest_normals.push_back(normals[i]);
+  }
+  out.sphere_b = FindAndEvaluateSphere(rest, rest_normals, diameter_mm, options, 1);
+  if (!out.sphere_b.ok()) {
+    out.status = out.sphere_b.status;
+    out.message = "second sphere: " + out.sphere_b.message;
+    return out;
+  }
+  out.status = VdiStatus::kOk;
+  out.distance_mm = (out.sphere_a.centre - out.sphere_b.centre).norm();
+  out.SD_mm = out.distance_mm - calibrated_distance_mm;
+  return out;
+}
+
+PlaneResult EvaluatePlane(const PointCloud& cloud, const VdiOptions& options) {
+  options.Check();
+  PlaneResult out;
+  Points normals;
+  const Points pts = FinitePoints(cloud, cloud.has_normals() ? &normals : nullptr);
+  if (static_cast<int>(pts.size()) < options.min_points) {
+    out.status = VdiStatus::kTooFewPoints;
+    out.message = util::StrCat(pts.size(), " points, at least ", options.min_points, " needed");
+    return out;
+  }
+  util::Rng rng(util::MixSeed(options.seed, 7));
+  const std::vector<size_t> sample = Subsample(pts.size(), options.ransac_sample_points, rng);
+  std::uniform_int_distribution<size_t> pick(0, sample.size() - 1);
+  int best_score = 0;
+  Eigen::Vector3d best_n = Eigen::Vector3d::UnitZ(), best_p = pts[0];
+  for (int it = 0; it < options.ransac_iterations; ++it) {
+    const Eigen::Vector3d p0 = pts[sample[pick(rng)]];
+    const Eigen::Vector3d p1 = pts[sample[pick(rng)]], p2 = pts[sample[pick(rng)]];
+    Eigen::Vector3d n = (p1 - p0).cross(p2 - p0);
+    if (n.norm() < 1e-9) continue;
+    n.normalize();
+    int score = 0;
+    for (size_t j : sample) score += std::abs(n.dot(pts[j] - p0)) < options.inlier_band_mm;
+    if (score > best_score) {
+      best_score = score;
+      best_n = n;
+      best_p = p0;
+    }
+  }
+  Points members;
+  for (int pass = 0; pass < 3; ++pass) {
+    members.clear();
+    for (const auto& p : pts) {
+      if (std::abs(best_n.dot(p - best_p)) < options.inlier_band_mm) members.push_back(p);
+    }
+    const PlaneFit fit = FitPlane(members);
+    if (!fit.ok) break;
+    best_n = fit.normal;
+    best_p = fit.centroid;
+  }
+  if (static_cast<int>(members.size()) < options.min_points) {
+    out.status = VdiStatus::kNotFound;
+    out.message = util::StrCat("largest plane has only ", members.size(), " points");
+    return out;
+  }
+  return PlaneFigures(members, options.discard_fraction);
+}
+
+}  // namespace fringe::eval

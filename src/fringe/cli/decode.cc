@@ -1,0 +1,49 @@
+// fringe decode: one camera's fringe image stack -> absolute phase, modulation, mask.
+#include <CLI/CLI.hpp>
+#include <iostream>
+#include <memory>
+
+#include "fringe/cli/cli.h"
+#include "fringe/phase/decode.h"
+#include "fringe/phase/pattern_scheme.h"
+#include "fringe/phase/stack_io.h"
+
+namespace fringe::cli {
+
+void AddDecodeCommand(CLI::App& app) {
+  struct Args {
+    std::string stack;
+    std::string scheme;
+    std::string out;
+    phase::DecodeOptions options;
+  };
+  auto a = std::make_shared<Args>();
+  CLI::App* sub = app.add_subcommand(
+      "decode",
+      "Decode one camera's fringe images to absolute phase (projector pixels), modulation and "
+      "mask (32-bit float TIFF + PNG previews + summary.json)");
+  sub->add_option("stack", a->stack, "Folder with the images named in the manifest")->required();
+  sub->add_option("--scheme", a->scheme, "Scheme manifest (manifest.json) or preset name")
+      ->required();
+  sub->add_option("--out", a->out, "Output folder (replaced atomically)")->required();
+  sub->add_option("--noise-sigma", a->options.noise_sigma_dn,
+                  "Camera noise in DN (sets the automatic modulation threshold)")
+      ->capture_default_str();
+  sub->add_option("--min-modulation", a->options.min_modulation_dn,
+                  "Modulation threshold in DN (<= 0: from the noise analysis)")
+      ->capture_default_str();
+  sub->add_option("--gamma", a->options.projector_gamma,
+                  "Projector gamma to correct at decode time (patterns not pre-compensated)")
+      ->capture_default_str();
+  sub->callback([a] {
+    const phase::PatternScheme scheme = phase::SchemeFromNameOrFile(a->scheme);
+    const auto images = phase::ReadStack(a->stack, scheme);
+    const phase::DecodeResult result = phase::Decode(scheme, images, a->options);
+    phase::WriteDecodeFolder(a->out, result);
+    std::cout << result.summary.BriefReport() << "\n";
+  });
+}
+
+FRINGE_REGISTER_COMMAND(40, AddDecodeCommand);
+
+}  // namespace fringe::cli

@@ -1,0 +1,106 @@
+#include "fringe/phase/stack_io.h"
+
+#include <algorithm>
+#include <opencv2/imgcodecs.hpp>
+#include <optional>
+#include <set>
+
+#include "fringe/io/calibration_io.h"
+#include "fringe/io/image_io.h"
+#include "fringe/util/error.h"
+#include "fringe/util/files.h"
+
+namespace fringe::phase {
+namespace {
+
+using util::StrCat;
+
+bool IsImageFile(const std::filesystem::path& p) {
+  std::string ext = p.extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return std::tolower(c); });
+  return ext == ".png" || ext == ".tif" || ext == ".tiff" || ext == ".bmp" || ext == ".jpg" ||
+         ext == ".jpeg" || ext == ".pgm";
+}
+
+void Write(const std::filesystem::path& path, const cv::Mat& m) {
+  if (!cv::imwrite(path.string(), m)) throw Error(StrCat(path.string(), ": cannot write image"));
+}
+
+}  // namespace
+
+std::vector<cv::Mat> ReadStack(const std::filesystem::path& dir, const PatternScheme& scheme) {
+  util::RequireDirectory(dir, "image stack");
+  const auto names = scheme.ImageNames();
+  const std::set<std::string> expected(names.begin(), names.end());
+  std::vector<std::string> extra;
+  for (const auto& entry : std::filesystem::directory_iterator(dir)) {
+    const auto name = entry.path().filename().string();
+    if (entry.is_regular_file() && IsImageFile(entry.path()) && !expected.count(name)) {
+      extra.push_back(name);
+    }
+  }
+  if (!extra.empty()) {
+    std::sort(extra.begin(), extra.end());
+    throw Error(
+        StrCat((dir / extra[0]).string(), ": image not in the scheme '", scheme.name,
+               "' (which lists ", names.size(), " images",
+               extra.size() > 1 ? StrCat("; ", extra.size(), " extra files") : std::string(), ")"));
+  }
+  std::vector<cv::Mat> images;
+  for (const auto& n : names) {
+    const auto path = dir / n;
+    if (!std::filesystem::exists(path)) {
+      throw Error(StrCat(path.string(), ": missing image ", images.size(), " of the ", names.size(),
+                         " the scheme '", scheme.name, "' lists"));
+    }
+    std::optional<cv::Size> size;
+    if (!images.empty()) size = images[0].size();
+    images.push_back(io::ReadGrayImage(path, size));
+    if (images.back().depth() != images[0].depth()) {
+      throw Error(StrCat(path.string(), ": bit depth differs from ", (dir / names[0]).string()));
+    }
+  }
+  return images;
+}
+
+nlohmann::json DecodeSummaryToJson(const DecodeSummary& s) {
+  return {{"status", s.status == DecodeStatus::kSuccess ? "success" : "no_valid_pixels"},
+          {"message", s.message},
+          {"pixels", s.pixels},
+          {"valid", s.valid},
+          {"valid_fraction", s.ValidFraction()},
+          {"rejected_saturated", s.rejected_saturated},
+          {"rejected_underexposed", s.rejected_underexposed},
+          {"rejected_low_modulation", s.rejected_low_modulation},
+          {"rejected_shadow", s.rejected_shadow},
+          {"rejected_order_ambiguous", s.rejected_order_ambiguous},
+          {"rejected_spatial", s.rejected_spatial},
+          {"orders_repaired", s.orders_repaired},
+          {"min_modulation_dn", s.min_modulation_dn},
+          {"time_ms", s.time_ms}};
+}
+
+void WriteDecodeFolder(const std::filesystem::path& dir, const DecodeResult& r) {
+  util::WriteFolderAtomically(dir, [&](const std::filesystem::path& tmp) {
+    Write(tmp / "absolute_phase.tiff", r.absolute_phase);
+    Write(tmp / "wrapped_phase.tiff", r.wrapped_phase);
+    Write(tmp / "modulation.tiff", r.modulation);
+    Write(tmp / "background.tiff", r.background);
+    Write(tmp / "mask.png", r.mask);
+    double lo = 0, hi = 1;
+    if (r.summary.valid > 0) cv::minMaxLoc(r.absolute_phase, &lo, &hi, nullptr, nullptr, r.mask);
+    cv::Mat preview;
+    r.absolute_phase.convertTo(preview, CV_8U, 254.0 / std::max(hi - lo, 1e-6),
+                               1.0 - 254.0 * lo / std::max(hi - lo, 1e-6));
+    preview.setTo(0, r.mask == 0);
+    Write(tmp / "absolute_phase_preview.png", preview);
+    double mod_hi = 1;
+    cv::minMaxLoc(r.modulation, nullptr, &mod_hi);
+    r.modulation.convertTo(preview, CV_8U, 255.0 / std::max(mod_hi, 1e-6));
+    Write(tmp / "modulation_preview.png", preview);
+    io::WriteJson(tmp / "summary.json", DecodeSummaryToJson(r.summary));
+  });
+}
+
+}  // namespace fringe::phase

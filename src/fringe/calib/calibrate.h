@@ -1,0 +1,113 @@
+// Camera and stereo calibration from detected board views (detect.h).
+//
+// Method: Z. Zhang, "A flexible new technique for camera calibration" (PAMI 2000): per-view
+// plane homographies give the initial intrinsics (cv::initCameraMatrix2D) and board poses
+// (cv::solvePnP), then our Levenberg-Marquardt (Eigen, numeric Jacobian with the problem's
+// block structure) refines fx fy cx cy k1 k2 p1 p2 [k3] and all poses by minimising the
+// reprojection error of the feature centres (camera model: geometry/camera.h).
+//
+// Circular features are re-measured between refinement rounds with the current model: their
+// subpixel edge points are undistorted to ideal pinhole pixels, the ellipses refitted there (an
+// exact conic only after undistortion), and the centre taken as the pole-polar concentric
+// centre (rings) or as the ellipse centre minus its perspective bias predicted from the
+// estimated board pose (plain circles: bias = centre of the projected circle's conic minus the
+// projection of its centre), then distorted back. This removes the ellipse-centre bias
+// (~0.05-0.4 px) and the distortion-induced one.
+//
+// Robustness: views whose RMS exceeds max(max_image_rms_px, 3 x median) are rejected with a
+// message and the problem solved again; single features beyond outlier_sigma x RMS are dropped.
+// Standard deviations: sqrt(diag(sigma^2 (J^T J)^-1)) at the optimum, sigma^2 = SSE / (m - n).
+//
+// Stereo: both cameras calibrated alone, right_from_left initialised from the per-view relative
+// poses, then one joint refinement of both intrinsics, left_from_board per view and
+// right_from_left. Epipolar errors: distance of each right feature from the epipolar line of its
+// left partner (undistorted, right camera pixels).
+//
+// Frames: camera_from_board per view; right_from_left as in stereo_rig.h; millimetres (the
+// target's unit). Thread safety: reentrant.
+#pragma once
+
+#include <array>
+#include <string>
+#include <vector>
+
+#include "fringe/calib/detect.h"
+#include "fringe/geometry/calibration_target.h"
+#include "fringe/geometry/camera.h"
+#include "fringe/geometry/rigid3.h"
+#include "fringe/geometry/stereo_rig.h"
+
+namespace fringe::calib {
+
+struct CalibrationOptions {
+  bool estimate_k3 = false;         // estimate k3 (else fixed at 0)
+  bool estimate_tangential = true;  // estimate p1 p2 (else fixed at 0)
+  int max_iterations = 200;         // LM iterations per solve, >= 1
+  int centre_rounds = 3;            // re-measurements of circular centres with the model, [0, 10]
+  double max_image_rms_px = 1.0;    // views above max(this, 3 x median RMS) are rejected, > 0
+  double outlier_sigma = 6.0;       // drop features beyond this many RMS (and > 1 px), > 0
+  int min_features = 6;             // fewer features in a view: the view is not used, >= 4
+  int min_views = 3;                // fewer usable views: calibration fails, >= 2
+  void Check() const;
+};
+
+// Parameter order of std_dev: fx fy cx cy k1 k2 p1 p2 k3 (0 for fixed parameters).
+constexpr int kNumIntrinsics = 9;
+
+struct ViewResidual {
+  std::string name;
+  int num_features = 0;
+  double rms_px = 0;
+  double max_px = 0;
+  bool used = false;
+  std::string message;  // why a view was not used
+};
+
+struct CalibrationSummary {
+  bool success = false;
+  std::string message;
+  int iterations = 0;  // LM iterations, all rounds
+  double initial_rms_px = 0;
+  double final_rms_px = 0;
+  int num_views_used = 0;
+  int num_views_rejected = 0;
+  int num_features = 0;  // used in the final solve
+  std::vector<ViewResidual> views;
+  std::string BriefReport() const;
+};
+
+struct CameraCalibration {
+  CameraModel camera;
+  std::vector<Rigid3d> camera_from_board;  // per input view (identity where unused)
+  std::array<double, kNumIntrinsics> std_dev{};
+  // Per view, per detected feature (in detection order): measured centre (after the last
+  // re-measurement) and observed - projected residual; empty for unused views.
+  std::vector<std::vector<Eigen::Vector2d>> centres_px, residuals_px;
+  CalibrationSummary summary;
+};
+
+// views[i] are the detections of one camera; `names` (optional) label them in messages.
+CameraCalibration CalibrateCamera(const std::vector<TargetDetection>& views,
+                                  const CalibrationTarget& target, int width, int height,
+                                  const CalibrationOptions& options = {},
+                                  const std::vector<std::string>& names = {});
+
+struct StereoCalibration {
+  StereoRig rig;  // projector absent
+  CameraCalibration left, right;
+  std::vector<Rigid3d> left_from_board;       // per view pair (identity where unused)
+  std::array<double, 6> extrinsic_std_dev{};  // rotation vector (rad) x y z, translation (mm)
+  int num_pairs = 0;                          // view pairs used jointly
+  double rms_px = 0;                          // joint reprojection RMS, both cameras
+  double epipolar_rms_px = 0, epipolar_max_px = 0;
+  CalibrationSummary summary;
+  std::string BriefReport() const;
+};
+
+StereoCalibration CalibrateStereo(const std::vector<TargetDetection>& left,
+                                  const std::vector<TargetDetection>& right,
+                                  const CalibrationTarget& target, int width, int height,
+                                  const CalibrationOptions& options = {},
+                                  const std::vector<std::string>& names = {});
+
+}  // namespace fringe::calib

@@ -341,10 +341,10 @@ bool IsCircular(const CalibrationTarget& t) {
   return t.type == TargetType::kConcentricRings || t.type == TargetType::kCircleGrid;
 }
 
-// Initial camera and poses (Zhang via OpenCV's homography initialisation + PnP).
+// Initial camera, distortion and poses.
 bool Initialise(const std::vector<TargetDetection>& views, const std::vector<bool>& usable,
-                const CalibrationTarget& target, int width, int height, CameraModel* cam,
-                std::vector<Vec6>* poses) {
+                const CalibrationTarget& target, int width, int height, bool estimate_k3,
+                bool estimate_tangential, CameraModel* cam, std::vector<Vec6>* poses) {
   std::vector<std::vector<cv::Point3f>> obj;
   std::vector<std::vector<cv::Point2f>> img;
   for (size_t v = 0; v < views.size(); ++v) {
@@ -358,7 +358,18 @@ bool Initialise(const std::vector<TargetDetection>& views, const std::vector<boo
     }
   }
   if (obj.size() < 2) return false;
-  const cv::Mat k = cv::initCameraMatrix2D(obj, img, cv::Size(width, height), 0);
+  // OpenCV's calibrateCamera on the raw centres: homography initialisation (Zhang) plus its own
+  // refinement, a robust start even under heavy distortion. Our refinement follows.
+  cv::Mat k, dist;
+  std::vector<cv::Mat> rvecs, tvecs;
+  int flags = 0;
+  if (!estimate_k3) flags |= cv::CALIB_FIX_K3;
+  if (!estimate_tangential) flags |= cv::CALIB_ZERO_TANGENT_DIST;
+  try {
+    cv::calibrateCamera(obj, img, cv::Size(width, height), k, dist, rvecs, tvecs, flags);
+  } catch (const cv::Exception&) {
+    return false;
+  }
   *cam = CameraModel();
   cam->width = width;
   cam->height = height;
@@ -366,17 +377,18 @@ bool Initialise(const std::vector<TargetDetection>& views, const std::vector<boo
   cam->fy = k.at<double>(1, 1);
   cam->cx = k.at<double>(0, 2);
   cam->cy = k.at<double>(1, 2);
+  std::array<double, 5> d{};
+  for (int i = 0; i < std::min<int>(5, dist.total()); ++i) d[i] = dist.at<double>(i);
+  cam->SetDistortion(d);
   poses->assign(views.size(), Vec6::Zero());
   size_t i = 0;
   for (size_t v = 0; v < views.size(); ++v) {
     if (!usable[v]) continue;
-    cv::Mat rvec, tvec;
-    cv::solvePnP(obj[i], img[i], k, cv::noArray(), rvec, tvec);
-    (*poses)[v] << rvec.at<double>(0), rvec.at<double>(1), rvec.at<double>(2), tvec.at<double>(0),
-        tvec.at<double>(1), tvec.at<double>(2);
+    (*poses)[v] << rvecs[i].at<double>(0), rvecs[i].at<double>(1), rvecs[i].at<double>(2),
+        tvecs[i].at<double>(0), tvecs[i].at<double>(1), tvecs[i].at<double>(2);
     ++i;
   }
-  return true;
+  return cam->fx > 0 && cam->fy > 0 && std::isfinite(cam->fx);
 }
 
 std::string ViewName(const std::vector<std::string>& names, size_t v) {
@@ -514,7 +526,8 @@ CameraCalibration CalibrateCamera(const std::vector<TargetDetection>& views,
   }
   Bundle b;
   b.cams.resize(1);
-  if (!Initialise(views, usable, target, width, height, &b.cams[0], &b.poses)) {
+  if (!Initialise(views, usable, target, width, height, options.estimate_k3,
+                  options.estimate_tangential, &b.cams[0], &b.poses)) {
     s.message = "initialisation failed";
     return out;
   }

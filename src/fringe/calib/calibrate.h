@@ -1,10 +1,11 @@
 // Camera and stereo calibration from detected board views (detect.h).
 //
-// Method: Z. Zhang, "A flexible new technique for camera calibration" (PAMI 2000): per-view
-// plane homographies give the initial intrinsics (cv::initCameraMatrix2D) and board poses
-// (cv::solvePnP), then our Levenberg-Marquardt (Eigen, numeric Jacobian with the problem's
-// block structure) refines fx fy cx cy k1 k2 p1 p2 [k3] and all poses by minimising the
-// reprojection error of the feature centres (camera model: geometry/camera.h).
+// Method: Z. Zhang, "A flexible new technique for camera calibration" (PAMI 2000). The start
+// comes from OpenCV's cv::calibrateCamera on the raw detected centres (its plane-homography
+// initialisation and refinement: robust under heavy distortion); then our Levenberg-Marquardt
+// (Eigen, numeric Jacobian with the problem's block structure) refines fx fy cx cy k1 k2 p1 p2
+// [k3] and all poses on OUR centres, re-measured between rounds as below, minimising the
+// reprojection error (camera model: geometry/camera.h).
 //
 // Circular features are re-measured between refinement rounds with the current model: their
 // subpixel edge points are undistorted to ideal pinhole pixels, the ellipses refitted there (an

@@ -122,7 +122,7 @@ BoardImage RenderBoardImage(const CameraModel& camera, const CalibrationTarget& 
   const double plane_offset = normal.dot(t);
   // Albedo seen along the ray through a pixel position; updates the undistortion warm start.
   auto albedo_at = [&](double x, double y, Eigen::Vector2d* guess) {
-    const Eigen::Vector2d xy = UnprojectFrom(camera, Eigen::Vector2d(x, y), *guess);
+    const Eigen::Vector2d xy = UnprojectFrom(camera, Eigen::Vector2d(x, y), *guess, 2);
     *guess = xy;
     const Eigen::Vector3d d(xy.x(), xy.y(), 1.0);
     const double den = normal.dot(d);

@@ -1,6 +1,5 @@
 #include "fringe/sim/renderer.h"
 
-#include <embree3/rtcore.h>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -106,10 +105,18 @@ void RenderOptions::Check() const {
 // ---------------------------------------------------------------------------------------------
 
 Eigen::Vector2d UnprojectFrom(const CameraModel& camera, const Eigen::Vector2d& pixel,
-                              const Eigen::Vector2d& guess) {
+                              const Eigen::Vector2d& guess, int fixed_iterations) {
   const Eigen::Vector2d target = camera.NormalizedDistortedFromPixel(pixel);
   if (!camera.HasDistortion()) return target;
   Eigen::Vector2d xy = guess;
+  for (int it = 0; it < fixed_iterations; ++it) {
+    const Eigen::Vector2d r = camera.Distort(xy) - target;
+    const Eigen::Matrix2d j = camera.DistortJacobian(xy);
+    const double det = j(0, 0) * j(1, 1) - j(0, 1) * j(1, 0);
+    xy.x() -= (j(1, 1) * r.x() - j(0, 1) * r.y()) / det;
+    xy.y() -= (j(0, 0) * r.y() - j(1, 0) * r.x()) / det;
+  }
+  if (fixed_iterations > 0) return xy;
   for (int it = 0; it < 8; ++it) {
     const Eigen::Vector2d r = camera.Distort(xy) - target;
     const Eigen::Matrix2d j = camera.DistortJacobian(xy);
@@ -165,218 +172,30 @@ cv::Mat ApplySensor(const cv::Mat& radiance, const SensorOptions& opt, uint64_t 
 // ---------------------------------------------------------------------------------------------
 
 struct Renderer::Impl {
-  Scene scene;
-  RTCDevice device = nullptr;
-  RTCScene rtc = nullptr;
-  // Per object: CSR lists of markers whose disk may touch each triangle (empty: no markers).
-  std::vector<std::vector<int>> marker_begin;
-  std::vector<std::vector<int>> marker_ids;
-
-  ~Impl() {
-    if (rtc) rtcReleaseScene(rtc);
-    if (device) rtcReleaseDevice(device);
-  }
-
-  void Build() {
-    device = rtcNewDevice(nullptr);
-    if (!device) throw Error("Embree: cannot create a device");
-    rtc = rtcNewScene(device);
-    rtcSetSceneFlags(rtc, RTC_SCENE_FLAG_ROBUST);
-    rtcSetSceneBuildQuality(rtc, RTC_BUILD_QUALITY_HIGH);
-    for (size_t i = 0; i < scene.objects().size(); ++i) {
-      const TriangleMesh& mesh = scene.objects()[i].mesh;
-      RTCGeometry geom = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
-      auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0,
-                                                            RTC_FORMAT_FLOAT3, 3 * sizeof(float),
-                                                            mesh.vertices.size()));
-      for (size_t k = 0; k < mesh.vertices.size(); ++k) {
-        for (int d = 0; d < 3; ++d) v[3 * k + d] = static_cast<float>(mesh.vertices[k][d]);
-      }
-      auto* t = static_cast<uint32_t*>(
-          rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
-                                  3 * sizeof(uint32_t), mesh.triangles.size()));
-      for (size_t k = 0; k < mesh.triangles.size(); ++k) {
-        for (int d = 0; d < 3; ++d) t[3 * k + d] = static_cast<uint32_t>(mesh.triangles[k][d]);
-      }
-      rtcCommitGeometry(geom);
-      rtcAttachGeometryByID(rtc, geom, static_cast<unsigned>(i));
-      rtcReleaseGeometry(geom);
-    }
-    rtcCommitScene(rtc);
-    if (rtcGetDeviceError(device) != RTC_ERROR_NONE) {
-      throw Error("Embree: building the scene failed");
-    }
-    IndexMarkers();
-  }
-
-  void IndexMarkers() {
-    const auto& markers = scene.markers();
-    marker_begin.assign(scene.objects().size(), {});
-    marker_ids.assign(scene.objects().size(), {});
-    if (markers.empty()) return;
-    for (size_t o = 0; o < scene.objects().size(); ++o) {
-      const TriangleMesh& mesh = scene.objects()[o].mesh;
-      std::vector<std::vector<int>> per_tri(mesh.triangles.size());
-      Eigen::Vector3d omin, omax;
-      mesh.Bounds(&omin, &omax);
-      for (const Marker& m : markers) {
-        const Eigen::Vector3d r = Eigen::Vector3d::Constant(m.outer_radius_mm);
-        const Eigen::Vector3d mmin = m.centre_in_world - r, mmax = m.centre_in_world + r;
-        if ((mmax.array() < omin.array()).any() || (mmin.array() > omax.array()).any()) continue;
-        for (size_t k = 0; k < mesh.triangles.size(); ++k) {
-          const auto& tri = mesh.triangles[k];
-          Eigen::Vector3d tmin = mesh.vertices[tri[0]], tmax = tmin;
-          for (int d = 1; d < 3; ++d) {
-            tmin = tmin.cwiseMin(mesh.vertices[tri[d]]);
-            tmax = tmax.cwiseMax(mesh.vertices[tri[d]]);
-          }
-          if ((mmax.array() < tmin.array()).any() || (mmin.array() > tmax.array()).any()) continue;
-          per_tri[k].push_back(m.id);
-        }
-      }
-      auto& begin = marker_begin[o];
-      auto& ids = marker_ids[o];
-      begin.resize(mesh.triangles.size() + 1);
-      for (size_t k = 0; k < per_tri.size(); ++k) {
-        begin[k] = static_cast<int>(ids.size());
-        ids.insert(ids.end(), per_tri[k].begin(), per_tri[k].end());
-      }
-      begin.back() = static_cast<int>(ids.size());
-    }
-  }
-
-  std::optional<Hit> Cast(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double t_min) const {
-    RTCIntersectContext ctx;
-    rtcInitIntersectContext(&ctx);
-    RTCRayHit rh;
-    rh.ray.org_x = static_cast<float>(o.x());
-    rh.ray.org_y = static_cast<float>(o.y());
-    rh.ray.org_z = static_cast<float>(o.z());
-    rh.ray.dir_x = static_cast<float>(d.x());
-    rh.ray.dir_y = static_cast<float>(d.y());
-    rh.ray.dir_z = static_cast<float>(d.z());
-    rh.ray.tnear = static_cast<float>(t_min);
-    rh.ray.tfar = std::numeric_limits<float>::infinity();
-    rh.ray.mask = 0xFFFFFFFFu;
-    rh.ray.flags = 0;
-    rh.ray.time = 0;
-    rh.ray.id = 0;
-    rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-    rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-    rtcIntersect1(rtc, &ctx, &rh);
-    if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return std::nullopt;
-    Hit hit;
-    hit.object = static_cast<int>(rh.hit.geomID);
-    hit.triangle = static_cast<int>(rh.hit.primID);
-    const SceneObject& obj = scene.objects()[hit.object];
-    double t = rh.ray.tfar;
-    if (obj.sphere) {
-      // Exact sphere: the root nearest Embree's hit on the inscribed tessellation.
-      const Eigen::Vector3d oc = o - obj.sphere->centre;
-      const double b = d.dot(oc);
-      const double c = oc.squaredNorm() - obj.sphere->radius_mm * obj.sphere->radius_mm;
-      const double disc = b * b - c;
-      if (disc >= 0) {
-        const double s = std::sqrt(disc);
-        const double t1 = -b - s, t2 = -b + s;
-        t = (std::abs(t1 - t) <= std::abs(t2 - t)) ? t1 : t2;
-      } else {
-        t = -b;
-      }
-      hit.t = t;
-      hit.point = o + t * d;
-      hit.normal = (hit.point - obj.sphere->centre).normalized();
-    } else {
-      // The triangle's plane in double precision.
-      const auto& tri = obj.mesh.triangles[hit.triangle];
-      const Eigen::Vector3d& v0 = obj.mesh.vertices[tri[0]];
-      const Eigen::Vector3d n =
-          (obj.mesh.vertices[tri[1]] - v0).cross(obj.mesh.vertices[tri[2]] - v0);
-      const double nn = n.norm();
-      const double den = d.dot(n);
-      if (nn > 0 && std::abs(den) > 1e-12 * nn) t = (v0 - o).dot(n) / den;
-      hit.t = t;
-      hit.point = o + t * d;
-      hit.normal = nn > 0 ? Eigen::Vector3d(n / nn)
-                          : Eigen::Vector3d(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z).normalized();
-    }
-    return hit;
-  }
-
-  // True when something lies between `from` and `to`.
-  bool Occluded(const Eigen::Vector3d& from, const Eigen::Vector3d& to) const {
-    const Eigen::Vector3d delta = to - from;
-    const double dist = delta.norm();
-    const Eigen::Vector3d d = delta / dist;
-    RTCIntersectContext ctx;
-    rtcInitIntersectContext(&ctx);
-    RTCRay ray;
-    ray.org_x = static_cast<float>(from.x());
-    ray.org_y = static_cast<float>(from.y());
-    ray.org_z = static_cast<float>(from.z());
-    ray.dir_x = static_cast<float>(d.x());
-    ray.dir_y = static_cast<float>(d.y());
-    ray.dir_z = static_cast<float>(d.z());
-    ray.tnear = 0.0f;
-    ray.tfar = static_cast<float>(dist);
-    ray.mask = 0xFFFFFFFFu;
-    ray.flags = 0;
-    ray.time = 0;
-    ray.id = 0;
-    rtcOccluded1(rtc, &ctx, &ray);
-    return ray.tfar < 0;
-  }
-
-  double Albedo(const Hit& hit) const {
-    const SceneObject& obj = scene.objects()[hit.object];
-    if (!marker_begin[hit.object].empty()) {
-      const auto& begin = marker_begin[hit.object];
-      const auto& ids = marker_ids[hit.object];
-      for (int k = begin[hit.triangle]; k < begin[hit.triangle + 1]; ++k) {
-        const Marker& m = scene.markers()[ids[k]];
-        if (std::abs(hit.normal.dot(m.normal_in_world)) < 0.5) continue;  // another face
-        const Eigen::Vector3d rel = hit.point - m.centre_in_world;
-        const double along = rel.dot(m.normal_in_world);
-        if (std::abs(along) > m.outer_radius_mm) continue;
-        const double radial = (rel - along * m.normal_in_world).norm();
-        if (radial < m.inner_radius_mm) return scene.marker_white_albedo;
-        if (radial < m.outer_radius_mm) return scene.marker_black_albedo;
-      }
-    }
-    if (obj.texture) return std::clamp(obj.texture(hit.point), 0.0, 1.0);
-    return obj.albedo;
-  }
+  explicit Impl(const Scene& scene) : caster(scene) {}
+  RayCaster caster;
 };
 
 // ---------------------------------------------------------------------------------------------
 
 Renderer::Renderer(const Scene& scene, const StereoRig& rig, const RenderOptions& options)
-    : impl_(std::make_unique<Impl>()), rig_(rig), options_(options) {
+    : rig_(rig), options_(options) {
   options_.Check();
   rig_.Check();
   if (!rig_.projector) throw Error("Renderer: the rig has no projector (projector_from_left)");
-  if (scene.objects().empty()) throw Error("Renderer: the scene has no objects");
-  impl_->scene = scene;
-  // Marker ids index the scene's marker list.
-  for (size_t i = 0; i < scene.markers().size(); ++i) {
-    if (scene.markers()[i].id != static_cast<int>(i)) {
-      throw Error(util::StrCat("Renderer: marker ", i, " has id ", scene.markers()[i].id,
-                               " (ids must be 0, 1, 2, ... in order)"));
-    }
-  }
-  impl_->Build();
+  impl_ = std::make_unique<Impl>(scene);
 }
 
 Renderer::~Renderer() = default;
 
-const Scene& Renderer::scene() const { return impl_->scene; }
+const Scene& Renderer::scene() const { return impl_->caster.scene(); }
 
 std::optional<Hit> Renderer::CastRay(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir,
                                      double t_min) const {
-  return impl_->Cast(origin, dir.normalized(), t_min);
+  return impl_->caster.Cast(origin, dir.normalized(), t_min);
 }
 
-double Renderer::AlbedoAt(const Hit& hit) const { return impl_->Albedo(hit); }
+double Renderer::AlbedoAt(const Hit& hit) const { return impl_->caster.Albedo(hit); }
 
 CameraImages Renderer::RenderCamera(const CameraModel& camera, const Rigid3d& world_from_camera,
                                     const Rigid3d& world_from_projector,
@@ -423,7 +242,7 @@ CameraImages Renderer::RenderCamera(const CameraModel& camera, const Rigid3d& wo
   auto shade = [&](const Hit& hit, const Eigen::Vector3d& d_world, double* albedo, Sample* s) {
     Eigen::Vector3d normal = hit.normal;
     if (normal.dot(d_world) > 0) normal = -normal;  // two-sided: face the camera
-    *albedo = impl_->Albedo(hit);
+    *albedo = impl_->caster.Albedo(hit);
     s->weight = 0;
     s->lit = false;
     s->uv = Eigen::Vector2d(kNaN, kNaN);
@@ -434,7 +253,7 @@ CameraImages Renderer::RenderCamera(const CameraModel& camera, const Rigid3d& wo
     const Eigen::Vector3d to_projector = (projector_centre - hit.point).normalized();
     const double cos_term = normal.dot(to_projector);
     if (cos_term <= 0) return;
-    if (impl_->Occluded(hit.point + shadow_offset * normal, projector_centre)) return;
+    if (impl_->caster.Occluded(hit.point + shadow_offset * normal, projector_centre)) return;
     s->lit = true;
     s->weight = *albedo * popt.brightness * cos_term;
   };
@@ -452,14 +271,18 @@ CameraImages Renderer::RenderCamera(const CameraModel& camera, const Rigid3d& wo
         for (int c = 0; c < W; ++c) {
           for (int si = 0; si < n; ++si) {
             const double x = c + (si + 0.5) / n - 0.5;
-            const Eigen::Vector2d xy = UnprojectFrom(camera, Eigen::Vector2d(x, y), guess);
+            // Off-centre samples: two Newton steps from the neighbouring sample (1/n px away)
+            // reach ~1e-14 px; pixel centres (ground truth) iterate to full convergence.
+            const bool centre_sample = centre_is_sample && 2 * sj + 1 == n && 2 * si + 1 == n;
+            const Eigen::Vector2d xy =
+                UnprojectFrom(camera, Eigen::Vector2d(x, y), guess, centre_sample ? 0 : 2);
             guess = xy;
             const Eigen::Vector3d d_cam = Eigen::Vector3d(xy.x(), xy.y(), 1.0).normalized();
             const Eigen::Vector3d d_world = R * d_cam;
             const size_t k = static_cast<size_t>(c) * samples_per_px + sj * n + si;
             base[k] = -1;
             weight[k] = 0;
-            const std::optional<Hit> hit = impl_->Cast(origin, d_world, 0);
+            const std::optional<Hit> hit = impl_->caster.Cast(origin, d_world, 0);
             Sample s{Eigen::Vector2d(kNaN, kNaN), 0, false};
             double albedo = 0;
             if (hit) {
@@ -479,8 +302,7 @@ CameraImages Renderer::RenderCamera(const CameraModel& camera, const Rigid3d& wo
                 weight[k] = static_cast<float>(s.weight);
               }
             }
-            const bool is_centre = centre_is_sample && 2 * sj + 1 == n && 2 * si + 1 == n;
-            if (options_.truth && (is_centre || (!centre_is_sample && sj == 0 && si == 0))) {
+            if (options_.truth && (centre_sample || (!centre_is_sample && sj == 0 && si == 0))) {
               // Truth from the ray through the pixel centre (the middle sample for odd n).
               std::optional<Hit> ch = hit;
               Eigen::Vector3d dc = d_cam;
@@ -489,7 +311,7 @@ CameraImages Renderer::RenderCamera(const CameraModel& camera, const Rigid3d& wo
                 const Eigen::Vector2d cxy = UnprojectFrom(camera, Eigen::Vector2d(c, r), xy);
                 dc = Eigen::Vector3d(cxy.x(), cxy.y(), 1.0).normalized();
                 const Eigen::Vector3d dw = R * dc;
-                ch = impl_->Cast(origin, dw, 0);
+                ch = impl_->caster.Cast(origin, dw, 0);
                 if (ch) shade(*ch, dw, &albedo, &cs);
               }
               if (ch) {
@@ -563,7 +385,7 @@ std::vector<MarkerObservation> Renderer::ObserveMarkers(const Rigid3d& world_fro
   std::vector<MarkerObservation> out;
   const Rigid3d sensor_from_world = world_from_sensor.Inverse();
   const Rigid3d world_from_right = world_from_sensor * rig_.right_from_left.Inverse();
-  for (const Marker& m : impl_->scene.markers()) {
+  for (const Marker& m : impl_->caster.scene().markers()) {
     MarkerObservation o;
     o.id = m.id;
     o.centre_in_sensor = sensor_from_world * m.centre_in_world;
@@ -579,7 +401,7 @@ std::vector<MarkerObservation> Renderer::ObserveMarkers(const Rigid3d& world_fro
       const Eigen::Vector3d to_eye = eye - m.centre_in_world;
       if (m.normal_in_world.dot(to_eye) <= 0) return false;
       const double dist = to_eye.norm();
-      const std::optional<Hit> hit = impl_->Cast(eye, -to_eye / dist, 0);
+      const std::optional<Hit> hit = impl_->caster.Cast(eye, -to_eye / dist, 0);
       return hit && hit->t >= dist - options_.marker_visibility_tolerance_mm;
     };
     o.visible_left = observe(rig_.left, world_from_sensor, &o.left_px);

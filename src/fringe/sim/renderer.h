@@ -34,6 +34,7 @@
 #include "fringe/geometry/camera.h"
 #include "fringe/geometry/rigid3.h"
 #include "fringe/geometry/stereo_rig.h"
+#include "fringe/sim/ray_caster.h"
 #include "fringe/sim/scene.h"
 
 namespace fringe::sim {
@@ -109,15 +110,6 @@ struct ViewImages {
   std::vector<MarkerObservation> markers;
 };
 
-// First surface hit along a ray (world frame), double precision.
-struct Hit {
-  double t = 0;            // distance along the unit ray, mm
-  Eigen::Vector3d point;   // world frame
-  Eigen::Vector3d normal;  // unit, world frame, geometric (not flipped)
-  int object = -1;         // scene object index
-  int triangle = -1;       // triangle index in the object's mesh
-};
-
 class Renderer {
  public:
   // The scene is copied. Throws fringe::Error for bad options, a rig without a projector, or an
@@ -167,9 +159,11 @@ cv::Mat ApplySensor(const cv::Mat& radiance, const SensorOptions& options, uint6
 // (same field of view, same geometry): e.g. 0.25 gives 320x256 cameras for fast tests.
 StereoRig ScaledRig(const StereoRig& rig, double scale);
 
-// Convenience: pinhole undistortion by Newton's method warm-started from `guess` (normalized
-// coordinates), converged to 1e-15; falls back to CameraModel::Unproject when it fails.
+// Undistorted normalized coordinates of a pixel by Newton's method warm-started from `guess`
+// (normalized coordinates of a nearby pixel). fixed_iterations = 0: iterate to convergence
+// (1e-15), falling back to CameraModel::Unproject when that fails; > 0: exactly that many steps
+// (2 suffice from a guess within a pixel, for sub-pixel samples in hot loops).
 Eigen::Vector2d UnprojectFrom(const CameraModel& camera, const Eigen::Vector2d& pixel,
-                              const Eigen::Vector2d& guess);
+                              const Eigen::Vector2d& guess, int fixed_iterations = 0);
 
 }  // namespace fringe::sim

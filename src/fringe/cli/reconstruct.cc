@@ -1,0 +1,135 @@
+// fringe reconstruct: one view (left/ and right/ fringe image stacks) -> organized point cloud.
+#include <CLI/CLI.hpp>
+#include <filesystem>
+#include <iostream>
+#include <memory>
+
+#include "fringe/cli/cli.h"
+#include "fringe/io/calibration_io.h"
+#include "fringe/io/image_io.h"
+#include "fringe/io/ply.h"
+#include "fringe/phase/pattern_scheme.h"
+#include "fringe/phase/stack_io.h"
+#include "fringe/stereo/reconstruct_view.h"
+#include "fringe/util/error.h"
+
+namespace fringe::cli {
+namespace {
+
+namespace fs = std::filesystem;
+
+// The first existing candidate, or an error naming what was looked for.
+fs::path FirstExisting(const std::vector<fs::path>& candidates, const char* what,
+                       const char* flag) {
+  for (const auto& c : candidates) {
+    if (fs::exists(c)) return c;
+  }
+  std::string tried;
+  for (const auto& c : candidates) tried += " " + c.string();
+  throw Error(
+      util::StrCat("reconstruct: no ", what, " given (", flag, ") and none found at", tried));
+}
+
+}  // namespace
+
+void AddReconstructCommand(CLI::App& app) {
+  struct Args {
+    std::string view;
+    std::string calib;
+    std::string scheme;
+    std::string out;
+    std::string residuals;
+    std::string cv_intrinsics, cv_extrinsics;
+    bool ascii = false;
+    bool no_normals = false;
+    bool keep_outliers = false;
+    stereo::ReconstructionOptions options;
+  };
+  auto a = std::make_shared<Args>();
+  CLI::App* sub = app.add_subcommand(
+      "reconstruct",
+      "Reconstruct one view: decode left/ and right/ fringe images, match the absolute phase, "
+      "triangulate to an organized point cloud (left camera frame, PLY) with normals");
+  sub->add_option("view", a->view, "View folder with left/ and right/ image stacks")->required();
+  sub->add_option("--calib", a->calib,
+                  "Rig calibration (rig JSON); default VIEW/rig.json or VIEW/../rig.json");
+  sub->add_option("--opencv-intrinsics", a->cv_intrinsics,
+                  "Instead of --calib: OpenCV stereo intrinsics (M1 D1 M2 D2, YAML/XML)");
+  sub->add_option("--opencv-extrinsics", a->cv_extrinsics,
+                  "With --opencv-intrinsics: OpenCV stereo extrinsics (R T, millimetres)");
+  sub->add_option("--scheme", a->scheme,
+                  "Scheme manifest or preset name; default VIEW/manifest.json, "
+                  "VIEW/left/manifest.json or VIEW/../manifest.json");
+  sub->add_option("--out", a->out, "Output PLY (organized: keeps the left camera grid)")
+      ->required();
+  sub->add_option("--residuals", a->residuals,
+                  "Also write the per-pixel reprojection residual (32-bit float TIFF, pixels)");
+  sub->add_option("--noise-sigma", a->options.decode.noise_sigma_dn,
+                  "Camera noise in DN (sets the decoder's modulation threshold)")
+      ->capture_default_str();
+  sub->add_option("--gamma", a->options.decode.projector_gamma,
+                  "Projector gamma to correct at decode time (patterns not pre-compensated)")
+      ->capture_default_str();
+  sub->add_option("--max-reprojection", a->options.matching.max_reprojection_error_px,
+                  "Drop points with a larger reprojection residual (pixels)")
+      ->capture_default_str();
+  sub->add_option("--max-projector-error", a->options.matching.max_projector_error_px,
+                  "Projector consistency tolerance in projector pixels (0: off; needs a "
+                  "calibrated projector in the rig)")
+      ->capture_default_str();
+  sub->add_flag("--no-normals", a->no_normals, "Do not estimate normals");
+  sub->add_flag("--keep-outliers", a->keep_outliers, "Do not remove flying pixels / small patches");
+  sub->add_flag("--ascii", a->ascii, "Write ASCII PLY");
+  sub->callback([a] {
+    const fs::path view(a->view);
+    if (!fs::is_directory(view / "left") || !fs::is_directory(view / "right")) {
+      throw Error(util::StrCat("reconstruct: ", view.string(),
+                               " must contain left/ and right/ image folders"));
+    }
+    const std::string scheme_arg =
+        a->scheme.empty() ? FirstExisting({view / "manifest.json", view / "left" / "manifest.json",
+                                           view.parent_path() / "manifest.json"},
+                                          "scheme manifest", "--scheme")
+                                .string()
+                          : a->scheme;
+    const phase::PatternScheme scheme = phase::SchemeFromNameOrFile(scheme_arg);
+    const auto left = phase::ReadStack(view / "left", scheme);
+    const auto right = phase::ReadStack(view / "right", scheme);
+    StereoRig rig;
+    if (!a->cv_intrinsics.empty() || !a->cv_extrinsics.empty()) {
+      if (a->cv_intrinsics.empty() || a->cv_extrinsics.empty()) {
+        throw Error("reconstruct: --opencv-intrinsics and --opencv-extrinsics go together");
+      }
+      rig = io::ImportOpenCvStereo(a->cv_intrinsics, a->cv_extrinsics, left.at(0).cols,
+                                   left.at(0).rows);
+    } else {
+      rig = io::ReadRig(a->calib.empty()
+                            ? FirstExisting({view / "rig.json", view.parent_path() / "rig.json"},
+                                            "calibration", "--calib")
+                            : fs::path(a->calib));
+    }
+    a->options.compute_normals = !a->no_normals;
+    a->options.remove_outliers = !a->keep_outliers;
+    const stereo::ViewReconstruction rec =
+        stereo::ReconstructView(rig, scheme, left, right, a->options);
+    std::cout << rec.summary.decode_left.BriefReport() << " (left)\n"
+              << rec.summary.decode_right.BriefReport() << " (right)\n"
+              << rec.summary.matching.BriefReport() << "\n";
+    if (a->options.remove_outliers) std::cout << rec.summary.outliers.BriefReport() << "\n";
+    if (a->options.compute_normals) std::cout << rec.summary.normals.BriefReport() << "\n";
+    std::cout << rec.summary.BriefReport() << "\n";
+    if (!rec.summary.ok()) {
+      throw Error(util::StrCat("reconstruct: ", view.string(), ": ",
+                               stereo::ToString(rec.summary.status), ": ", rec.summary.message));
+    }
+    io::WritePly(a->out, rec.cloud,
+                 a->ascii ? io::PlyFormat::kAscii : io::PlyFormat::kBinaryLittleEndian,
+                 {"fringe reconstruct: left camera frame, mm; quality = fringe modulation (DN)"});
+    if (!a->residuals.empty()) io::WriteImage(a->residuals, rec.reprojection_error_px);
+    std::cout << "wrote " << a->out << " (" << rec.summary.points << " points)\n";
+  });
+}
+
+FRINGE_REGISTER_COMMAND(60, AddReconstructCommand);
+
+}  // namespace fringe::cli

@@ -2,7 +2,12 @@
 
 #include <gtest/gtest.h>
 
+#include <fstream>
+
+#include "fringe/calib/calibrate_folder.h"
 #include "fringe/sim/board.h"
+#include "fringe/util/error.h"
+#include "fringe_test.h"
 
 namespace fringe::calib {
 namespace {
@@ -96,6 +101,41 @@ TEST(CalibrateCamera, TooFewViewsIsAStatus) {
   const auto cal = CalibrateCamera(views, target, 640, 512);
   EXPECT_FALSE(cal.summary.success);
   EXPECT_FALSE(cal.summary.message.empty());
+}
+
+}  // namespace
+}  // namespace fringe::calib
+
+namespace fringe::calib {
+namespace {
+
+TEST(CalibrateFolder, CorruptOrMissingImagesGiveClearErrors) {
+  const CalibrationTarget target = CalibrationTarget::Reference();
+  test::TempDir tmp;
+  EXPECT_THROW(CalibrateFolder(tmp / "missing", target), Error);
+  // No images.
+  try {
+    CalibrateFolder(tmp.path(), target);
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("no images"), std::string::npos) << e.what();
+  }
+  // A corrupt image: the message names the file.
+  {
+    std::ofstream f(tmp / "view1.png");
+    f << "not a png";
+  }
+  try {
+    CalibrateFolder(tmp.path(), target);
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("view1.png"), std::string::npos) << e.what();
+  }
+  // Stereo folders with unpaired images.
+  std::filesystem::create_directories(tmp / "pair" / "left");
+  std::filesystem::create_directories(tmp / "pair" / "right");
+  std::ofstream(tmp / "pair" / "left" / "a.png") << "x";
+  EXPECT_THROW(CalibrateFolder(tmp / "pair", target), Error);
 }
 
 }  // namespace

@@ -1,0 +1,42 @@
+// Calibration of an image folder, as run by `fringe calibrate DIR --target T --out OUT`:
+// DIR holds left/ and right/ folders (pairs matched by file name) or the images of a single
+// camera. Images: png, jpg, jpeg, tif, tiff, bmp (8 or 16 bit grey or colour).
+// Output: the rig JSON (docs/formats.md; a single camera as {"camera": {...}}) with extra keys
+// "calibration" (RMS, standard deviations, per-view residuals, epipolar statistics).
+#pragma once
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "fringe/calib/calibrate.h"
+#include "fringe/calib/detect.h"
+
+namespace fringe::calib {
+
+struct FolderCalibration {
+  bool stereo = false;
+  std::vector<std::string> names;  // image file names (per pair for stereo)
+  std::vector<TargetDetection> left, right;
+  CameraCalibration mono;  // single camera
+  StereoCalibration pair;  // stereo
+  bool success() const { return stereo ? pair.summary.success : mono.summary.success; }
+  // Readable multi-line summary: RMS, per-view errors, rejected views, coverage.
+  std::string Report() const;
+};
+
+// Throws fringe::Error for a missing folder, no images, unpaired left/right images or an
+// unreadable image (naming the file).
+FolderCalibration CalibrateFolder(const std::filesystem::path& dir, const CalibrationTarget& target,
+                                  const CalibrationOptions& options = {},
+                                  const DetectionOptions& detection = {});
+
+// Writes the calibration (atomically).
+void WriteFolderCalibration(const std::filesystem::path& path, const FolderCalibration& result);
+
+// Colour image of one camera's residual vectors (magnified by `scale`; 0: automatic, the RMS
+// drawn as 1.5 % of the width) at every feature, with the covered region (convex hulls of the
+// boards) shaded.
+cv::Mat ResidualImage(const CameraCalibration& cal, double scale = 0);
+
+}  // namespace fringe::calib

@@ -1,6 +1,7 @@
 #include "fringe/phase/decode.h"
 
 #include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -29,7 +30,9 @@ constexpr float kInvTwoPiF = 0.159154943091895f;
 // Abramowitz & Stegun 4.4.49), far below any phase noise of 8- or 16-bit images.
 inline float FastAtan2(float y, float x) {
   const float ax = std::fabs(x), ay = std::fabs(y);
-  const float mx = std::fmax(ax, ay), mn = std::fmin(ax, ay);
+  // Ternaries, not std::fmax/fmin: those keep NaN semantics and become library calls, which
+  // stops vectorisation.
+  const float mx = ax > ay ? ax : ay, mn = ax > ay ? ay : ax;
   const float a = mn / (mx + 1e-30f);
   const float s = a * a;
   float p = 0.0028662257f;
@@ -51,6 +54,97 @@ inline float FastAtan2(float y, float x) {
 inline float RoundF(float x) { return (x + 12582912.0f) - 12582912.0f; }
 // x in (-1, 1) -> [0, 1).
 inline float Wrap01Small(float x) { return x < 0.0f ? x + 1.0f : x; }
+
+// Row loops as functions with restrict-qualified pointers so that the compiler vectorises them
+// without run-time alias checks; the heaviest ones are also compiled for AVX2 and picked at run
+// time (GCC function multi-versioning), the default build staying baseline x86-64.
+#if defined(__GNUC__) && defined(__x86_64__) && !defined(__clang__)
+#define FRINGE_CLONES __attribute__((target_clones("avx2", "default")))
+#else
+#define FRINGE_CLONES
+#endif
+
+// One phase-shift set over a row: least-squares A, B^2, wrapped phase psi and the fraction of
+// the period (psi - offset) / 2 pi in [0, 1). kN > 0 fixes the number of steps at compile time
+// (unrolled); kN == 0 uses n.
+template <typename T, int kN>
+FRINGE_CLONES void SetRow(int w, const T* const* rows, int n, const float* ca, const float* cc,
+                          const float* cs, float offset, float* __restrict psi_out,
+                          float* __restrict frac, float* __restrict bsq, float* __restrict a_out) {
+  const int steps = kN > 0 ? kN : n;
+  for (int c = 0; c < w; ++c) {
+    float sa = 0.0f, sc = 0.0f, ss = 0.0f;
+    for (int k = 0; k < steps; ++k) {
+      const float x = static_cast<float>(rows[k][c]);
+      sa += ca[k] * x;
+      sc += cc[k] * x;
+      ss += cs[k] * x;
+    }
+    const float psi = FastAtan2(ss, sc);
+    bsq[c] = sc * sc + ss * ss;
+    a_out[c] = sa;
+    float t = (psi - offset) * kInvTwoPiF;
+    t -= RoundF(t - 0.5f);
+    frac[c] = t >= 1.0f ? t - 1.0f : t;
+    psi_out[c] = psi;
+  }
+}
+
+template <typename T>
+FRINGE_CLONES void MaxRow(int w, const T* __restrict p, T* __restrict m) {
+  for (int c = 0; c < w; ++c) m[c] = p[c] > m[c] ? p[c] : m[c];
+}
+
+void BeatRow(int w, float* __restrict a, const float* __restrict b) {
+  for (int c = 0; c < w; ++c) a[c] = Wrap01Small(a[c] - b[c]);
+}
+
+void SqrtRow(int w, const float* __restrict x, float* __restrict y) {
+  for (int c = 0; c < w; ++c) y[c] = std::sqrt(x[c]);
+}
+
+// 1 where a valid pixel differs from a 4-neighbour by more than thr (rows up/dn may be the row
+// itself at the image border).
+FRINGE_CLONES void JumpScreenRow(int w, const float* __restrict a, const float* __restrict up,
+                                 const float* __restrict dn, const uint8_t* __restrict m, float thr,
+                                 uint8_t* __restrict flag) {
+  for (int c = 0; c < w; ++c) {
+    const float x = a[c];
+    const float l = a[c > 0 ? c - 1 : c], r = a[c + 1 < w ? c + 1 : c];
+    const bool jump = std::fabs(l - x) > thr || std::fabs(r - x) > thr ||
+                      std::fabs(up[c] - x) > thr || std::fabs(dn[c] - x) > thr;
+    flag[c] = (m[c] != 0 && jump) ? 1 : 0;
+  }
+}
+
+// Reason codes: 0 valid, 1 saturated, 2 under-exposed, 3 low modulation, 4 shadow, 5 ambiguous
+// order (first failing test wins).
+template <typename T>
+void ReasonRow(int w, const T* __restrict maxi, const float* __restrict a0,
+               const float* __restrict bsq, const float* __restrict resid, float saturation,
+               float min_background, float b_min_sq, float min_ratio_sq, float max_residual,
+               uint8_t* __restrict reason) {
+  for (int c = 0; c < w; ++c) {
+    int r = resid[c] > max_residual ? 5 : 0;
+    r = bsq[c] < min_ratio_sq * a0[c] * a0[c] ? 4 : r;
+    // The modulation test uses set 0 (the finest frequency has the lowest modulation under
+    // defocus, and its N steps estimate B best).
+    r = bsq[c] < b_min_sq ? 3 : r;
+    r = a0[c] < min_background ? 2 : r;
+    r = static_cast<float>(maxi[c]) >= saturation ? 1 : r;
+    reason[c] = static_cast<uint8_t>(r);
+  }
+}
+
+void OutputRow(int w, const uint8_t* __restrict reason, const float* __restrict v,
+               float* __restrict abs, uint8_t* __restrict mask) {
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  for (int c = 0; c < w; ++c) {
+    const bool ok = reason[c] == 0;
+    mask[c] = ok ? 255 : 0;
+    abs[c] = ok ? v[c] - 0.5f : nan;
+  }
+}
 
 // Least-squares coefficients: A = sum ca_k I_k, B cos(phi) = sum cc_k I_k,
 // B sin(phi) = sum cs_k I_k for the model I_k = A + B cos(phi + shift_k).
@@ -172,8 +266,11 @@ struct Kernel {
     // Row buffers, allocated once per task.
     std::vector<float> frac(static_cast<size_t>(num_sets) * w),
         bsq(static_cast<size_t>(num_sets) * w);
-    std::vector<float> a0(w), maxi(w), v(w), resid(w), level(w * static_cast<size_t>(num_sets));
-    std::vector<int32_t> code1(w), code2(w), bin(w);
+    std::vector<float> a0(w), v(w), resid(w), level(w * static_cast<size_t>(num_sets));
+    std::vector<float> psi_scratch(w), a_scratch(w);
+    std::vector<T> maxi(w);
+    std::vector<uint8_t> reason(w);
+    std::vector<int32_t> code1(w), bin(w);
     std::vector<const T*> rows(images.size());
     for (int r = range.begin(); r < range.end(); ++r) {
       for (size_t i = 0; i < images.size(); ++i) rows[i] = images[i].ptr<T>(r);
@@ -184,14 +281,8 @@ struct Kernel {
       uint8_t* out_mask = out->mask.ptr<uint8_t>(r);
 
       // Saturation: the largest value over all images.
-      {
-        const T* p = rows[0];
-        for (int c = 0; c < w; ++c) maxi[c] = static_cast<float>(p[c]);
-        for (size_t i = 1; i < images.size(); ++i) {
-          const T* q = rows[i];
-          for (int c = 0; c < w; ++c) maxi[c] = std::max(maxi[c], static_cast<float>(q[c]));
-        }
-      }
+      std::copy(rows[0], rows[0] + w, maxi.begin());
+      for (size_t i = 1; i < images.size(); ++i) MaxRow<T>(w, rows[i], maxi.data());
       // Least squares per set: phase (as a fraction of the period), B^2; A of set 0.
       for (int s = 0; s < num_sets; ++s) {
         const int first = scheme.PhaseImageIndex(s);
@@ -200,49 +291,23 @@ struct Kernel {
         const float offset = static_cast<float>(scheme.phase_sets[s].phase_offset_rad);
         float* f = &frac[static_cast<size_t>(s) * w];
         float* b2 = &bsq[static_cast<size_t>(s) * w];
-        float* av = s == 0 ? a0.data() : nullptr;
-        // Accumulate A, a, b over the steps into v (a), resid (b), level (A) as scratch.
-        float* sa = level.data();
-        float* sc = v.data();
-        float* ss = resid.data();
-        std::fill(sa, sa + w, 0.0f);
-        std::fill(sc, sc + w, 0.0f);
-        std::fill(ss, ss + w, 0.0f);
-        for (int k = 0; k < n; ++k) {
-          const T* p = rows[first + k];
-          const float ka = cf.ca[k], kc = cf.cc[k], ks = cf.cs[k];
-          for (int c = 0; c < w; ++c) {
-            const float x = static_cast<float>(p[c]);
-            sa[c] += ka * x;
-            sc[c] += kc * x;
-            ss[c] += ks * x;
-          }
-        }
-        for (int c = 0; c < w; ++c) {
-          const float psi = FastAtan2(ss[c], sc[c]);
-          b2[c] = sc[c] * sc[c] + ss[c] * ss[c];
-          // Fraction of the period: (psi - offset) / 2 pi wrapped to [0, 1).
-          float t = (psi - offset) * kInvTwoPiF;
-          t -= RoundF(t - 0.5f);
-          f[c] = t >= 1.0f ? t - 1.0f : t;
-          if (s == 0) out_wrapped[c] = psi;
-        }
-        if (av) std::copy(sa, sa + w, av);
+        float* psi = s == 0 ? out_wrapped : psi_scratch.data();
+        float* av = s == 0 ? a0.data() : a_scratch.data();
+        const T* const* set_rows = &rows[first];
+        auto* fn = n == 3 ? &SetRow<T, 3> : n == 4 ? &SetRow<T, 4> : &SetRow<T, 0>;
+        fn(w, set_rows, n, cf.ca.data(), cf.cc.data(), cf.cs.data(), offset, psi, f, b2, av);
         if (gamma[s]) {
           for (int c = 0; c < w; ++c) {
-            float psi = FastAtan2(ss[c], sc[c]);
-            psi = gamma[s]->Correct(psi);
-            if (s == 0) out_wrapped[c] = psi;
-            float t = (psi - offset) * kInvTwoPiF;
+            const float corrected = gamma[s]->Correct(psi[c]);
+            psi[c] = corrected;
+            float t = (corrected - offset) * kInvTwoPiF;
             t -= RoundF(t - 0.5f);
             f[c] = t >= 1.0f ? t - 1.0f : t;
           }
         }
       }
-      for (int c = 0; c < w; ++c) {
-        out_bg[c] = a0[c];
-        out_mod[c] = std::sqrt(bsq[c]);
-      }
+      std::copy(a0.begin(), a0.end(), out_bg);
+      SqrtRow(w, bsq.data(), out_mod);
 
       std::fill(resid.begin(), resid.end(), 0.0f);
       const float p0 = static_cast<float>(scheme.phase_sets[0].period_px);
@@ -292,9 +357,7 @@ struct Kernel {
         for (int l = 1; l < num_levels; ++l) {
           const int count = num_sets - l;
           for (int i = 0; i < count; ++i) {
-            float* a = &level[static_cast<size_t>(i) * w];
-            const float* b = &level[static_cast<size_t>(i + 1) * w];
-            for (int c = 0; c < w; ++c) a[c] = Wrap01Small(a[c] - b[c]);
+            BeatRow(w, &level[static_cast<size_t>(i) * w], &level[static_cast<size_t>(i + 1) * w]);
           }
           std::copy(level.begin(), level.begin() + w, keep[l].begin());
         }
@@ -321,28 +384,10 @@ struct Kernel {
 
       // Mask and outputs.
       std::array<int64_t, 6> counts{};
-      for (int c = 0; c < w; ++c) {
-        int reason;
-        if (maxi[c] >= saturation) {
-          reason = 1;
-        } else if (a0[c] < min_background) {
-          reason = 2;
-        } else {
-          // The modulation test uses set 0 (the finest frequency has the lowest modulation
-          // under defocus, and its N steps estimate B best).
-          reason = bsq[c] < b_min_sq ? 3 : 0;
-          if (reason == 0) {
-            if (bsq[c] < min_ratio_sq * a0[c] * a0[c]) {
-              reason = 4;
-            } else if (resid[c] > max_residual) {
-              reason = 5;
-            }
-          }
-        }
-        ++counts[reason];
-        out_mask[c] = reason == 0 ? 255 : 0;
-        out_abs[c] = reason == 0 ? v[c] - 0.5f : std::numeric_limits<float>::quiet_NaN();
-      }
+      ReasonRow<T>(w, maxi.data(), a0.data(), bsq.data(), resid.data(), saturation, min_background,
+                   b_min_sq, min_ratio_sq, max_residual, reason.data());
+      OutputRow(w, reason.data(), v.data(), out_abs, out_mask);
+      for (int c = 0; c < w; ++c) ++counts[reason[c]];
       (*row_counts)[r] = counts;
     }
   }
@@ -407,20 +452,30 @@ double WrappedPhaseSigma(const PatternScheme& scheme, int set, double sigma_dn, 
   return std::sqrt(PhaseVariancePerUnit(scheme, set)) * sigma_dn / b_dn;
 }
 
-double OrderErrorProbability(const PatternScheme& scheme, double sigma_dn, double b_dn) {
+namespace {
+
+double OrderErrorProbability(const std::vector<UnwrapStepNoise>& steps, double sigma_dn,
+                             double b_dn) {
   double p = 0;
-  for (const auto& st : StepNoise(scheme)) {
+  for (const auto& st : steps) {
     p += TwoSidedTail(st.margin / (st.sigma_per_unit * sigma_dn / b_dn));
   }
   return std::min(p, 1.0);
 }
 
+}  // namespace
+
+double OrderErrorProbability(const PatternScheme& scheme, double sigma_dn, double b_dn) {
+  return OrderErrorProbability(StepNoise(scheme), sigma_dn, b_dn);
+}
+
 double ModulationThreshold(const PatternScheme& scheme, double sigma_dn, double probability) {
   // OrderErrorProbability decreases with B: bisection on log B.
+  const auto steps = StepNoise(scheme);
   double lo = 1e-3 * sigma_dn, hi = 1e6 * sigma_dn;
-  for (int i = 0; i < 200; ++i) {
+  for (int i = 0; i < 100; ++i) {
     const double mid = std::sqrt(lo * hi);
-    (OrderErrorProbability(scheme, sigma_dn, mid) > probability ? lo : hi) = mid;
+    (OrderErrorProbability(steps, sigma_dn, mid) > probability ? lo : hi) = mid;
   }
   return hi;
 }
@@ -542,21 +597,20 @@ void Decode(const PatternScheme& scheme, const std::vector<cv::Mat>& images,
     cv::Mat& abs = result->absolute_phase;
     const cv::Mat& mask = result->mask;
     std::vector<std::vector<std::pair<int, float>>> fixes(size.height);
+    tbb::enumerable_thread_specific<std::vector<uint8_t>> flags(
+        std::vector<uint8_t>(static_cast<size_t>(size.width)));
     tbb::parallel_for(tbb::blocked_range<int>(0, size.height, 16), [&](const auto& range) {
       for (int r = range.begin(); r < range.end(); ++r) {
         const float* a = abs.ptr<float>(r);
         const uint8_t* m = mask.ptr<uint8_t>(r);
-        const float* up = r > 0 ? abs.ptr<float>(r - 1) : nullptr;
-        const float* dn = r + 1 < size.height ? abs.ptr<float>(r + 1) : nullptr;
+        const float* up = abs.ptr<float>(r > 0 ? r - 1 : r);
+        const float* dn = abs.ptr<float>(r + 1 < size.height ? r + 1 : r);
+        // Cheap, vectorised screen: a jump to any 4-neighbour (NaN neighbours compare false).
+        JumpScreenRow(size.width, a, up, dn, m, thr, flags.local().data());
+        const uint8_t* flag = flags.local().data();
         for (int c = 0; c < size.width; ++c) {
-          if (!m[c]) continue;
-          // Cheap screen: a jump to any 4-neighbour (NaN neighbours compare false).
+          if (!flag[c]) continue;
           const float x = a[c];
-          const bool jump = (c > 0 && std::fabs(a[c - 1] - x) > thr) ||
-                            (c + 1 < size.width && std::fabs(a[c + 1] - x) > thr) ||
-                            (up && std::fabs(up[c] - x) > thr) ||
-                            (dn && std::fabs(dn[c] - x) > thr);
-          if (!jump) continue;
           int n = 0;
           const float med = MedianOfValid(abs, mask, r, c, 2, &n);
           if (n < 5 || std::fabs(x - med) <= thr) continue;

@@ -233,6 +233,17 @@ std::vector<UnwrapStepNoise> StepNoise(const PatternScheme& s) {
     return steps;
   }
   const Chain chain = HeterodyneChain(s);
+  {
+    // The coarsest phase is placed in a window of one period centred on the projector: pixels
+    // at the projector's edges are (L - span) / 2 from its wrap.
+    const ChainElement& top = chain.back()[0];
+    double var = 0;
+    for (size_t k = 0; k < s.phase_sets.size(); ++k)
+      var += top.weights[k] * top.weights[k] * var_cycles[k];
+    if (chain.size() > 1) {
+      steps.push_back({std::sqrt(var), 0.5 * (top.period - s.Span()) / top.period});
+    }
+  }
   for (size_t l = chain.size() - 1; l >= 1; --l) {
     const ChainElement& coarse = chain[l][0];
     const ChainElement& fine = chain[l - 1][0];

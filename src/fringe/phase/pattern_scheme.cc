@@ -162,8 +162,10 @@ PatternScheme MakeScheme(const std::string& preset, int projector_width, int pro
               "must be > 0");
   const double span = s.Span();
   auto heterodyne = [&](int n0, int n1, int n2) {
-    // Fringe counts 70, 64, 59 over L: beats of L/6 and L/5, beat of beats L (> span).
-    const double l = 1.1 * span;
+    // Fringe counts 70, 64, 59 over L: beats of L/6 and L/5, beat of beats L = 1.25 span. The
+    // margin of 0.125 span on each side keeps pixels at the projector's edges away from the
+    // wrap of the beat of beats (its position noise is ~L/(2 pi) sqrt(6) sigma_phi).
+    const double l = 1.25 * span;
     for (int i = 0; i < 3; ++i) {
       PhaseShiftSet set;
       set.period_px = l / (i == 0 ? 70 : i == 1 ? 64 : 59);

@@ -95,7 +95,7 @@ struct PatternScheme {
 
 // Presets (projector size in pixels):
 //  "heterodyne-4x3"  three frequencies x 4 steps (12 images); periods L/70, L/64, L/59 with
-//                    L = 1.1 * span, so the beat of beats (period L) covers the whole projector
+//                    L = 1.25 * span, so the beat of beats (period L) covers the whole projector
 //                    with margin and the beats have periods L/6 and L/5.
 //  "thesis-4+3+3"    the same three periods, 4 steps on the fine measuring frequency and 3 steps
 //                    on the two coarse unwrapping frequencies (10 images).

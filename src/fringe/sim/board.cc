@@ -206,8 +206,10 @@ std::vector<Rigid3d> GenerateBoardPoses(const StereoRig& rig, const CalibrationT
   for (int i = 0; i < options.count; ++i) {
     util::Rng rng(util::MixSeed(options.seed, static_cast<uint64_t>(i)));
     std::uniform_real_distribution<double> unit(0.0, 1.0);
-    // Image region: cells of a 3 x 3 grid in turn, so that every part of the image is covered.
-    const int cell = i % 9;
+    // Image region: cells of a 3 x 3 grid in turn (the centre first), so that every part of the
+    // image is covered.
+    static constexpr int kCellOrder[9] = {4, 0, 8, 2, 6, 1, 7, 3, 5};
+    const int cell = kCellOrder[i % 9];
     bool found = false;
     for (int attempt = 0; attempt < 2000 && !found; ++attempt) {
       // When strict visibility requirements keep failing, aim ever closer to the image centre

@@ -42,7 +42,7 @@ namespace fringe::sim {
 // The camera sensor (shared by fringe and board rendering).
 struct SensorOptions {
   int supersampling = 3;         // n: n x n samples per pixel, [1, 16]
-  double exposure = 0.8;         // fraction of full scale for albedo 1 at radiance 1, (0, 100]
+  double exposure = 1.0;         // fraction of full scale for albedo 1 at radiance 1, (0, 100]
   int bit_depth = 8;             // 8 (CV_8U) or 12 (CV_16U, 0..4095)
   bool noise = true;             // false: noise-free (rounded and saturated only)
   double read_noise_dn = 1.5;    // Gaussian read noise sigma in DN of bit_depth, >= 0

@@ -1,0 +1,81 @@
+// Simulated scans written as scan folders (docs/scan-folder.md): fringe images of every view,
+// calibration board images, and the complete ground truth.
+//
+// Scenes by name: "demo" (MakeDemoPart), "board" (the calibration target lying flat as a scene
+// object, for projector calibration or flatness), "sphere", "ballbar", "plane", "plate", "vdi",
+// or "mesh:FILE" (.ply, .obj, .stl). World frame z up; the sensor orbits the scene (or the scene
+// turns on a turntable) at the rig's working distance.
+//
+// Deterministic for a seed; independent of the thread count (renderer.h).
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "fringe/geometry/calibration_target.h"
+#include "fringe/geometry/stereo_rig.h"
+#include "fringe/sim/board.h"
+#include "fringe/sim/demo_part.h"
+#include "fringe/sim/poses.h"
+#include "fringe/sim/renderer.h"
+#include "fringe/sim/scene.h"
+
+namespace fringe::sim {
+
+// Names accepted by MakeSceneByName (mesh:FILE aside).
+std::vector<std::string> SceneNames();
+
+// A scene from its name (see above). The demo part's markers use `seed`. Throws fringe::Error
+// for an unknown name or an unreadable mesh.
+Scene MakeSceneByName(const std::string& name, uint64_t seed = 1);
+
+// The calibration target lying on the plane z = 0 of the world, centred at the origin, as a
+// scene object "board" textured with its printed pattern (on a slightly larger grey panel).
+Scene MakeBoardScene(const CalibrationTarget& target = CalibrationTarget::Reference());
+
+struct ScanOptions {
+  std::string scene = "demo";             // a scene name (MakeSceneByName)
+  int views = 6;                          // fringe views, >= 0
+  uint64_t seed = 1;                      // scene markers, poses, board poses, noise
+  std::string scheme = "heterodyne-4x3";  // pattern scheme preset or manifest path
+  double precompensate_gamma = 1.0;       // gamma the patterns are pre-compensated for, (0, 10]
+  int calibration_images = 15;            // board poses (one image per camera each), >= 0
+  CalibrationTarget target;               // the calibration board
+  bool truth_maps = true;                 // per-view per-camera truth maps (large)
+  RenderOptions render;                   // image formation (noise seed = seed)
+  BoardRenderOptions board;               // board images (noise seed = seed)
+  OrbitOptions orbit;                     // view poses (views and seed are overridden)
+  BoardPoseOptions board_poses;           // board poses (count and seed are overridden)
+
+  void Check() const;
+};
+
+struct ScanSummary {
+  int views = 0;
+  int fringe_images = 0;       // per camera
+  int calibration_images = 0;  // per camera
+  int markers = 0;
+  double seconds = 0;
+  std::string BriefReport() const;
+};
+
+// Renders the scan and writes it to `out_dir` atomically (the folder appears complete or not
+// at all; an existing folder is replaced). Throws fringe::Error for bad options or I/O errors.
+ScanSummary SimulateScan(const StereoRig& rig, const ScanOptions& options,
+                         const std::filesystem::path& out_dir);
+
+// Writes one camera's truth maps into `dir` (created), single-channel so any TIFF reader gets
+// them right: depth.tiff (z in the camera frame, mm), normal_x.tiff, normal_y.tiff,
+// normal_z.tiff (unit normal in the camera frame, toward the camera), projector_x.tiff,
+// projector_y.tiff (continuous projector pixel), all 32-bit float with NaN where undefined;
+// valid.png (8-bit, 255 = hit, lit and inside the projector image); object_id.png (16-bit,
+// scene object index + 1, 0 = nothing hit). The 3D point of pixel (c, r) is
+// depth * (x, y, 1) with (x, y) = camera.Unproject((c, r)).
+void WriteCameraTruth(const std::filesystem::path& dir, const CameraTruth& truth);
+// Reads them back (float precision, converted to the CameraTruth types); points are rebuilt
+// from depth with `camera`.
+CameraTruth ReadCameraTruth(const std::filesystem::path& dir, const CameraModel& camera);
+
+}  // namespace fringe::sim

@@ -1,0 +1,109 @@
+#include "fringe/sim/scan.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "fringe/io/calibration_io.h"
+#include "fringe/io/image_io.h"
+#include "fringe/util/error.h"
+#include "fringe_test.h"
+
+namespace fringe::sim {
+namespace {
+
+namespace fs = std::filesystem;
+
+ScanOptions SmallScan() {
+  ScanOptions o;
+  o.scene = "sphere";
+  o.views = 2;
+  o.calibration_images = 2;
+  o.render.sensor.supersampling = 1;
+  return o;
+}
+
+TEST(Scan, OptionDefaultsPassCheck) {
+  EXPECT_NO_THROW(ScanOptions().Check());
+  ScanOptions bad;
+  bad.views = -1;
+  EXPECT_THROW(bad.Check(), Error);
+  EXPECT_THROW(MakeSceneByName("teapot"), Error);
+  EXPECT_THROW(MakeSceneByName("mesh:/nonexistent.ply"), Error);
+  for (const std::string& name : SceneNames()) {
+    if (name == "demo") continue;  // built in DemoPart tests
+    EXPECT_FALSE(MakeSceneByName(name).objects().empty()) << name;
+  }
+}
+
+TEST(Scan, WritesTheScanFolderWithTruth) {
+  test::TempDir dir;
+  const StereoRig rig = ScaledRig(StereoRig::Reference(), 0.25);
+  const ScanOptions opt = SmallScan();
+  const ScanSummary summary = SimulateScan(rig, opt, dir / "scan");
+  EXPECT_EQ(summary.views, 2);
+  EXPECT_EQ(summary.fringe_images, 12);
+  EXPECT_EQ(summary.calibration_images, 2);
+  const fs::path root = dir / "scan";
+  for (const char* f :
+       {"scan.json", "scheme.json", "calibration/target.json", "truth/rig.json", "truth/poses.json",
+        "truth/markers.json", "truth/scene.ply", "truth/scene.json", "truth/calibration.json",
+        "views/001/right/11.png", "calibration/left/001.png", "calibration/right/000.png",
+        "truth/views/001/left/depth.tiff", "truth/views/000/right/valid.png"}) {
+    EXPECT_TRUE(fs::exists(root / f)) << f;
+  }
+  EXPECT_FALSE(fs::exists(root / "views/002"));
+  // The true rig round-trips.
+  const StereoRig read = io::ReadRig(root / "truth/rig.json");
+  EXPECT_EQ(read.left, rig.left);
+  // Poses and the sphere are recorded.
+  const auto poses = io::ReadJson(root / "truth/poses.json");
+  ASSERT_EQ(poses["views"].size(), 2u);
+  const Rigid3d pose0 = io::RigidFromJson(poses["views"][0]["world_from_sensor"], "poses");
+  const auto scene = io::ReadJson(root / "truth/scene.json");
+  EXPECT_DOUBLE_EQ(scene["objects"][0]["sphere"]["radius_mm"].get<double>(), 15.0);
+  // Truth maps: every valid pixel's point lies on the sphere (float precision in files).
+  const CameraTruth truth = ReadCameraTruth(root / "truth/views/000/left", rig.left);
+  const Eigen::Vector3d centre(0, 0, 15);
+  int valid = 0;
+  for (int r = 0; r < truth.valid.rows; ++r) {
+    for (int c = 0; c < truth.valid.cols; ++c) {
+      if (truth.object_id.at<int>(r, c) != 0) continue;
+      const cv::Vec3d p = truth.points.at<cv::Vec3d>(r, c);
+      const Eigen::Vector3d w = pose0 * Eigen::Vector3d(p[0], p[1], p[2]);
+      EXPECT_NEAR((w - centre).norm(), 15.0, 1e-3);
+      ++valid;
+    }
+  }
+  EXPECT_GT(valid, 100);
+  // Calibration truth has every feature's centre for both cameras.
+  const auto calib = io::ReadJson(root / "truth/calibration.json");
+  ASSERT_EQ(calib["images"].size(), 2u);
+  EXPECT_EQ(calib["images"][0]["left"]["centres_px"].size(), 63u);
+  const cv::Mat img = io::ReadGrayImage(root / "views/000/left/00.png");
+  EXPECT_EQ(img.cols, rig.left.width);
+}
+
+TEST(Scan, DeterministicForASeed) {
+  test::TempDir dir;
+  const StereoRig rig = ScaledRig(StereoRig::Reference(), 0.25);
+  ScanOptions opt = SmallScan();
+  opt.views = 1;
+  opt.calibration_images = 1;
+  opt.truth_maps = false;
+  SimulateScan(rig, opt, dir / "a");
+  SimulateScan(rig, opt, dir / "b");
+  opt.seed = 2;
+  SimulateScan(rig, opt, dir / "c");
+  for (const char* f : {"views/000/left/03.png", "calibration/right/000.png"}) {
+    const cv::Mat a = io::ReadGrayImage(dir / "a" / f);
+    const cv::Mat b = io::ReadGrayImage(dir / "b" / f);
+    const cv::Mat c = io::ReadGrayImage(dir / "c" / f);
+    EXPECT_EQ(cv::norm(a, b, cv::NORM_INF), 0.0) << f;
+    EXPECT_GT(cv::norm(a, c, cv::NORM_L1), 0.0) << f;
+  }
+  EXPECT_FALSE(fs::exists(dir / "a" / "truth/views"));
+}
+
+}  // namespace
+}  // namespace fringe::sim

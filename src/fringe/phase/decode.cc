@@ -108,13 +108,33 @@ void SqrtRow(int w, const float* __restrict x, float* __restrict y) {
 FRINGE_CLONES void JumpScreenRow(int w, const float* __restrict a, const float* __restrict up,
                                  const float* __restrict dn, const uint8_t* __restrict m, float thr,
                                  uint8_t* __restrict flag) {
-  for (int c = 0; c < w; ++c) {
+  auto jump = [&](int c, float l, float r) {
     const float x = a[c];
-    const float l = a[c > 0 ? c - 1 : c], r = a[c + 1 < w ? c + 1 : c];
-    const bool jump = std::fabs(l - x) > thr || std::fabs(r - x) > thr ||
-                      std::fabs(up[c] - x) > thr || std::fabs(dn[c] - x) > thr;
-    flag[c] = (m[c] != 0 && jump) ? 1 : 0;
+    // Bitwise | and &: no short-circuit branches, so the loop vectorises.
+    const int j =
+        static_cast<int>(std::fabs(l - x) > thr) | static_cast<int>(std::fabs(r - x) > thr) |
+        static_cast<int>(std::fabs(up[c] - x) > thr) | static_cast<int>(std::fabs(dn[c] - x) > thr);
+    return static_cast<uint8_t>(j & static_cast<int>(m[c] != 0));
+  };
+  if (w < 2) {
+    for (int c = 0; c < w; ++c) flag[c] = jump(c, a[c], a[c]);
+    return;
   }
+  flag[0] = jump(0, a[0], a[1]);
+  for (int c = 1; c + 1 < w; ++c) flag[c] = jump(c, a[c - 1], a[c + 1]);
+  flag[w - 1] = jump(w - 1, a[w - 2], a[w - 1]);
+}
+
+// Number of pixels per reason code (vectorised compare-and-sum per code).
+void CountReasons(int w, const uint8_t* __restrict reason, std::array<int64_t, 6>* counts) {
+  int64_t invalid = 0;
+  for (int k = 1; k < 6; ++k) {
+    int n = 0;
+    for (int c = 0; c < w; ++c) n += reason[c] == k ? 1 : 0;
+    (*counts)[k] = n;
+    invalid += n;
+  }
+  (*counts)[0] = w - invalid;
 }
 
 // Reason codes: 0 valid, 1 saturated, 2 under-exposed, 3 low modulation, 4 shadow, 5 ambiguous
@@ -139,10 +159,10 @@ void ReasonRow(int w, const T* __restrict maxi, const float* __restrict a0,
 void OutputRow(int w, const uint8_t* __restrict reason, const float* __restrict v,
                float* __restrict abs, uint8_t* __restrict mask) {
   const float nan = std::numeric_limits<float>::quiet_NaN();
+  for (int c = 0; c < w; ++c) mask[c] = static_cast<uint8_t>(reason[c] == 0 ? 255 : 0);
   for (int c = 0; c < w; ++c) {
-    const bool ok = reason[c] == 0;
-    mask[c] = ok ? 255 : 0;
-    abs[c] = ok ? v[c] - 0.5f : nan;
+    const float x = v[c] - 0.5f;
+    abs[c] = reason[c] == 0 ? x : nan;
   }
 }
 
@@ -398,7 +418,7 @@ struct Kernel {
       ReasonRow<T>(w, maxi.data(), a0.data(), bsq.data(), resid.data(), saturation, min_background,
                    b_min_sq, min_ratio_sq, max_residual, reason.data());
       OutputRow(w, reason.data(), v.data(), out_abs, out_mask);
-      for (int c = 0; c < w; ++c) ++counts[reason[c]];
+      CountReasons(w, reason.data(), &counts);
       (*row_counts)[r] = counts;
     }
   }

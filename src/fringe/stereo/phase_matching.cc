@@ -257,16 +257,19 @@ MatchResult PhaseMatcher::Match(const PhaseImage& left, const PhaseImage& right)
           ++s.lr_inconsistent;
           continue;
         }
+        // The right ray straight from the rectified position (exact, no undistortion), and
+        // the distorted pixel for the residual.
+        const Eigen::Vector2d xy_right =
+            rect_.NormalizedFromRectified(Side::kRight, Eigen::Vector2d(ur, vl));
         const Eigen::Vector2d right_px =
-            rect_.OriginalFromRectified(Side::kRight, Eigen::Vector2d(ur, vl));
+            rig_.right.PixelFromNormalized(rig_.right.Distort(xy_right));
         if (!rig_.right.InImage(right_px)) {
           ++s.no_crossing;
           continue;
         }
         const Eigen::Vector3d ray(rays[c][0], rays[c][1], rays[c][2]);
-        const TriangulatedPoint tp =
-            TriangulateFromRays(rig_, ray, Eigen::Vector2d(c, r), rig_.right.Unproject(right_px),
-                                right_px, options_.triangulation);
+        const TriangulatedPoint tp = TriangulateFromRays(rig_, ray, Eigen::Vector2d(c, r), xy_right,
+                                                         right_px, options_.triangulation);
         if (!tp.ok()) {
           ++s.triangulation_failed;
           continue;

@@ -72,8 +72,17 @@ struct MatchingOptions {
   // Points outside this depth range (left camera z) are dropped, mm, 0 <= min < max.
   double min_depth_mm = 1.0;
   double max_depth_mm = 1e5;
-  TriangulationOptions triangulation;
+  // Midpoint only by default: matches lie on the same rectified row, so the two rays meet (to
+  // the rectification's precision) and Gauss-Newton refinement moves points by < 1e-6 mm while
+  // costing a third of the matching time. The reprojection residual is kept either way.
+  TriangulationOptions triangulation = MidpointOnly();
   RectificationOptions rectification;
+
+  static TriangulationOptions MidpointOnly() {
+    TriangulationOptions t;
+    t.refine_iterations = 0;
+    return t;
+  }
 
   void Check() const;
 };

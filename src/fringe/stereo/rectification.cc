@@ -125,6 +125,14 @@ Eigen::Vector2d Rectification::OriginalFromRectified(Side s,
   return Camera(rig_, s).Project(d);
 }
 
+Eigen::Vector2d Rectification::NormalizedFromRectified(Side s,
+                                                       const Eigen::Vector2d& rectified_px) const {
+  const Eigen::Matrix3d& rot = s == Side::kLeft ? rect_from_left_ : rect_from_right_;
+  const Eigen::Vector3d d = rot.transpose() * Eigen::Vector3d((rectified_px.x() - cx(s)) / f_,
+                                                              (rectified_px.y() - cy_) / f_, 1.0);
+  return {d.x() / d.z(), d.y() / d.z()};
+}
+
 Eigen::Vector2d Rectification::ProjectRectified(Side s, const Eigen::Vector3d& p_in_left) const {
   Eigen::Vector3d p = rect_from_left_ * p_in_left;
   if (s == Side::kRight) p.x() -= baseline_mm_;

@@ -53,6 +53,9 @@ class Rectification {
   // Rectified pixel of an original (distorted) pixel, and back.
   Eigen::Vector2d RectifiedFromOriginal(Side s, const Eigen::Vector2d& original_px) const;
   Eigen::Vector2d OriginalFromRectified(Side s, const Eigen::Vector2d& rectified_px) const;
+  // Undistorted normalized coordinates (x/z, y/z in camera s's own frame) of the ray through a
+  // rectified pixel: exact, no undistortion iterations.
+  Eigen::Vector2d NormalizedFromRectified(Side s, const Eigen::Vector2d& rectified_px) const;
   // Rectified pixel of a point given in the LEFT camera frame (Z must be > 0 in that camera).
   Eigen::Vector2d ProjectRectified(Side s, const Eigen::Vector3d& p_in_left) const;
 

@@ -113,25 +113,33 @@ struct RayCaster::Impl {
     return list.empty() ? nullptr : &list;
   }
 
-  std::optional<Hit> Cast(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double t_min) const {
-    RTCIntersectContext ctx;
-    rtcInitIntersectContext(&ctx);
-    RTCRayHit rh;
-    rh.ray.org_x = static_cast<float>(o.x());
-    rh.ray.org_y = static_cast<float>(o.y());
-    rh.ray.org_z = static_cast<float>(o.z());
-    rh.ray.dir_x = static_cast<float>(d.x());
-    rh.ray.dir_y = static_cast<float>(d.y());
-    rh.ray.dir_z = static_cast<float>(d.z());
-    rh.ray.tnear = static_cast<float>(t_min);
-    rh.ray.tfar = std::numeric_limits<float>::infinity();
-    rh.ray.mask = 0xFFFFFFFFu;
-    rh.ray.flags = 0;
-    rh.ray.time = 0;
-    rh.ray.id = 0;
-    rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-    rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-    rtcIntersect1(rtc, &ctx, &rh);
+  static void FillRay(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double t_min,
+                      double t_max, RTCRay* ray) {
+    ray->org_x = static_cast<float>(o.x());
+    ray->org_y = static_cast<float>(o.y());
+    ray->org_z = static_cast<float>(o.z());
+    ray->dir_x = static_cast<float>(d.x());
+    ray->dir_y = static_cast<float>(d.y());
+    ray->dir_z = static_cast<float>(d.z());
+    ray->tnear = static_cast<float>(t_min);
+    ray->tfar = static_cast<float>(t_max);
+    ray->mask = 0xFFFFFFFFu;
+    ray->flags = 0;
+    ray->time = 0;
+    ray->id = 0;
+  }
+
+  static void FillRayHit(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double t_min,
+                         RTCRayHit* rh) {
+    FillRay(o, d, t_min, std::numeric_limits<float>::infinity(), &rh->ray);
+    rh->hit.geomID = RTC_INVALID_GEOMETRY_ID;
+    rh->hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+  }
+
+  // Embree's float hit refined in double precision on the hit triangle's plane or the exact
+  // sphere.
+  std::optional<Hit> Refine(const Eigen::Vector3d& o, const Eigen::Vector3d& d,
+                            const RTCRayHit& rh) const {
     if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return std::nullopt;
     Hit hit;
     hit.object = static_cast<int>(rh.hit.geomID);
@@ -155,7 +163,6 @@ struct RayCaster::Impl {
       hit.point = o + t * d;
       hit.normal = (hit.point - obj.sphere->centre).normalized();
     } else {
-      // The triangle's plane in double precision.
       const auto& tri = obj.mesh.triangles[hit.triangle];
       const Eigen::Vector3d& v0 = obj.mesh.vertices[tri[0]];
       const Eigen::Vector3d n =
@@ -169,6 +176,15 @@ struct RayCaster::Impl {
                           : Eigen::Vector3d(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z).normalized();
     }
     return hit;
+  }
+
+  std::optional<Hit> Cast(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double t_min) const {
+    RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    RTCRayHit rh;
+    FillRayHit(o, d, t_min, &rh);
+    rtcIntersect1(rtc, &ctx, &rh);
+    return Refine(o, d, rh);
   }
 
   // True when something lies between `from` and `to`.
@@ -241,5 +257,41 @@ bool RayCaster::Occluded(const Eigen::Vector3d& from, const Eigen::Vector3d& to)
 }
 
 double RayCaster::Albedo(const Hit& hit) const { return impl_->Albedo(hit); }
+
+void RayCaster::CastBatch(const Eigen::Vector3d& origin, const std::vector<Eigen::Vector3d>& dirs,
+                          std::vector<std::optional<Hit>>* hits) const {
+  thread_local std::vector<RTCRayHit> rays;
+  rays.resize(dirs.size());
+  for (size_t i = 0; i < dirs.size(); ++i) Impl::FillRayHit(origin, dirs[i], 0.0, &rays[i]);
+  RTCIntersectContext ctx;
+  rtcInitIntersectContext(&ctx);
+  ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+  if (!rays.empty()) {
+    rtcIntersect1M(impl_->rtc, &ctx, rays.data(), static_cast<unsigned>(rays.size()),
+                   sizeof(RTCRayHit));
+  }
+  hits->resize(dirs.size());
+  for (size_t i = 0; i < dirs.size(); ++i) (*hits)[i] = impl_->Refine(origin, dirs[i], rays[i]);
+}
+
+void RayCaster::OccludedBatch(const std::vector<Eigen::Vector3d>& from, const Eigen::Vector3d& to,
+                              std::vector<uint8_t>* occluded) const {
+  thread_local std::vector<RTCRay> rays;
+  rays.resize(from.size());
+  for (size_t i = 0; i < from.size(); ++i) {
+    const Eigen::Vector3d delta = to - from[i];
+    const double dist = delta.norm();
+    Impl::FillRay(from[i], delta / dist, 0.0, dist, &rays[i]);
+  }
+  RTCIntersectContext ctx;
+  rtcInitIntersectContext(&ctx);
+  ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+  if (!rays.empty()) {
+    rtcOccluded1M(impl_->rtc, &ctx, rays.data(), static_cast<unsigned>(rays.size()),
+                  sizeof(RTCRay));
+  }
+  occluded->resize(from.size());
+  for (size_t i = 0; i < from.size(); ++i) (*occluded)[i] = rays[i].tfar < 0 ? 1 : 0;
+}
 
 }  // namespace fringe::sim

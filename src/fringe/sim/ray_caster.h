@@ -9,6 +9,7 @@
 #include <Eigen/Core>
 #include <memory>
 #include <optional>
+#include <vector>
 
 #include "fringe/sim/scene.h"
 
@@ -40,6 +41,13 @@ class RayCaster {
   bool Occluded(const Eigen::Vector3d& from, const Eigen::Vector3d& to) const;
   // Albedo at a hit, markers included.
   double Albedo(const Hit& hit) const;
+
+  // Batches (Embree ray streams, faster for coherent rays): rays from one origin along unit
+  // directions; shadow rays from many points toward one point (1 = occluded).
+  void CastBatch(const Eigen::Vector3d& origin, const std::vector<Eigen::Vector3d>& dirs,
+                 std::vector<std::optional<Hit>>* hits) const;
+  void OccludedBatch(const std::vector<Eigen::Vector3d>& from, const Eigen::Vector3d& to,
+                     std::vector<uint8_t>* occluded) const;
 
  private:
   struct Impl;

@@ -7,7 +7,6 @@
 #include <cmath>
 #include <limits>
 #include <opencv2/imgproc.hpp>
-#include <random>
 
 #include "fringe/util/error.h"
 #include "fringe/util/random.h"
@@ -61,6 +60,52 @@ PreparedPattern PreparePattern(const cv::Mat& pattern, const CameraModel& projec
   out.data.assign(padded.begin<float>(), padded.end<float>());
   return out;
 }
+
+// Standard normal numbers, fast and seeded: xoshiro256** (Blackman & Vigna) feeding the
+// Box-Muller transform, both outputs used. One generator per image row keeps results independent
+// of the thread count.
+class GaussianNoise {
+ public:
+  explicit GaussianNoise(uint64_t seed) {
+    for (auto& s : state_) {
+      seed += 0x9e3779b97f4a7c15ULL;
+      uint64_t z = seed;
+      z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+      z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+      s = z ^ (z >> 31);
+    }
+  }
+  double operator()() {
+    if (has_spare_) {
+      has_spare_ = false;
+      return spare_;
+    }
+    const double u1 = (static_cast<double>(Next() >> 11) + 0.5) * (1.0 / 9007199254740992.0);
+    const double u2 = static_cast<double>(Next() >> 11) * (1.0 / 9007199254740992.0);
+    const double radius = std::sqrt(-2.0 * std::log(u1));
+    const double angle = 6.283185307179586 * u2;
+    spare_ = radius * std::sin(angle);
+    has_spare_ = true;
+    return radius * std::cos(angle);
+  }
+
+ private:
+  static uint64_t Rotl(uint64_t x, int k) { return (x << k) | (x >> (64 - k)); }
+  uint64_t Next() {
+    const uint64_t result = Rotl(state_[1] * 5, 7) * 9;
+    const uint64_t t = state_[1] << 17;
+    state_[2] ^= state_[0];
+    state_[3] ^= state_[1];
+    state_[1] ^= state_[2];
+    state_[0] ^= state_[3];
+    state_[2] ^= t;
+    state_[3] = Rotl(state_[3], 45);
+    return result;
+  }
+  uint64_t state_[4];
+  double spare_ = 0;
+  bool has_spare_ = false;
+};
 
 }  // namespace
 
@@ -143,20 +188,18 @@ cv::Mat ApplySensor(const cv::Mat& radiance, const SensorOptions& opt, uint64_t 
   const double scale = opt.exposure * full;
   tbb::parallel_for(tbb::blocked_range<int>(0, rad.rows), [&](const tbb::blocked_range<int>& rr) {
     for (int r = rr.begin(); r < rr.end(); ++r) {
-      util::Rng rng(util::MixSeed(stream, static_cast<uint64_t>(r)));
-      std::normal_distribution<double> normal(0.0, 1.0);
+      GaussianNoise normal(util::MixSeed(stream, static_cast<uint64_t>(r)));
       const float* in = rad.ptr<float>(r);
       for (int c = 0; c < rad.cols; ++c) {
         double dn = scale * in[c];
         if (opt.noise) {
-          if (opt.shot_noise)
-            dn += std::sqrt(std::max(dn, 0.0) / opt.electrons_per_dn) * normal(rng);
-          if (opt.read_noise_dn > 0) dn += opt.read_noise_dn * normal(rng);
+          if (opt.shot_noise) dn += std::sqrt(std::max(dn, 0.0) / opt.electrons_per_dn) * normal();
+          if (opt.read_noise_dn > 0) dn += opt.read_noise_dn * normal();
         }
         if (type == CV_32F) {
           out.ptr<float>(r)[c] = static_cast<float>(dn);
         } else {
-          const double q = std::clamp(std::round(dn), 0.0, full);
+          const double q = dn <= 0 ? 0.0 : (dn >= full ? full : std::floor(dn + 0.5));
           if (type == CV_8U) {
             out.ptr<uint8_t>(r)[c] = static_cast<uint8_t>(q);
           } else {

@@ -242,3 +242,31 @@ TEST(Poses, SensorLooksAtTheTarget) {
 
 }  // namespace
 }  // namespace fringe::sim
+
+namespace fringe::sim {
+namespace {
+
+// The sensor's read noise has the configured sigma and no bias; shot noise adds its share.
+TEST(ApplySensor, NoiseHasTheConfiguredSigma) {
+  const cv::Mat radiance(200, 300, CV_32F, cv::Scalar(0.4));
+  SensorOptions opt;
+  opt.float_output = true;
+  opt.read_noise_dn = 2.0;
+  const cv::Mat noisy = ApplySensor(radiance, opt, 7);
+  cv::Scalar mean, stddev;
+  cv::meanStdDev(noisy, mean, stddev);
+  const double expected_dn = opt.exposure * 255 * 0.4;
+  EXPECT_NEAR(mean[0], expected_dn, 0.05);
+  EXPECT_NEAR(stddev[0], 2.0, 0.05);
+  opt.shot_noise = true;
+  cv::meanStdDev(ApplySensor(radiance, opt, 7), mean, stddev);
+  EXPECT_NEAR(stddev[0], std::sqrt(4.0 + expected_dn / opt.electrons_per_dn), 0.05);
+  opt.noise = false;
+  opt.float_output = false;
+  const cv::Mat clean = ApplySensor(radiance, opt, 7);
+  EXPECT_EQ(clean.type(), CV_8U);
+  EXPECT_EQ(clean.at<uint8_t>(0, 0), static_cast<uint8_t>(std::lround(expected_dn)));
+}
+
+}  // namespace
+}  // namespace fringe::sim

@@ -32,6 +32,10 @@ void AddDecodeCommand(CLI::App& app) {
   sub->add_option("--min-modulation", a->options.min_modulation_dn,
                   "Modulation threshold in DN (<= 0: from the noise analysis)")
       ->capture_default_str();
+  sub->add_option("--full-scale", a->options.full_scale_dn,
+                  "Camera full scale in DN, e.g. 4095 for 12-bit data in 16-bit files (<= 0: from "
+                  "the image depth)")
+      ->capture_default_str();
   sub->add_option("--gamma", a->options.projector_gamma,
                   "Projector gamma to correct at decode time (patterns not pre-compensated)")
       ->capture_default_str();

@@ -455,6 +455,8 @@ void DecodeOptions::Check() const {
               "order_error_probability", order_error_probability, "must be in (0, 0.1)");
   CheckOption(std::isfinite(min_modulation_dn), o, "min_modulation_dn", min_modulation_dn,
               "must be finite (<= 0 for automatic)");
+  CheckOption(std::isfinite(full_scale_dn) && full_scale_dn <= 65535, o, "full_scale_dn",
+              full_scale_dn, "must be <= 65535 (<= 0 for the image depth's)");
   CheckOption(std::isfinite(saturation_dn), o, "saturation_dn", saturation_dn,
               "must be finite (<= 0 for full scale)");
   CheckOption(min_background_fraction >= 0 && min_background_fraction < 1, o,
@@ -557,7 +559,7 @@ void Decode(const PatternScheme& scheme, const std::vector<cv::Mat>& images,
   }
   const cv::Size size = images[0].size();
   const bool is16 = images[0].depth() == CV_16U;
-  const double full = is16 ? 65535.0 : 255.0;
+  const double full = options.full_scale_dn > 0 ? options.full_scale_dn : (is16 ? 65535.0 : 255.0);
 
   std::vector<SetCoefficients> coeffs;
   std::vector<std::unique_ptr<GammaPhaseCorrection>> gamma(scheme.phase_sets.size());

@@ -44,8 +44,11 @@ struct DecodeOptions {
   // Modulation threshold B_min in DN; <= 0 selects ModulationThreshold(scheme, noise_sigma_dn,
   // order_error_probability). Tested on set 0 (the measuring frequency).
   double min_modulation_dn = 0.0;
+  // Full scale of the camera in DN; <= 0 means that of the image depth (255 or 65535). Set it
+  // for 10- or 12-bit sensors stored in 16-bit images (e.g. 4095).
+  double full_scale_dn = 0.0;
   // Saturation level (DN): a pixel is rejected when any image reaches it; <= 0 means the full
-  // scale of the image depth (255 or 65535).
+  // scale.
   double saturation_dn = 0.0;
   // Under-exposure: background A of set 0 below this fraction of full scale, in [0, 1).
   double min_background_fraction = 0.01;

@@ -195,6 +195,25 @@ TEST(Decode, QualityMaskRejectsSaturatedDarkAndFlatPixels) {
             r.summary.pixels);
 }
 
+TEST(Decode, TwelveBitDataInSixteenBitImagesUsesTheGivenFullScale) {
+  const PatternScheme s = MakeScheme("thesis-4+3+3", 1280, 800);
+  const cv::Mat u = LinearProjectorMap(s, cv::Size(160, 128));
+  SyntheticStackOptions so;
+  so.bit_depth = 16;
+  so.background_dn = 2000;
+  so.modulation_dn = 1500;
+  so.noise_sigma_dn = 8;
+  auto images = RenderSyntheticStack(s, u, so);
+  images[0](cv::Rect(0, 0, 10, 10)).setTo(4095);  // saturated for a 12-bit sensor
+  DecodeOptions opt;
+  opt.full_scale_dn = 4095;
+  opt.noise_sigma_dn = 8;
+  const DecodeResult r = Decode(s, images, opt);
+  EXPECT_EQ(r.summary.rejected_saturated, 100);
+  EXPECT_EQ(r.summary.valid, u.total() - 100) << r.summary.BriefReport();
+  EXPECT_EQ(Compare(s, r, u).wrong_orders, 0);
+}
+
 TEST(Decode, SpatialCheckRepairsWrongOrders) {
   const PatternScheme s = MakeScheme("heterodyne-4x3", 1280, 800);
   const cv::Mat u = LinearProjectorMap(s, kSize);

@@ -531,25 +531,25 @@ bool Detector::Order(GridMap* result) {
     }
     std::sort(nbs.begin(), nbs.end());
     if (nbs.size() < 2) break;
+    // Basis: the nearest neighbour, then each of the next few non-collinear ones (a skewed,
+    // diagonal basis cannot grow to the full grid within its extent, so the right one wins).
     const int n1 = nbs[0].second;
     const Vec2 u = cands_[n1].centre - cands_[c0].centre;
-    int n2 = -1;
-    for (size_t k = 1; k < std::min<size_t>(nbs.size(), 6); ++k) {
-      const Vec2 v = cands_[nbs[k].second].centre - cands_[c0].centre;
+    int tried = 0;
+    for (size_t k = 1; k < std::min<size_t>(nbs.size(), 8) && tried < 3; ++k) {
+      const int n2 = nbs[k].second;
+      const Vec2 v = cands_[n2].centre - cands_[c0].centre;
       const double cosang = u.dot(v) / (u.norm() * v.norm());
-      if (std::abs(cosang) < 0.5 && v.norm() < 2.5 * u.norm()) {
-        n2 = nbs[k].second;
-        break;
-      }
+      if (std::abs(cosang) > 0.85 || v.norm() > 3 * u.norm()) continue;
+      ++tried;
+      GridMap grid;
+      grid[{0, 0}] = c0;
+      grid[{0, 1}] = n1;
+      grid[{(u.x() * v.y() - u.y() * v.x()) > 0 ? 1 : -1, 0}] = n2;
+      Grow(&grid, false, max_extent);
+      if (grid.size() > best.size()) best = grid;
+      if (static_cast<int>(best.size()) == need) break;
     }
-    if (n2 < 0) continue;
-    const Vec2 v = cands_[n2].centre - cands_[c0].centre;
-    GridMap grid;
-    grid[{0, 0}] = c0;
-    grid[{0, 1}] = n1;
-    grid[{(u.x() * v.y() - u.y() * v.x()) > 0 ? 1 : -1, 0}] = n2;
-    Grow(&grid, false, max_extent);
-    if (grid.size() > best.size()) best = grid;
     if (static_cast<int>(best.size()) == need) break;
   }
   if (static_cast<int>(best.size()) < need) {

@@ -42,7 +42,7 @@ struct DetectionOptions {
   EllipseFitOptions ellipse_fit;
   double min_radius_px = 3.0;          // smallest feature semi-minor axis, px, > 0
   double max_radius_fraction = 0.3;    // largest semi-major axis / min(width, height), (0, 1]
-  double min_axis_ratio = 0.25;        // semi-minor / semi-major (0.25: ~75 deg tilt), (0, 1]
+  double min_axis_ratio = 0.15;        // semi-minor / semi-major (0.15: ~81 deg tilt), (0, 1]
   double min_convexity = 0.85;         // contour area / convex hull area, (0, 1]
   double max_fit_rms_px = 0.5;         // RMS orthogonal residual of the subpixel ellipse, px, > 0
   double min_edge_coverage = 0.6;      // fraction of edge samples found around a feature, (0, 1]

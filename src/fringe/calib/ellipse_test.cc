@@ -145,3 +145,27 @@ TEST(ConcentricCentre, FromNoisyFits) {
 
 }  // namespace
 }  // namespace fringe::calib
+
+namespace fringe::calib {
+namespace {
+
+// Orthogonal distance (Newton foot point) against a brute-force oracle: dense sampling.
+TEST(Ellipse, SignedDistanceMatchesBruteForce) {
+  constexpr double kTol = 1e-4;  // oracle resolution
+  Ellipse e;
+  e.centre = {3, -2};
+  e.a = 20;
+  e.b = 4;
+  e.angle = 0.3;
+  std::uniform_real_distribution<double> u(-30, 30);
+  for (int i = 0; i < 40; ++i) {
+    const Eigen::Vector2d p(u(util::GlobalRng()), u(util::GlobalRng()));
+    double best = 1e300;
+    for (int k = 0; k < 200000; ++k)
+      best = std::min(best, (e.PointAt(2 * M_PI * k / 200000) - p).norm());
+    EXPECT_NEAR(std::abs(e.SignedDistance(p)), best, kTol) << p.transpose();
+  }
+}
+
+}  // namespace
+}  // namespace fringe::calib

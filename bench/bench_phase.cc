@@ -445,23 +445,44 @@ int main(int argc, char** argv) {
     const auto& cam = view.left;
     DecodeResult r;
     const double ms = TimeMs(std::max(3, repeats / 3), [&] { Decode(s, cam.images, {}, &r); });
-    int64_t truth_valid = 0, both = 0, wrong = 0;
+    int64_t truth_valid = 0, both = 0, wrong = 0, interior = 0, wrong_interior = 0;
     double sum = 0;
+    const double p0 = s.phase_sets[0].period_px;
+    // Interior: the 3x3 truth neighbourhood is lit and continuous (no projector jump > P/4), so
+    // the supersampled pixel does not mix two surfaces.
+    auto is_interior = [&](int y, int x) {
+      if (y < 1 || x < 1 || y + 1 >= r.mask.rows || x + 1 >= r.mask.cols) return false;
+      const double c = cam.truth.projector.at<cv::Vec2d>(y, x)[0];
+      for (int dy = -1; dy <= 1; ++dy) {
+        for (int dx = -1; dx <= 1; ++dx) {
+          if (!cam.truth.valid.at<uint8_t>(y + dy, x + dx)) return false;
+          if (std::fabs(cam.truth.projector.at<cv::Vec2d>(y + dy, x + dx)[0] - c) > 0.25 * p0) {
+            return false;
+          }
+        }
+      }
+      return true;
+    };
     for (int y = 0; y < r.mask.rows; ++y) {
       for (int x = 0; x < r.mask.cols; ++x) {
         if (!cam.truth.valid.at<uint8_t>(y, x)) continue;
         ++truth_valid;
         if (!r.mask.at<uint8_t>(y, x)) continue;
         ++both;
+        const bool in = is_interior(y, x);
+        interior += in;
         const double e =
             r.absolute_phase.at<float>(y, x) - cam.truth.projector.at<cv::Vec2d>(y, x)[0];
-        if (std::fabs(e) > 0.25 * s.phase_sets[0].period_px) {
+        if (std::fabs(e) > 0.25 * p0) {
           ++wrong;
+          wrong_interior += in;
         } else {
           sum += e * e;
         }
       }
     }
+    out["sim_wrong_order_fraction_interior"] =
+        static_cast<double>(wrong_interior) / std::max<int64_t>(interior, 1);
     out["sim_valid_fraction_of_lit"] =
         static_cast<double>(both) / std::max<int64_t>(truth_valid, 1);
     out["sim_abs_rms_px"] = std::sqrt(sum / std::max<int64_t>(both - wrong, 1));
@@ -538,6 +559,7 @@ int main(int argc, char** argv) {
             << "virtual scanner (demo part, left camera, gamma 2.2 pre-compensated, 1.5 DN)\n"
             << "  valid of lit " << num("sim_valid_fraction_of_lit") << "  abs RMS px "
             << num("sim_abs_rms_px") << "  wrong orders " << num("sim_wrong_order_fraction")
+            << " (interior " << num("sim_wrong_order_fraction_interior") << ")"
             << "  jumps " << num("sim_jump_fraction") << "  " << num("sim_decode_ms") << " ms\n\n"
             << "real capture slsdk-stereo-phasegray (2048x1536, gray+4)\n"
             << "  left  valid " << num("real_left_valid_fraction") << "  jumps "

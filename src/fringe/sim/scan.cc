@@ -213,7 +213,7 @@ ScanSummary SimulateScan(const StereoRig& rig, const ScanOptions& options,
     scheme.gamma_precompensation = options.precompensate_gamma;
     RenderOptions ro = options.render;
     ro.sensor.seed = options.seed;
-    ro.truth = true;
+    ro.truth = options.truth_maps;  // markers are observed without the maps
     renderer = std::make_unique<Renderer>(scene, rig, ro);
     OrbitOptions oo = options.orbit;
     oo.views = options.views;

@@ -1,4 +1,5 @@
 #include "fringe/sim/scan.h"
+#include "fringe/sim/sim.h"
 
 #include <gtest/gtest.h>
 

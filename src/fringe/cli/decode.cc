@@ -5,6 +5,7 @@
 
 #include "fringe/cli/cli.h"
 #include "fringe/phase/decode.h"
+#include "fringe/phase/gamma.h"
 #include "fringe/phase/pattern_scheme.h"
 #include "fringe/phase/stack_io.h"
 
@@ -16,6 +17,7 @@ void AddDecodeCommand(CLI::App& app) {
     std::string scheme;
     std::string out;
     phase::DecodeOptions options;
+    bool estimate_gamma = false;
   };
   auto a = std::make_shared<Args>();
   CLI::App* sub = app.add_subcommand(
@@ -39,12 +41,16 @@ void AddDecodeCommand(CLI::App& app) {
   sub->add_option("--gamma", a->options.projector_gamma,
                   "Projector gamma to correct at decode time (patterns not pre-compensated)")
       ->capture_default_str();
+  sub->add_flag("--estimate-gamma", a->estimate_gamma,
+                "Also estimate the projector gamma (stack of a smooth surface, patterns not "
+                "pre-compensated) and print it");
   sub->callback([a] {
     const phase::PatternScheme scheme = phase::SchemeFromNameOrFile(a->scheme);
     const auto images = phase::ReadStack(a->stack, scheme);
     const phase::DecodeResult result = phase::Decode(scheme, images, a->options);
     phase::WriteDecodeFolder(a->out, result);
     std::cout << result.summary.BriefReport() << "\n";
+    if (a->estimate_gamma) std::cout << phase::EstimateGamma(scheme, images).BriefReport() << "\n";
   });
 }
 

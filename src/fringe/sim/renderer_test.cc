@@ -270,3 +270,46 @@ TEST(ApplySensor, NoiseHasTheConfiguredSigma) {
 
 }  // namespace
 }  // namespace fringe::sim
+
+namespace fringe::sim {
+namespace {
+
+// Peak-to-peak of the rendered fringe over the central image region.
+double FringeContrast(const ProjectorOptions& projector, const SensorOptions& sensor) {
+  const StereoRig rig = ScaledRig(StereoRig::Reference(), 0.25);
+  RenderOptions opt;
+  opt.projector = projector;
+  opt.sensor = sensor;
+  opt.truth = false;
+  const Renderer renderer(MakePlaneScene(), rig, opt);
+  const auto patterns =
+      testing::SinusoidPatterns(rig.projector->width, rig.projector->height, 6.0, 3);
+  const ViewImages view = renderer.RenderView(
+      SensorPoseLookingAt(rig, Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ()), {patterns[0]});
+  const cv::Mat centre = view.left.images[0](cv::Rect(100, 100, 120, 56));
+  double lo, hi;
+  cv::minMaxLoc(centre, &lo, &hi);
+  return hi - lo;
+}
+
+TEST(Renderer, ProjectorAndCameraDefocusBlurTheFringes) {
+  ProjectorOptions projector;
+  projector.gamma = 1.0;
+  SensorOptions sensor;
+  sensor.noise = false;
+  sensor.float_output = true;
+  const double sharp = FringeContrast(projector, sensor);
+  ProjectorOptions blurred_projector = projector;
+  blurred_projector.defocus_sigma_px = 2.0;
+  SensorOptions blurred_sensor = sensor;
+  blurred_sensor.defocus_sigma_px = 2.0;
+  EXPECT_GT(sharp, 50.0);
+  // A Gaussian of sigma s attenuates a sinusoid of period P by exp(-2 (pi s / P)^2): ~0.004 for
+  // the 6 px projector period; ~0.3 in the camera, where the period is ~8 px. The peak-to-peak
+  // measure also holds the slow shading variation over the window (~10% of the contrast).
+  EXPECT_LT(FringeContrast(blurred_projector, sensor), 0.2 * sharp);
+  EXPECT_LT(FringeContrast(projector, blurred_sensor), 0.45 * sharp);
+}
+
+}  // namespace
+}  // namespace fringe::sim

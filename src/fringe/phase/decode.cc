@@ -246,9 +246,11 @@ std::vector<UnwrapStepNoise> StepNoise(const PatternScheme& s) {
   std::vector<UnwrapStepNoise> steps;
   if (s.gray_bits > 0) {
     // Complementary Gray code: the order is wrong when the phase errs by a quarter period.
+    // Plain Gray code has no noise margin at period edges at all (its edge errors are left to
+    // the spatial check); the same quarter period is used so that the threshold stays finite.
     UnwrapStepNoise st;
     st.sigma_per_unit = std::sqrt(var_cycles[0]);
-    st.margin = s.gray_complementary ? 0.25 : 0.0;
+    st.margin = 0.25;
     steps.push_back(st);
     return steps;
   }

@@ -159,6 +159,27 @@ TEST(Decode, GrayCodeHasNoPeriodEdgeJumps) {
   EXPECT_EQ(JumpFraction(r.absolute_phase, r.mask, s.phase_sets[0].period_px), 0.0);
 }
 
+TEST(Decode, PlainGrayCodeEdgeErrorsAreRepairedByTheSpatialCheck) {
+  PatternScheme s = MakeScheme("gray+4", 1280, 800);
+  s.gray_complementary = false;
+  const cv::Mat u = LinearProjectorMap(s, kSize);
+  SyntheticStackOptions so;
+  so.modulation_dn = 50;
+  so.noise_sigma_dn = 2;
+  const auto images = RenderSyntheticStack(s, u, so);
+  DecodeOptions raw;
+  raw.spatial_check_fraction = 0;
+  const Errors before = Compare(s, Decode(s, images, raw), u);
+  const DecodeResult r = Decode(s, images);
+  const Errors after = Compare(s, r, u);
+  std::cout << "plain Gray code: " << before.wrong_orders
+            << " edge errors before the spatial check, " << after.wrong_orders << " after; "
+            << r.summary.BriefReport() << "\n";
+  EXPECT_GT(before.wrong_orders, 0);  // plain Gray code does jump at period edges
+  EXPECT_EQ(after.wrong_orders, 0);   // isolated edge errors are whole periods: repaired
+  EXPECT_GT(r.summary.ValidFraction(), 0.99);
+}
+
 TEST(Decode, HorizontalFringesGiveProjectorRows) {
   PatternScheme s = MakeScheme("thesis-4+3+3", 1280, 800);
   s.direction = FringeDirection::kHorizontal;

@@ -50,7 +50,8 @@ void AddReconstructCommand(CLI::App& app) {
       "reconstruct",
       "Reconstruct one view: decode left/ and right/ fringe images, match the absolute phase, "
       "triangulate to an organized point cloud (left camera frame, PLY) with normals");
-  sub->add_option("view", a->view, "View folder with left/ and right/ image stacks")->required();
+  sub->add_option("view", a->view, "View folder with left/ and right/ (or L/ and R/) image stacks")
+      ->required();
   sub->add_option("--calib", a->calib,
                   "Rig calibration (rig JSON); default VIEW/rig.json or VIEW/../rig.json");
   sub->add_option("--opencv-intrinsics", a->cv_intrinsics,
@@ -82,9 +83,15 @@ void AddReconstructCommand(CLI::App& app) {
   sub->add_flag("--ascii", a->ascii, "Write ASCII PLY");
   sub->callback([a] {
     const fs::path view(a->view);
-    if (!fs::is_directory(view / "left") || !fs::is_directory(view / "right")) {
+    // left/ and right/ (fringe's layout) or L/ and R/ (common in other tools' captures).
+    fs::path left_dir = view / "left", right_dir = view / "right";
+    if (!fs::is_directory(left_dir) && fs::is_directory(view / "L")) {
+      left_dir = view / "L";
+      right_dir = view / "R";
+    }
+    if (!fs::is_directory(left_dir) || !fs::is_directory(right_dir)) {
       throw Error(util::StrCat("reconstruct: ", view.string(),
-                               " must contain left/ and right/ image folders"));
+                               " must contain left/ and right/ (or L/ and R/) image folders"));
     }
     const std::string scheme_arg =
         a->scheme.empty() ? FirstExisting({view / "manifest.json", view / "left" / "manifest.json",
@@ -93,8 +100,8 @@ void AddReconstructCommand(CLI::App& app) {
                                 .string()
                           : a->scheme;
     const phase::PatternScheme scheme = phase::SchemeFromNameOrFile(scheme_arg);
-    const auto left = phase::ReadStack(view / "left", scheme);
-    const auto right = phase::ReadStack(view / "right", scheme);
+    const auto left = phase::ReadStack(left_dir, scheme);
+    const auto right = phase::ReadStack(right_dir, scheme);
     StereoRig rig;
     if (!a->cv_intrinsics.empty() || !a->cv_extrinsics.empty()) {
       if (a->cv_intrinsics.empty() || a->cv_extrinsics.empty()) {

@@ -16,8 +16,11 @@ namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-// A strictly monotonic stretch [begin, end] (end > begin) of valid samples in a rectified row
-// whose neighbouring samples differ by at most max_phase_step_px.
+// A monotonic stretch [begin, end] (end > begin) of valid samples in a rectified row whose
+// neighbouring samples differ by at most max_phase_step_px. Noise may reverse a step by up to
+// max_reversal_px without ending the run; the search then uses the run's monotone envelope
+// (running max of an increasing run, running min of a decreasing one) and finds the FIRST
+// crossing, so a noisy wiggle never produces a second candidate.
 struct Run {
   int begin = 0;
   int end = 0;
@@ -26,35 +29,43 @@ struct Run {
 
 using RowRuns = std::vector<std::vector<Run>>;
 
-RowRuns FindRuns(const cv::Mat& rect_phase, double max_step) {
+// Runs per row, and the envelope image (same size as rect_phase).
+RowRuns FindRuns(const cv::Mat& rect_phase, double max_step, double max_reversal,
+                 cv::Mat* envelope) {
   RowRuns runs(rect_phase.rows);
+  *envelope = rect_phase.clone();
   tbb::parallel_for(tbb::blocked_range<int>(0, rect_phase.rows), [&](const auto& range) {
     for (int v = range.begin(); v < range.end(); ++v) {
       const float* row = rect_phase.ptr<float>(v);
+      float* env = envelope->ptr<float>(v);
       auto& out = runs[v];
       int begin = -1;
       int dir = 0;
       auto close = [&](int end) {
-        if (begin >= 0 && end > begin) out.push_back({begin, end, dir > 0});
+        if (begin < 0 || end <= begin) return;
+        out.push_back({begin, end, dir > 0});
+        env[begin] = row[begin];
+        for (int u = begin + 1; u <= end; ++u) {
+          env[u] = dir > 0 ? std::max(env[u - 1], row[u]) : std::min(env[u - 1], row[u]);
+        }
       };
       for (int u = 0; u + 1 < rect_phase.cols; ++u) {
         const float a = row[u], b = row[u + 1];
         const float step = b - a;
-        const bool ok =
-            std::isfinite(a) && std::isfinite(b) && step != 0 && std::abs(step) <= max_step;
+        const bool ok = std::isfinite(a) && std::isfinite(b) && std::abs(step) <= max_step;
         if (!ok) {
           close(u);
           begin = -1;
           continue;
         }
-        const int d = step > 0 ? 1 : -1;
         if (begin < 0) {
+          if (step == 0) continue;  // wait for a direction
           begin = u;
-          dir = d;
-        } else if (d != dir) {
+          dir = step > 0 ? 1 : -1;
+        } else if (step * dir < 0 && std::abs(step) > max_reversal) {
           close(u);  // turning point: a new run starts at this sample
           begin = u;
-          dir = d;
+          dir = -dir;
         }
       }
       close(rect_phase.cols - 1);
@@ -63,14 +74,18 @@ RowRuns FindRuns(const cv::Mat& rect_phase, double max_step) {
   return runs;
 }
 
-// Position u where the row's phase equals phi, in one run (the caller checked the range).
-double CrossingInRun(const float* row, const Run& run, double phi, CrossingInterpolation interp) {
-  int lo = run.begin, hi = run.end;  // invariant: phi between row[lo] and row[hi]
+// Position u where the row's phase first equals phi in one run (the caller checked that phi
+// lies within the run's envelope range).
+double CrossingInRun(const float* row, const float* env, const Run& run, double phi,
+                     CrossingInterpolation interp) {
+  int lo = run.begin, hi = run.end;  // invariant: env[lo] "below" phi, env[hi] not below
   while (hi - lo > 1) {
     const int mid = (lo + hi) / 2;
-    const bool below = run.increasing ? row[mid] <= phi : row[mid] >= phi;
+    const bool below = run.increasing ? env[mid] < phi : env[mid] > phi;
     (below ? lo : hi) = mid;
   }
+  // env[hi] == row[hi] (a new extreme) and row[lo] <= env[lo]: phi is bracketed by the samples.
+  lo = hi - 1;
   const double p0 = row[lo], p1 = row[lo + 1];
   double t = (phi - p0) / (p1 - p0);
   if (interp == CrossingInterpolation::kCubic && lo - 1 >= run.begin && lo + 2 <= run.end) {
@@ -92,16 +107,25 @@ double CrossingInRun(const float* row, const Run& run, double phi, CrossingInter
 }
 
 // Number of crossings of phi in rectified row v (0, 1 or 2 meaning "several"); *u set when 1.
-int FindCrossing(const cv::Mat& rect_phase, const RowRuns& runs, int v, double phi,
-                 CrossingInterpolation interp, double* u) {
-  if (v < 0 || v >= rect_phase.rows) return 0;
-  const float* row = rect_phase.ptr<float>(v);
+struct RectifiedPhase {
+  cv::Mat phase;
+  cv::Mat envelope;
+  RowRuns runs;
+};
+
+int FindCrossing(const RectifiedPhase& rp, int v, double phi, CrossingInterpolation interp,
+                 double* u) {
+  if (v < 0 || v >= rp.phase.rows) return 0;
+  const float* row = rp.phase.ptr<float>(v);
+  const float* env = rp.envelope.ptr<float>(v);
   int count = 0;
-  for (const Run& run : runs[v]) {
-    const double a = row[run.begin], b = row[run.end];
-    if (phi < std::min(a, b) || phi > std::max(a, b)) continue;
+  for (const Run& run : rp.runs[v]) {
+    const double a = row[run.begin], b = env[run.end];
+    // Strict at the start so that a run beginning exactly at the previous run's turning point
+    // does not count that crossing twice.
+    if (run.increasing ? (phi <= a || phi > b) : (phi >= a || phi < b)) continue;
     if (++count > 1) return 2;
-    *u = CrossingInRun(row, run, phi, interp);
+    *u = CrossingInRun(row, env, run, phi, interp);
   }
   return count;
 }
@@ -109,15 +133,15 @@ int FindCrossing(const cv::Mat& rect_phase, const RowRuns& runs, int v, double p
 enum class RowMatch { kOk, kNone, kAmbiguous, kDiscontinuity };
 
 // Crossing at fractional rectified row v: from rows floor(v) and floor(v)+1, interpolated.
-RowMatch MatchAtRow(const cv::Mat& rect_phase, const RowRuns& runs, double v, double phi,
-                    const MatchingOptions& options, double* u) {
+RowMatch MatchAtRow(const RectifiedPhase& rp, double v, double phi, const MatchingOptions& options,
+                    double* u) {
   constexpr double kOnRow = 1e-3;  // closer than this to a row: that row alone decides
   const int v0 = static_cast<int>(std::floor(v));
   const double w = v - v0;
   double u0 = 0, u1 = 0;
   int n0 = 1, n1 = 1;
-  if (w < 1 - kOnRow) n0 = FindCrossing(rect_phase, runs, v0, phi, options.interpolation, &u0);
-  if (w > kOnRow) n1 = FindCrossing(rect_phase, runs, v0 + 1, phi, options.interpolation, &u1);
+  if (w < 1 - kOnRow) n0 = FindCrossing(rp, v0, phi, options.interpolation, &u0);
+  if (w > kOnRow) n1 = FindCrossing(rp, v0 + 1, phi, options.interpolation, &u1);
   if (n0 == 0 || n1 == 0) return RowMatch::kNone;
   if (n0 > 1 || n1 > 1) return RowMatch::kAmbiguous;
   if (w <= kOnRow) {
@@ -159,6 +183,8 @@ void MatchingOptions::Check() const {
   const char* kName = "MatchingOptions";
   CheckOption(min_modulation >= 0, kName, "min_modulation", min_modulation, "must be >= 0");
   CheckOption(max_phase_step_px > 0, kName, "max_phase_step_px", max_phase_step_px, "must be > 0");
+  CheckOption(max_reversal_px >= 0 && max_reversal_px < max_phase_step_px, kName, "max_reversal_px",
+              max_reversal_px, "must be in [0, max_phase_step_px)");
   CheckOption(max_row_crossing_diff_px > 0, kName, "max_row_crossing_diff_px",
               max_row_crossing_diff_px, "must be > 0");
   CheckOption(max_lr_error_px > 0, kName, "max_lr_error_px", max_lr_error_px, "must be > 0");
@@ -206,10 +232,13 @@ MatchResult PhaseMatcher::Match(const PhaseImage& left, const PhaseImage& right)
   util::Timer timer;
   const cv::Mat phase_left = ValidPhase(left, rig_.left, "left");
   const cv::Mat phase_right = ValidPhase(right, rig_.right, "right");
-  const cv::Mat rect_left = rect_.RectifyFloat(Side::kLeft, phase_left);
-  const cv::Mat rect_right = rect_.RectifyFloat(Side::kRight, phase_right);
-  const RowRuns runs_left = FindRuns(rect_left, options_.max_phase_step_px);
-  const RowRuns runs_right = FindRuns(rect_right, options_.max_phase_step_px);
+  RectifiedPhase rect_left, rect_right;
+  rect_left.phase = rect_.RectifyFloat(Side::kLeft, phase_left);
+  rect_right.phase = rect_.RectifyFloat(Side::kRight, phase_right);
+  rect_left.runs = FindRuns(rect_left.phase, options_.max_phase_step_px, options_.max_reversal_px,
+                            &rect_left.envelope);
+  rect_right.runs = FindRuns(rect_right.phase, options_.max_phase_step_px, options_.max_reversal_px,
+                             &rect_right.envelope);
   cv::Mat texture;
   if (!left.texture.empty()) left.texture.convertTo(texture, CV_32F);
 
@@ -238,7 +267,7 @@ MatchResult PhaseMatcher::Match(const PhaseImage& left, const PhaseImage& right)
         ++s.left_valid;
         const double ul = rect_px[c][0], vl = rect_px[c][1];
         double ur = 0;
-        switch (MatchAtRow(rect_right, runs_right, vl, phi, options_, &ur)) {
+        switch (MatchAtRow(rect_right, vl, phi, options_, &ur)) {
           case RowMatch::kOk:
             break;
           case RowMatch::kNone:
@@ -252,7 +281,7 @@ MatchResult PhaseMatcher::Match(const PhaseImage& left, const PhaseImage& right)
             continue;
         }
         double ul_back = 0;
-        if (MatchAtRow(rect_left, runs_left, vl, phi, options_, &ul_back) != RowMatch::kOk ||
+        if (MatchAtRow(rect_left, vl, phi, options_, &ul_back) != RowMatch::kOk ||
             std::abs(ul_back - ul) > options_.max_lr_error_px) {
           ++s.lr_inconsistent;
           continue;

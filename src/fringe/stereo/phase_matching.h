@@ -13,12 +13,12 @@
 // interpolated, not a matching cost.
 //
 // Rejections (each counted in the summary): no crossing, several crossings (ambiguous), phase
-// not monotonic / jump between neighbouring samples larger than max_phase_step_px (a depth
-// discontinuity or a fringe-order error), the crossings of the two bracketing rows disagreeing
-// (discontinuity across rows), left-right inconsistency (the rectified LEFT row searched for the
-// same phase must give back the left pixel), low modulation, failed triangulation, large
-// reprojection residual, disagreement with the calibrated projector. Triangulation is done in the
-// original distorted geometry (triangulation.h).
+// not monotonic (a reversal larger than max_reversal_px) / jump between neighbouring samples
+// larger than max_phase_step_px (a depth discontinuity or a fringe-order error), the crossings of
+// the two bracketing rows disagreeing (discontinuity across rows), left-right inconsistency (the
+// rectified LEFT row searched for the same phase must give back the left pixel), low modulation,
+// failed triangulation, large reprojection residual, disagreement with the calibrated projector.
+// Triangulation is done in the original distorted geometry (triangulation.h).
 //
 // Output: an OrganizedPointCloud on the LEFT camera grid, points in the LEFT camera frame (mm),
 // quality = left fringe modulation (DN), intensity = left texture when given; plus per-pixel maps
@@ -56,12 +56,17 @@ struct MatchingOptions {
   // Largest phase change between neighbouring rectified samples of a monotonic run, projector
   // pixels, > 0. Larger steps are discontinuities; matching never interpolates across them.
   double max_phase_step_px = 4.0;
+  // Largest step against a run's direction that is taken for noise rather than a turning point,
+  // projector pixels, [0, max_phase_step_px). Real phase maps wiggle by a few hundredths to
+  // tenths of a projector pixel between neighbouring samples.
+  double max_reversal_px = 0.5;
   CrossingInterpolation interpolation = CrossingInterpolation::kLinear;
   // Largest difference of the crossings in the two rectified rows bracketing a left pixel,
   // rectified pixels, > 0.
   double max_row_crossing_diff_px = 3.0;
-  // Left-right consistency tolerance, rectified pixels, > 0.
-  double max_lr_error_px = 0.5;
+  // Left-right consistency tolerance, rectified pixels, > 0. Phase noise moves the back-match
+  // by (phase noise) / (phase gradient), a few tenths of a pixel on real data.
+  double max_lr_error_px = 1.0;
   // Points with a larger RMS reprojection residual are dropped, pixels, > 0.
   double max_reprojection_error_px = 1.0;
   // When the rig has a calibrated projector: the triangulated point must project into the

@@ -185,48 +185,93 @@ CameraTruth ReadCameraTruth(const fs::path& dir, const CameraModel& camera) {
   return t;
 }
 
-ScanSummary SimulateScan(const StereoRig& rig, const ScanOptions& options,
-                         const fs::path& out_dir) {
-  options.Check();
-  rig.Check();
-  const util::Timer timer;
-  ScanSummary summary;
-  Scene scene = MakeSceneByName(options.scene, options.seed);
-  summary.markers = static_cast<int>(scene.markers().size());
-
+struct ScanSimulator::Impl {
+  StereoRig rig;
+  ScanOptions options;
+  Scene scene;
   phase::PatternScheme scheme;
   std::vector<cv::Mat> patterns;
   std::vector<Rigid3d> poses;
   std::unique_ptr<Renderer> renderer;
+  std::vector<Rigid3d> board_poses;
+  BoardRenderOptions board_options;
+};
+
+ScanSimulator::ScanSimulator(const StereoRig& rig, const ScanOptions& options)
+    : impl_(std::make_unique<Impl>()) {
+  options.Check();
+  rig.Check();
+  Impl& m = *impl_;
+  m.rig = rig;
+  m.options = options;
+  m.scene = MakeSceneByName(options.scene, options.seed);
   if (options.views > 0) {
     if (!rig.projector) throw Error("simulate: the rig has no projector (projector_from_left)");
-    scheme =
+    m.scheme =
         phase::SchemeFromNameOrFile(options.scheme, rig.projector->width, rig.projector->height);
-    if (scheme.projector_width != rig.projector->width ||
-        scheme.projector_height != rig.projector->height) {
+    if (m.scheme.projector_width != rig.projector->width ||
+        m.scheme.projector_height != rig.projector->height) {
       throw Error(util::StrCat("simulate: scheme '", options.scheme, "' is for a ",
-                               scheme.projector_width, "x", scheme.projector_height,
+                               m.scheme.projector_width, "x", m.scheme.projector_height,
                                " projector, the rig's is ", rig.projector->width, "x",
                                rig.projector->height));
     }
-    patterns = phase::GeneratePatterns(scheme, options.precompensate_gamma);
-    scheme.gamma_precompensation = options.precompensate_gamma;
+    m.patterns = phase::GeneratePatterns(m.scheme, options.precompensate_gamma);
+    m.scheme.gamma_precompensation = options.precompensate_gamma;
     RenderOptions ro = options.render;
     ro.sensor.seed = options.seed;
     ro.truth = options.truth_maps;  // markers are observed without the maps
-    renderer = std::make_unique<Renderer>(scene, rig, ro);
+    m.renderer = std::make_unique<Renderer>(m.scene, rig, ro);
     OrbitOptions oo = options.orbit;
     oo.views = options.views;
     oo.seed = options.seed;
-    poses = OrbitPoses(rig, OrbitTarget(scene), oo);
+    m.poses = OrbitPoses(rig, OrbitTarget(m.scene), oo);
   }
-  std::vector<Rigid3d> board_poses;
   if (options.calibration_images > 0) {
     BoardPoseOptions bo = options.board_poses;
     bo.count = options.calibration_images;
     bo.seed = util::MixSeed(options.seed, 0xB0A4D);
-    board_poses = GenerateBoardPoses(rig, options.target, bo);
+    m.board_poses = GenerateBoardPoses(rig, options.target, bo);
   }
+  m.board_options = options.board;
+  m.board_options.sensor.seed = options.seed;
+}
+
+ScanSimulator::~ScanSimulator() = default;
+
+const StereoRig& ScanSimulator::rig() const { return impl_->rig; }
+const ScanOptions& ScanSimulator::options() const { return impl_->options; }
+const Scene& ScanSimulator::scene() const { return impl_->scene; }
+const phase::PatternScheme& ScanSimulator::scheme() const { return impl_->scheme; }
+const std::vector<cv::Mat>& ScanSimulator::patterns() const { return impl_->patterns; }
+const std::vector<Rigid3d>& ScanSimulator::view_poses() const { return impl_->poses; }
+const std::vector<Rigid3d>& ScanSimulator::board_poses() const { return impl_->board_poses; }
+
+ViewImages ScanSimulator::RenderView(int v) const {
+  if (v < 0 || v >= static_cast<int>(impl_->poses.size())) {
+    throw Error(util::StrCat("ScanSimulator::RenderView: no view ", v));
+  }
+  return impl_->renderer->RenderView(impl_->poses[v], impl_->patterns, static_cast<uint64_t>(v));
+}
+
+StereoBoardImages ScanSimulator::RenderBoard(int i) const {
+  if (i < 0 || i >= static_cast<int>(impl_->board_poses.size())) {
+    throw Error(util::StrCat("ScanSimulator::RenderBoard: no board pose ", i));
+  }
+  return RenderStereoBoard(impl_->rig, impl_->options.target, impl_->board_poses[i],
+                           impl_->board_options, static_cast<uint64_t>(i));
+}
+
+ScanSummary SimulateScan(const StereoRig& rig, const ScanOptions& options,
+                         const fs::path& out_dir) {
+  const util::Timer timer;
+  const ScanSimulator sim(rig, options);
+  const Scene& scene = sim.scene();
+  const phase::PatternScheme& scheme = sim.scheme();
+  const std::vector<Rigid3d>& poses = sim.view_poses();
+  const std::vector<Rigid3d>& board_poses = sim.board_poses();
+  ScanSummary summary;
+  summary.markers = static_cast<int>(scene.markers().size());
 
   util::WriteFolderAtomically(out_dir, [&](const fs::path& tmp) {
     fs::create_directories(tmp / "truth");
@@ -254,7 +299,7 @@ ScanSummary SimulateScan(const StereoRig& rig, const ScanOptions& options,
     util::Progress progress("simulate views", options.views);
     const std::vector<std::string> names = scheme.ImageNames();
     for (int v = 0; v < options.views; ++v) {
-      const ViewImages view = renderer->RenderView(poses[v], patterns, static_cast<uint64_t>(v));
+      const ViewImages view = sim.RenderView(v);
       const fs::path vdir = tmp / "views" / Index3(v);
       for (const char* cam : {"left", "right"}) {
         const CameraImages& images = std::string(cam) == "left" ? view.left : view.right;
@@ -280,7 +325,7 @@ ScanSummary SimulateScan(const StereoRig& rig, const ScanOptions& options,
       progress.Advance();
     }
     summary.views = options.views;
-    summary.fringe_images = static_cast<int>(patterns.size());
+    summary.fringe_images = static_cast<int>(sim.patterns().size());
     if (options.views > 0) phase::WriteScheme(tmp / "scheme.json", scheme);
     io::WriteJson(tmp / "truth" / "poses.json",
                   {{"frame", "world_from_sensor (sensor = left camera), mm"},
@@ -302,13 +347,11 @@ ScanSummary SimulateScan(const StereoRig& rig, const ScanOptions& options,
       fs::create_directories(tmp / "calibration" / "left");
       fs::create_directories(tmp / "calibration" / "right");
       io::WriteJson(tmp / "calibration" / "target.json", io::TargetToJson(options.target));
-      BoardRenderOptions bro = options.board;
-      bro.sensor.seed = options.seed;
       json images = json::array();
       util::Progress board_progress("simulate calibration images",
                                     static_cast<int>(board_poses.size()));
       for (size_t i = 0; i < board_poses.size(); ++i) {
-        const StereoBoardImages b = RenderStereoBoard(rig, options.target, board_poses[i], bro, i);
+        const StereoBoardImages b = sim.RenderBoard(static_cast<int>(i));
         const std::string name = Index3(static_cast<int>(i)) + ".png";
         io::WriteImage(tmp / "calibration" / "left" / name, b.left.image);
         io::WriteImage(tmp / "calibration" / "right" / name, b.right.image);

@@ -11,11 +11,13 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "fringe/geometry/calibration_target.h"
 #include "fringe/geometry/stereo_rig.h"
+#include "fringe/phase/pattern_scheme.h"
 #include "fringe/sim/board.h"
 #include "fringe/sim/demo_part.h"
 #include "fringe/sim/poses.h"
@@ -59,6 +61,35 @@ struct ScanSummary {
   int markers = 0;
   double seconds = 0;
   std::string BriefReport() const;
+};
+
+// A simulated scan prepared once (scene, patterns, renderer, view and board poses), rendered
+// view by view on demand: the in-memory counterpart of SimulateScan for tests and the demo
+// (same images as the files for the same rig and options). Thread safety: const methods may run
+// concurrently.
+class ScanSimulator {
+ public:
+  // Throws fringe::Error for bad options, an unknown scene or scheme, or a scheme whose
+  // projector size differs from the rig's.
+  ScanSimulator(const StereoRig& rig, const ScanOptions& options);
+  ~ScanSimulator();
+  ScanSimulator(const ScanSimulator&) = delete;
+  ScanSimulator& operator=(const ScanSimulator&) = delete;
+
+  const StereoRig& rig() const;
+  const ScanOptions& options() const;
+  const Scene& scene() const;
+  const phase::PatternScheme& scheme() const;       // with gamma_precompensation set
+  const std::vector<cv::Mat>& patterns() const;     // projector images, CV_8U
+  const std::vector<Rigid3d>& view_poses() const;   // world_from_sensor per view
+  const std::vector<Rigid3d>& board_poses() const;  // left_from_board per board image
+
+  ViewImages RenderView(int view) const;           // view in [0, options.views)
+  StereoBoardImages RenderBoard(int index) const;  // index in [0, options.calibration_images)
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
 };
 
 // Renders the scan and writes it to `out_dir` atomically (the folder appears complete or not

@@ -104,6 +104,19 @@ TEST(Scan, DeterministicForASeed) {
     EXPECT_GT(cv::norm(a, c, cv::NORM_L1), 0.0) << f;
   }
   EXPECT_FALSE(fs::exists(dir / "a" / "truth/views"));
+  // The in-memory simulator gives the same images as the files.
+  opt.seed = 1;
+  const ScanSimulator sim(rig, opt);
+  ASSERT_EQ(sim.view_poses().size(), 1u);
+  const ViewImages view = sim.RenderView(0);
+  EXPECT_EQ(cv::norm(view.left.images[3], io::ReadGrayImage(dir / "a/views/000/left/03.png"),
+                     cv::NORM_INF),
+            0.0);
+  const StereoBoardImages board = sim.RenderBoard(0);
+  EXPECT_EQ(cv::norm(board.right.image, io::ReadGrayImage(dir / "a/calibration/right/000.png"),
+                     cv::NORM_INF),
+            0.0);
+  EXPECT_THROW(sim.RenderView(1), Error);
 }
 
 }  // namespace

@@ -373,11 +373,16 @@ BallBarResult EvaluateBallBar(const PointCloud& cloud, double diameter_mm,
     out.message = "first sphere: " + out.sphere_a.message;
     return out;
   }
-  // Remove the first sphere (and what touches it) before looking for the second.
+  // Remove the first sphere (and what touches it) before looking for the second, and look only
+  // where the second can be: its surface lies within the calibrated distance +- its radius (and
+  // a 5 % tolerance) of the first centre. Without this, another sphere in the scene (a VDI
+  // sphere of a different diameter beside the bar) can capture the search.
   Points rest, rest_normals;
   const double clear_mm = 0.5 * diameter_mm + 4 * options.inlier_band_mm;
+  const double shell_mm = 0.5 * diameter_mm + 0.05 * calibrated_distance_mm;
   for (size_t i = 0; i < pts.size(); ++i) {
-    if ((pts[i] - out.sphere_a.centre).norm() < clear_mm) continue;
+    const double d = (pts[i] - out.sphere_a.centre).norm();
+    if (d < clear_mm || std::abs(d - calibrated_distance_mm) > shell_mm) continue;
     rest.push_back(pts[i]);
     if (!normals.empty()) rest_normals.push_back(normals[i]);
   }

@@ -150,6 +150,20 @@ TEST(Vdi2634, EvaluateBallBar) {
   EXPECT_NEAR(r.SD_mm, 0, kSdTol);
 }
 
+TEST(Vdi2634, BallBarIgnoresADistractorSphereOfAnotherDiameter) {
+  // The VDI scene has a 30 mm sphere beside a ball bar of 20 mm spheres: only the sphere at the
+  // calibrated distance from the first may be taken as the second.
+  constexpr double kNoise = 0.01;
+  constexpr double kSdTol = 0.005;
+  const Eigen::Vector3d a(-75, 35, 520), b(75, 35, 520), distractor(-60, -45, 505);
+  PointCloud cloud = SphereOnBackground({a, b}, 10.0, kNoise, false);
+  const PointCloud big = SphereOnBackground({distractor}, 15.0, kNoise, false);
+  cloud.points.insert(cloud.points.end(), big.points.begin(), big.points.end());
+  const BallBarResult r = EvaluateBallBar(cloud, 20.0, (a - b).norm());
+  ASSERT_TRUE(r.ok()) << r.BriefReport();
+  EXPECT_NEAR(r.SD_mm, 0, kSdTol);
+}
+
 TEST(Vdi2634, EvaluatePlaneAndMissingArtefacts) {
   PointCloud cloud = SphereOnBackground({}, 12.5, 0.01, false);
   const PlaneResult p = EvaluatePlane(cloud);

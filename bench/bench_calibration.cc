@@ -68,9 +68,10 @@ struct Result {
 constexpr double kTiltBinDeg = 15;
 constexpr int kTiltBins = 4;
 
+// Angle between the board normal and the line of sight to the board centre (7 x 9 at 24 mm).
 double TiltDeg(const Rigid3d& cam_from_board) {
   const Eigen::Vector3d n = cam_from_board.rotation_matrix().col(2);
-  const Eigen::Vector3d to_board = cam_from_board.translation().normalized();
+  const Eigen::Vector3d to_board = (cam_from_board * Eigen::Vector3d(96, 72, 0)).normalized();
   return std::acos(std::min(1.0, std::abs(n.dot(to_board)))) * 180 / M_PI;
 }
 

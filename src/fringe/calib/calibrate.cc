@@ -315,7 +315,8 @@ bool RemeasureCentre(const FeatureObservation& f, const CalibrationTarget& targe
     if (f.inner_edge_px.size() < 5) return false;
     const auto inner = FitEllipse(ideal(f.inner_edge_px), fo);
     if (!inner) return false;
-    const auto c = ConcentricCentre(outer->ellipse.Conic(), inner->ellipse.Conic());
+    const auto c =
+        RingCentre(outer->ellipse, inner->ellipse, target.inner_radius_mm / target.outer_radius_mm);
     if (!c) return false;
     c_ideal = *c;
   } else {

@@ -6,6 +6,7 @@
 #include <map>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
+#include <optional>
 #include <set>
 #include <sstream>
 
@@ -312,9 +313,9 @@ bool Detector::Refine(const Blob& blob, Candidate* cand, std::string* reason) {
       *reason = "ring ellipses not concentric";
       return false;
     }
-    const auto c = ConcentricCentre(outer.Conic(), inner.Conic());
+    const auto c = RingCentre(outer, inner, target_.inner_radius_mm / target_.outer_radius_mm);
     if (!c || (*c - outer.centre).norm() > 0.5 * outer.b) {
-      *reason = "no vanishing line from the ring's two ellipses";
+      *reason = "unstable ring centre (pole-polar disagrees with the ellipse centres)";
       return false;
     }
     cand->centre = *c;
@@ -340,6 +341,37 @@ bool Detector::Refine(const Blob& blob, Candidate* cand, std::string* reason) {
     cand->centre = outer.centre;
   }
   return true;
+}
+
+// Image position at grid offset (0, 0) from a DLT homography fitted to (grid offset, image
+// point) pairs; nullopt when they do not span both grid directions.
+std::optional<Vec2> PredictHomography(const std::vector<std::pair<Vec2, Vec2>>& nb) {
+  bool di_spread = false, dj_spread = false;
+  for (const auto& [g, p] : nb) {
+    di_spread |= g.x() != nb[0].first.x();
+    dj_spread |= g.y() != nb[0].first.y();
+  }
+  if (!di_spread || !dj_spread) return std::nullopt;
+  Vec2 mean = Vec2::Zero();
+  for (const auto& [g, p] : nb) mean += p;
+  mean /= nb.size();
+  double scale = 0;
+  for (const auto& [g, p] : nb) scale += (p - mean).norm();
+  scale = nb.size() / std::max(scale, 1e-9);
+  Eigen::MatrixXd a(2 * nb.size(), 9);
+  for (size_t k = 0; k < nb.size(); ++k) {
+    const double x = nb[k].first.x(), y = nb[k].first.y();
+    const Vec2 q = (nb[k].second - mean) * scale;
+    a.row(2 * k) << x, y, 1, 0, 0, 0, -q.x() * x, -q.x() * y, -q.x();
+    a.row(2 * k + 1) << 0, 0, 0, x, y, 1, -q.y() * x, -q.y() * y, -q.y();
+  }
+  Eigen::JacobiSVD<Eigen::MatrixXd> svd(a, Eigen::ComputeFullV);
+  const Eigen::VectorXd h = svd.matrixV().col(8);
+  if (std::abs(h(8)) < 1e-12) return std::nullopt;
+  const Vec2 q(h(2) / h(8), h(5) / h(8));
+  const Vec2 p = q / scale + mean;
+  if (!p.allFinite()) return std::nullopt;
+  return p;
 }
 
 void Detector::Grow(GridMap* grid, bool bounded, int max_extent) const {
@@ -396,7 +428,13 @@ void Detector::Grow(GridMap* grid, bool bounded, int max_extent) const {
       Eigen::JacobiSVD<Eigen::MatrixXd> svd(a, Eigen::ComputeThinU | Eigen::ComputeThinV);
       if (svd.singularValues()(2) < 1e-6 * svd.singularValues()(0)) continue;  // collinear
       const Eigen::MatrixXd x = svd.solve(b);  // rows: d/di, d/dj, offset
-      const Vec2 pred = x.row(2).transpose();
+      Vec2 pred = x.row(2).transpose();
+      // With enough neighbours spread in both directions a local homography extrapolates
+      // perspective foreshortening (large features, strong tilt) that the affine model misses.
+      if (nb.size() >= 6) {
+        const auto h = PredictHomography(nb);
+        if (h) pred = *h;
+      }
       const double spacing = std::min(x.row(0).norm(), x.row(1).norm());  // local image spacing, px
       int best = -1;
       double d1 = 1e300, d2 = 1e300;
@@ -458,7 +496,7 @@ bool Detector::Order(GridMap* result) {
     // Try every assignment of dot features to the distinct positions.
     std::vector<int> perm(dots.size());
     for (size_t i = 0; i < perm.size(); ++i) perm[i] = static_cast<int>(i);
-    int best_count = 0;
+    int best_count = 0, best_mismatches = 2;
     std::vector<GridMap> best;
     std::sort(perm.begin(), perm.end());
     std::set<std::vector<int>> seen;
@@ -480,8 +518,10 @@ bool Detector::Order(GridMap* result) {
         const Vec2 drow = x.row(0).transpose(), dcol = x.row(1).transpose();
         const double cross = dcol.x() * drow.y() - dcol.y() * drow.x();
         if (cross <= 0) continue;
+        // Foreshortening up to the steepest accepted view (min_axis_ratio).
         const double ratio = drow.norm() / dcol.norm();
-        if (ratio < 0.3 || ratio > 3.3) continue;
+        const double limit = 1.2 / opt_.min_axis_ratio;
+        if (ratio < 1 / limit || ratio > limit) continue;
         const double size = cands_[dots[pick[0]]].size;
         const double expect = size * target_.spacing_mm / target_.outer_radius_mm;
         if (std::max(drow.norm(), dcol.norm()) < 0.3 * expect ||
@@ -490,17 +530,20 @@ bool Detector::Order(GridMap* result) {
         }
       }
       Grow(&grid, true, 0);
-      // Distinct pattern must match exactly: dots only at distinct positions.
-      bool consistent = true;
+      // The centre dots must sit at the distinct positions: a wrongly seeded grid puts the
+      // real dots elsewhere. One disagreement (a dot misread at a steep view) is tolerated;
+      // the ordering with the fewest disagreements, then the most features, wins.
+      int mismatches = 0;
       for (const auto& [key, idx] : grid) {
-        if (cands_[idx].has_dot != target_.IsDistinct(key.first, key.second)) consistent = false;
+        if (cands_[idx].has_dot != target_.IsDistinct(key.first, key.second)) ++mismatches;
       }
-      if (!consistent) continue;
+      if (mismatches > 1) continue;
       const int count = static_cast<int>(grid.size());
-      if (count > best_count) {
+      if (mismatches < best_mismatches || (mismatches == best_mismatches && count > best_count)) {
+        best_mismatches = mismatches;
         best_count = count;
         best = {grid};
-      } else if (count == best_count && count > 0) {
+      } else if (mismatches == best_mismatches && count == best_count && count > 0) {
         best.push_back(grid);
       }
     } while (std::next_permutation(perm.begin(), perm.end()));
@@ -522,6 +565,7 @@ bool Detector::Order(GridMap* result) {
   const int need = target_.rows * target_.cols;
   const int max_extent = std::max(target_.rows, target_.cols);
   GridMap best;
+  int best_partial = 0;
   std::vector<int> order(n);
   for (int i = 0; i < n; ++i) order[i] = i;
   for (int c0 : order) {
@@ -547,14 +591,29 @@ bool Detector::Order(GridMap* result) {
       grid[{0, 1}] = n1;
       grid[{(u.x() * v.y() - u.y() * v.x()) > 0 ? 1 : -1, 0}] = n2;
       Grow(&grid, false, max_extent);
-      if (grid.size() > best.size()) best = grid;
-      if (static_cast<int>(best.size()) == need) break;
+      // Valid only as a complete rows x cols rectangle (either way round).
+      int i0 = 1 << 20, j0 = 1 << 20, i1 = -(1 << 20), j1 = -(1 << 20);
+      for (const auto& [key, idx] : grid) {
+        i0 = std::min(i0, key.first);
+        j0 = std::min(j0, key.second);
+        i1 = std::max(i1, key.first);
+        j1 = std::max(j1, key.second);
+      }
+      const int ei = i1 - i0 + 1, ej = j1 - j0 + 1;
+      const bool rectangle =
+          static_cast<int>(grid.size()) == need && ((ei == target_.rows && ej == target_.cols) ||
+                                                    (ei == target_.cols && ej == target_.rows));
+      if (rectangle) {
+        best = grid;
+        break;
+      }
+      best_partial = std::max(best_partial, static_cast<int>(grid.size()));
     }
     if (static_cast<int>(best.size()) == need) break;
   }
   if (static_cast<int>(best.size()) < need) {
     out_->status = DetectionStatus::kNotFound;
-    out_->message = util::StrCat("found ", best.size(), " of ", need,
+    out_->message = util::StrCat("found ", best_partial, " of ", need,
                                  " grid features; a symmetric grid must be fully visible");
     return false;
   }

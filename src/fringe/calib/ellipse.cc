@@ -384,6 +384,17 @@ std::optional<Eigen::Vector2d> ConcentricCentre(const Eigen::Matrix3d& conic1,
   return centre;
 }
 
+std::optional<Eigen::Vector2d> RingCentre(const Ellipse& outer, const Ellipse& inner,
+                                          double radius_ratio, double max_disagreement_px) {
+  const auto c = ConcentricCentre(outer.Conic(), inner.Conic());
+  if (!c) return std::nullopt;
+  const double q = radius_ratio * radius_ratio;
+  const Eigen::Vector2d extrapolated = (inner.centre - q * outer.centre) / (1 - q);
+  const double spread = (outer.centre - inner.centre).norm();
+  if ((*c - extrapolated).norm() > max_disagreement_px + 0.5 * spread) return std::nullopt;
+  return c;
+}
+
 Eigen::Matrix3d ProjectCircle(const Eigen::Matrix3d& image_from_plane,
                               const Eigen::Vector2d& centre, double radius) {
   Eigen::Matrix3d circle;

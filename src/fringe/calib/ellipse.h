@@ -81,6 +81,15 @@ Ellipse RefineEllipse(const std::vector<Eigen::Vector2d>& points, const Ellipse&
 std::optional<Eigen::Vector2d> ConcentricCentre(const Eigen::Matrix3d& conic1,
                                                 const Eigen::Matrix3d& conic2);
 
+// Centre of a concentric-ring feature from its outer and inner ellipses (radii ratio
+// inner/outer on the object = radius_ratio): the pole-polar ConcentricCentre, accepted only when
+// it agrees with an independent first-order estimate (ellipse-centre bias grows with radius^2,
+// so extrapolating the two ellipse centres to radius 0) within
+// max_disagreement_px + 0.5 |outer centre - inner centre|. nullopt otherwise: at very oblique
+// views the pencil's eigenproblem becomes unstable before the ellipses do.
+std::optional<Eigen::Vector2d> RingCentre(const Ellipse& outer, const Ellipse& inner,
+                                          double radius_ratio, double max_disagreement_px = 0.15);
+
 // Image conic of the circle (centre, radius) of the plane z = 0 under the homography
 // image_from_plane (3x3, plane coordinates (x, y, 1) to homogeneous image points).
 Eigen::Matrix3d ProjectCircle(const Eigen::Matrix3d& image_from_plane,

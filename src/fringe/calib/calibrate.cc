@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <opencv2/calib3d.hpp>
+#include <optional>
 #include <sstream>
 
 #include "fringe/calib/ellipse.h"
@@ -310,29 +311,45 @@ bool RemeasureCentre(const FeatureObservation& f, const CalibrationTarget& targe
   fo.outlier_rounds = 1;
   const auto outer = FitEllipse(ideal(f.outer_edge_px), fo);
   if (!outer) return false;
+  // Perspective bias of an ellipse centre predicted from the pose: centre of the projected
+  // circle's conic minus the projection of the circle's centre (ideal pixels).
+  const Eigen::Matrix3d r = cam_from_board.rotation_matrix();
+  Eigen::Matrix3d h;
+  h.col(0) = r.col(0);
+  h.col(1) = r.col(1);
+  h.col(2) = cam_from_board.translation();
+  h = cam.K() * h;
+  const Vec3 centre_board = target.FeatureCentre(f.row, f.col);
+  const Vec2 projected = (h * Vec3(centre_board.x(), centre_board.y(), 1)).hnormalized();
+  auto corrected = [&](const EllipseFitResult& fit, double radius_mm) -> std::optional<Vec2> {
+    const auto cc = ConicCentre(ProjectCircle(h, centre_board.head<2>(), radius_mm));
+    if (!cc) return std::nullopt;
+    return Vec2(fit.ellipse.centre - (*cc - projected));
+  };
   Vec2 c_ideal;
+  const auto c_outer = corrected(*outer, target.outer_radius_mm);
+  if (!c_outer) return false;
   if (target.type == TargetType::kConcentricRings) {
     if (f.inner_edge_px.size() < 5) return false;
     const auto inner = FitEllipse(ideal(f.inner_edge_px), fo);
     if (!inner) return false;
-    const auto c =
+    // The pose-free pole-polar centre must agree (it guards against a wrong pose or edges);
+    // with the pose known, the bias-corrected ellipse centres of both edges are less noisy
+    // than the pencil construction, so they are combined with inverse-variance weights
+    // (centre variance ~ rms^2 / n).
+    const auto c_pp =
         RingCentre(outer->ellipse, inner->ellipse, target.inner_radius_mm / target.outer_radius_mm);
-    if (!c) return false;
-    c_ideal = *c;
+    const auto c_inner = corrected(*inner, target.inner_radius_mm);
+    if (!c_pp || !c_inner) return false;
+    const double wo = outer->num_points / std::max(1e-6, std::pow(outer->rms_residual, 2));
+    const double wi = inner->num_points / std::max(1e-6, std::pow(inner->rms_residual, 2));
+    c_ideal = (wo * *c_outer + wi * *c_inner) / (wo + wi);
+    if ((c_ideal - *c_pp).norm() >
+        0.1 + 0.5 * (outer->ellipse.centre - inner->ellipse.centre).norm()) {
+      return false;
+    }
   } else {
-    // Perspective bias of the ellipse centre predicted from the pose.
-    const Eigen::Matrix3d r = cam_from_board.rotation_matrix();
-    Eigen::Matrix3d h;
-    h.col(0) = r.col(0);
-    h.col(1) = r.col(1);
-    h.col(2) = cam_from_board.translation();
-    h = cam.K() * h;
-    const Vec3 centre_board = target.FeatureCentre(f.row, f.col);
-    const Eigen::Matrix3d conic = ProjectCircle(h, centre_board.head<2>(), target.outer_radius_mm);
-    const auto conic_centre = ConicCentre(conic);
-    if (!conic_centre) return false;
-    const Vec2 projected = (h * Vec3(centre_board.x(), centre_board.y(), 1)).hnormalized();
-    c_ideal = outer->ellipse.centre - (*conic_centre - projected);
+    c_ideal = *c_outer;
   }
   *centre_px = cam.PixelFromNormalized(cam.Distort(cam.NormalizedDistortedFromPixel(c_ideal)));
   return centre_px->allFinite();

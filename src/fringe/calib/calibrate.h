@@ -9,11 +9,13 @@
 //
 // Circular features are re-measured between refinement rounds with the current model: their
 // subpixel edge points are undistorted to ideal pinhole pixels, the ellipses refitted there (an
-// exact conic only after undistortion), and the centre taken as the pole-polar concentric
-// centre (rings) or as the ellipse centre minus its perspective bias predicted from the
-// estimated board pose (plain circles: bias = centre of the projected circle's conic minus the
-// projection of its centre), then distorted back. This removes the ellipse-centre bias
-// (~0.05-0.4 px) and the distortion-induced one.
+// exact conic only after undistortion), and the centre taken as the ellipse centre minus its
+// perspective bias predicted from the estimated board pose (bias = centre of the projected
+// circle's conic minus the projection of its centre), then distorted back. Rings start from
+// their pose-free pole-polar centre (detect.h); once the pose is known, the bias-corrected
+// centres of both ring edges (inverse-variance weighted) replace it, provided they agree with
+// the pole-polar centre. This removes the ellipse-centre bias (~0.05-0.4 px) and the
+// distortion-induced one.
 //
 // Robustness: views whose RMS exceeds max(max_image_rms_px, 3 x median) are rejected with a
 // message and the problem solved again; single features beyond outlier_sigma x RMS are dropped.

@@ -10,6 +10,8 @@
 #include <set>
 #include <sstream>
 
+#include <tbb/parallel_for.h>
+
 #include "fringe/util/error.h"
 #include "fringe/util/timer.h"
 
@@ -155,8 +157,14 @@ void Detector::FindBlobs(std::vector<Blob>* blobs) {
   const bool rings = target_.type == TargetType::kConcentricRings;
   const double ring_ratio = target_.inner_radius_mm / target_.outer_radius_mm;
   const int levels = opt_.threshold_levels;
-  std::vector<Blob> all;
-  for (int level = 0; level < levels; ++level) {
+  // Levels in parallel; blobs and rejections merged in level order (thread-count independent).
+  std::vector<std::vector<Blob>> per_level(levels);
+  std::vector<std::vector<RejectedCandidate>> level_rejects(levels);
+  tbb::parallel_for(0, levels, [&](int level) {
+    std::vector<Blob>& all = per_level[level];
+    auto reject = [&](const Vec2& c, const char* why) {
+      if (level == levels / 2) level_rejects[level].push_back({c, why});
+    };
     const double t = lo + (hi - lo) * (level + 1.0) / (levels + 1.0);
     cv::Mat binary = smooth < t;
     std::vector<std::vector<cv::Point>> contours;
@@ -181,16 +189,16 @@ void Detector::FindBlobs(std::vector<Blob>* blobs) {
       cv::convexHull(c, hull);
       const double convexity = area / std::max(1e-9, cv::contourArea(hull));
       if (convexity < opt_.min_convexity) {
-        if (level == levels / 2) Reject(centre, "not convex");
+        reject(centre, "not convex");
         continue;
       }
       if (e.AxisRatio() < opt_.min_axis_ratio) {
-        if (level == levels / 2) Reject(centre, "too elongated (axis ratio)");
+        reject(centre, "too elongated (axis ratio)");
         continue;
       }
       const double fill = area / e.Area();
       if (fill < 0.8 || fill > 1.15) {
-        if (level == levels / 2) Reject(centre, "not an ellipse (area)");
+        reject(centre, "not an ellipse (area)");
         continue;
       }
       Blob blob;
@@ -209,21 +217,26 @@ void Detector::FindBlobs(std::vector<Blob>* blobs) {
         const double ratio = std::sqrt(hole_area / area);
         if (best_hole < 0 || contours[best_hole].size() < 6 ||
             std::abs(ratio / ring_ratio - 1) > opt_.ring_ratio_tolerance) {
-          if (level == levels / 2) Reject(centre, "no concentric hole of the ring's size");
+          reject(centre, "no concentric hole of the ring's size");
           continue;
         }
         blob.hole = FromRotatedRect(cv::fitEllipse(contours[best_hole]));
         if ((blob.hole.centre - e.centre).norm() > opt_.max_concentricity * e.b) {
-          if (level == levels / 2) Reject(centre, "hole not concentric");
+          reject(centre, "hole not concentric");
           continue;
         }
         blob.has_hole = true;
       } else if (hole_area > 0.05 * area) {
-        if (level == levels / 2) Reject(centre, "has a hole (not a solid circle)");
+        reject(centre, "has a hole (not a solid circle)");
         continue;
       }
       all.push_back(blob);
     }
+  });
+  std::vector<Blob> all;
+  for (int level = 0; level < levels; ++level) {
+    all.insert(all.end(), per_level[level].begin(), per_level[level].end());
+    for (const auto& r : level_rejects[level]) Reject(r.centre_px, r.reason);
   }
   // Merge the same blob seen at several levels: keep the member of median size.
   std::vector<bool> taken(all.size(), false);
@@ -678,13 +691,18 @@ bool Detector::Order(GridMap* result) {
 void Detector::Run() {
   std::vector<Blob> blobs;
   FindBlobs(&blobs);
-  for (const auto& b : blobs) {
-    Candidate c;
-    std::string reason;
-    if (Refine(b, &c, &reason)) {
-      cands_.push_back(std::move(c));
+  // Subpixel measurement of every blob in parallel (read-only image data); merged in blob
+  // order so the result does not depend on the thread count.
+  std::vector<Candidate> refined(blobs.size());
+  std::vector<std::string> reasons(blobs.size());
+  std::vector<char> ok(blobs.size(), 0);
+  tbb::parallel_for(size_t{0}, blobs.size(),
+                    [&](size_t i) { ok[i] = Refine(blobs[i], &refined[i], &reasons[i]) ? 1 : 0; });
+  for (size_t i = 0; i < blobs.size(); ++i) {
+    if (ok[i]) {
+      cands_.push_back(std::move(refined[i]));
     } else {
-      Reject(b.outer.centre, reason);
+      Reject(blobs[i].outer.centre, reasons[i]);
     }
   }
   // Drop near-duplicates (a blob and its hole seen as two blobs, etc.): keep the larger.

@@ -798,7 +798,7 @@ TargetDetection DetectTarget(const cv::Mat& gray, const CalibrationTarget& targe
   } else if (target.type == TargetType::kAsymmetricCircleGrid) {
     // OpenCV's finder orders and measures the asymmetric grid (blob centroids).
     std::vector<cv::Point2f> centres;
-    const bool found = cv::findCirclesGrid(255 - gray8, cv::Size(target.cols, target.rows), centres,
+    const bool found = cv::findCirclesGrid(gray8, cv::Size(target.cols, target.rows), centres,
                                            cv::CALIB_CB_ASYMMETRIC_GRID);
     if (!found) {
       out.status = DetectionStatus::kNotFound;

@@ -21,7 +21,10 @@
 // board frame by 180 degrees in its own plane does not change intrinsics.
 //
 // Chessboards: OpenCV's findChessboardCornersSB (fallback findChessboardCorners +
-// cornerSubPix). Asymmetric circle grids: OpenCV's findCirclesGrid (its blob centres).
+// cornerSubPix). Asymmetric circle grids: OpenCV's findCirclesGrid (its blob centres, not
+// refined). CAUTION: OpenCV's asymmetric lattice has twice the row pitch along a row
+// (x = (2 col + row % 2) d, y = row d), CalibrationTarget's has x = (col + (row % 2) / 2) s,
+// y = row s; OpenCV's finder does not find the latter (see the report of issue 5).
 //
 // Thread safety: DetectTarget is reentrant.
 #pragma once

@@ -355,9 +355,7 @@ bool RemeasureCentre(const FeatureObservation& f, const CalibrationTarget& targe
   return centre_px->allFinite();
 }
 
-bool IsCircular(const CalibrationTarget& t) {
-  return t.type == TargetType::kConcentricRings || t.type == TargetType::kCircleGrid;
-}
+bool IsCircular(const CalibrationTarget& t) { return t.type != TargetType::kChessboard; }
 
 // Initial camera, distortion and poses.
 bool Initialise(const std::vector<TargetDetection>& views, const std::vector<bool>& usable,

@@ -2,6 +2,7 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <map>
 #include <opencv2/calib3d.hpp>
@@ -124,6 +125,7 @@ class Detector {
   using GridMap = std::map<std::pair<int, int>, int>;
   void Grow(GridMap* grid, bool bounded, int max_extent) const;
   bool Order(GridMap* result);
+  int OrderAsymmetric(const GridMap& grown, GridMap* result) const;
 
   const cv::Mat& gray_;
   const CalibrationTarget& target_;
@@ -486,6 +488,63 @@ void Detector::Grow(GridMap* grid, bool bounded, int max_extent) const {
   }
 }
 
+// Maps a grown lattice (any unimodular basis) onto the asymmetric board: lattice coordinates
+// (p, q) with board position p (s, 0) + q (s/2, s), i.e. row = q, col = p + floor(q / 2).
+// Tries the small unimodular basis changes; returns how many distinct right-handed orderings
+// cover the whole board exactly (1 = unambiguous, stored in *result).
+int Detector::OrderAsymmetric(const GridMap& grown, GridMap* result) const {
+  std::set<std::vector<int>> seen;
+  int found = 0;
+  for (int m00 = -2; m00 <= 2; ++m00) {
+    for (int m01 = -2; m01 <= 2; ++m01) {
+      for (int m10 = -2; m10 <= 2; ++m10) {
+        for (int m11 = -2; m11 <= 2; ++m11) {
+          if (std::abs(m00 * m11 - m01 * m10) != 1) continue;
+          std::vector<std::array<int, 3>> pqi;
+          int qmin = 1 << 20;
+          for (const auto& [key, idx] : grown) {
+            const int p = m00 * key.first + m01 * key.second;
+            const int q = m10 * key.first + m11 * key.second;
+            pqi.push_back({p, q, idx});
+            qmin = std::min(qmin, q);
+          }
+          GridMap g;
+          int cmin = 1 << 20;
+          std::vector<std::array<int, 3>> rc;
+          for (const auto& [p, q, idx] : pqi) {
+            const int row = q - qmin;
+            const int half_q = q >= 0 ? q / 2 : -((1 - q) / 2);  // floor(q / 2)
+            const int col = p + half_q;
+            rc.push_back({row, col, idx});
+            cmin = std::min(cmin, col);
+          }
+          bool ok = (qmin % 2 == 0);  // row 0 must be an unshifted row
+          for (const auto& [row, col, idx] : rc) {
+            const int c = col - cmin;
+            if (row >= target_.rows || c >= target_.cols ||
+                !g.emplace(std::make_pair(row, c), idx).second)
+              ok = false;
+          }
+          if (!ok || static_cast<int>(g.size()) != target_.NumFeatures()) continue;
+          // Right-handed in the image (board seen from its front).
+          const auto a = g.find({0, 0}), b = g.find({0, 1}), c = g.find({2, 0});
+          if (a == g.end() || b == g.end() || c == g.end()) continue;
+          const Vec2 dcol = cands_[b->second].centre - cands_[a->second].centre;
+          const Vec2 drow = cands_[c->second].centre - cands_[a->second].centre;
+          if (dcol.x() * drow.y() - dcol.y() * drow.x() <= 0) continue;
+          std::vector<int> key;
+          for (const auto& [rcol, idx] : g) key.push_back(idx);
+          if (seen.insert(key).second) {
+            ++found;
+            *result = g;
+          }
+        }
+      }
+    }
+  }
+  return found;
+}
+
 bool Detector::Order(GridMap* result) {
   const int n = static_cast<int>(cands_.size());
   if (target_.type == TargetType::kConcentricRings && !target_.distinct_features.empty()) {
@@ -574,9 +633,12 @@ bool Detector::Order(GridMap* result) {
     return true;
   }
 
-  // Symmetric circle grid: seed from neighbour triples, grow, keep the complete grid.
+  // Circle grids: seed from neighbour triples, grow, keep the complete grid.
+  const bool asymmetric = target_.type == TargetType::kAsymmetricCircleGrid;
+  bool ambiguous = false;
   const int need = target_.rows * target_.cols;
-  const int max_extent = std::max(target_.rows, target_.cols);
+  const int max_extent =
+      asymmetric ? target_.rows + target_.cols : std::max(target_.rows, target_.cols);
   GridMap best;
   int best_partial = 0;
   std::vector<int> order(n);
@@ -613,6 +675,19 @@ bool Detector::Order(GridMap* result) {
         j1 = std::max(j1, key.second);
       }
       const int ei = i1 - i0 + 1, ej = j1 - j0 + 1;
+      if (asymmetric) {
+        if (static_cast<int>(grid.size()) == need) {
+          GridMap ordered;
+          const int found = OrderAsymmetric(grid, &ordered);
+          if (found == 1) {
+            *result = ordered;
+            return true;
+          }
+          if (found > 1) ambiguous = true;
+        }
+        best_partial = std::max(best_partial, static_cast<int>(grid.size()));
+        continue;
+      }
       const bool rectangle =
           static_cast<int>(grid.size()) == need && ((ei == target_.rows && ej == target_.cols) ||
                                                     (ei == target_.cols && ej == target_.rows));
@@ -624,7 +699,12 @@ bool Detector::Order(GridMap* result) {
     }
     if (static_cast<int>(best.size()) == need) break;
   }
-  if (static_cast<int>(best.size()) < need) {
+  if (asymmetric || static_cast<int>(best.size()) < need) {
+    if (ambiguous) {
+      out_->status = DetectionStatus::kAmbiguous;
+      out_->message = "asymmetric grid: several orderings fit; refusing the board";
+      return false;
+    }
     out_->status = DetectionStatus::kNotFound;
     out_->message = util::StrCat("found ", best_partial, " of ", need,
                                  " grid features; a symmetric grid must be fully visible");
@@ -795,24 +875,6 @@ TargetDetection DetectTarget(const cv::Mat& gray, const CalibrationTarget& targe
   out.image_height = gray.rows;
   if (target.type == TargetType::kChessboard) {
     DetectChessboard(gray8, target, &out);
-  } else if (target.type == TargetType::kAsymmetricCircleGrid) {
-    // OpenCV's finder orders and measures the asymmetric grid (blob centroids).
-    std::vector<cv::Point2f> centres;
-    const bool found = cv::findCirclesGrid(gray8, cv::Size(target.cols, target.rows), centres,
-                                           cv::CALIB_CB_ASYMMETRIC_GRID);
-    if (!found) {
-      out.status = DetectionStatus::kNotFound;
-      out.message = "OpenCV found no asymmetric circle grid";
-    } else {
-      out.status = DetectionStatus::kOk;
-      for (int k = 0; k < static_cast<int>(centres.size()); ++k) {
-        FeatureObservation f;
-        f.row = k / target.cols;
-        f.col = k % target.cols;
-        f.centre_px = {centres[k].x, centres[k].y};
-        out.features.push_back(f);
-      }
-    }
   } else {
     Detector d(gray8, target, options, &out);
     d.Run();

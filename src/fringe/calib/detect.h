@@ -21,10 +21,11 @@
 // board frame by 180 degrees in its own plane does not change intrinsics.
 //
 // Chessboards: OpenCV's findChessboardCornersSB (fallback findChessboardCorners +
-// cornerSubPix). Asymmetric circle grids: OpenCV's findCirclesGrid (its blob centres, not
-// refined). CAUTION: OpenCV's asymmetric lattice has twice the row pitch along a row
-// (x = (2 col + row % 2) d, y = row d), CalibrationTarget's has x = (col + (row % 2) / 2) s,
-// y = row s; OpenCV's finder does not find the latter (see the report of issue 5).
+// cornerSubPix). Asymmetric circle grids (CalibrationTarget's layout: odd rows shifted by half
+// a spacing) are grown like symmetric ones and mapped onto the board by the unimodular basis
+// change that covers it completely and right-handed; unique, so no orientation ambiguity.
+// (OpenCV's findCirclesGrid expects its own asymmetric lattice, x = (2 col + row % 2) d,
+// y = row d, and does not find this one.)
 //
 // Thread safety: DetectTarget is reentrant.
 #pragma once

@@ -140,3 +140,33 @@ TEST(DetectTarget, RefusesUnorderableBoard) {
 
 }  // namespace
 }  // namespace fringe::calib
+
+namespace fringe::calib {
+namespace {
+
+// Asymmetric grid (CalibrationTarget's layout): every feature at its true place, unambiguous.
+TEST(DetectTarget, AsymmetricCircleGrid) {
+  CalibrationTarget target;
+  target.type = TargetType::kAsymmetricCircleGrid;
+  target.rows = 7;
+  target.cols = 4;
+  target.spacing_mm = 30;
+  target.outer_radius_mm = 6;
+  const CameraModel cam = SmallCamera();
+  for (double roll : {5.0, 185.0}) {
+    const Rigid3d pose = testing::LookAtBoard(target, 450, 35, 30, roll);
+    const cv::Mat img = testing::RenderTestBoard(target, cam, pose);
+    const auto det = DetectTarget(img, target);
+    ASSERT_TRUE(det.ok()) << det.BriefReport();
+    ASSERT_EQ(static_cast<int>(det.features.size()), target.NumFeatures());
+    const auto truth = testing::TrueCentres(target, cam, pose);
+    int at_truth = 0;
+    for (const auto& f : det.features) {
+      if ((f.centre_px - truth[f.row * target.cols + f.col]).norm() < 0.5) ++at_truth;
+    }
+    EXPECT_EQ(at_truth, target.NumFeatures()) << "roll " << roll;
+  }
+}
+
+}  // namespace
+}  // namespace fringe::calib

@@ -653,12 +653,17 @@ StereoCalibration CalibrateStereo(const std::vector<TargetDetection>& left,
   for (size_t v = 0; v < left.size(); ++v) {
     if (pair[v]) b.poses[v] = VecFromPose(out.left.camera_from_board[v]);
   }
+  // obs_index[cam][view][feature] -> index into b.obs (-1: none), for the epipolar statistics.
+  std::vector<std::vector<int>> obs_index[2];
   for (int cam = 0; cam < 2; ++cam) {
     const auto& views = cam == 0 ? left : right;
     const auto& centres = cam == 0 ? out.left.centres_px : out.right.centres_px;
+    obs_index[cam].resize(views.size());
     for (size_t v = 0; v < views.size(); ++v) {
+      obs_index[cam][v].assign(views[v].features.size(), -1);
       if (!pair[v]) continue;
       for (size_t k = 0; k < views[v].features.size(); ++k) {
+        obs_index[cam][v][k] = static_cast<int>(b.obs.size());
         const auto& f = views[v].features[k];
         Obs o;
         o.cam = cam;
@@ -692,7 +697,8 @@ StereoCalibration CalibrateStereo(const std::vector<TargetDetection>& left,
   for (size_t v = 0; v < left.size(); ++v) {
     if (b.view_used[v]) out.left_from_board[v] = PoseFromVec(b.poses[v]);
   }
-  // Epipolar distances of matched features (same view, same grid position).
+  // Epipolar distances of matched features (same view, same grid position), in the right
+  // image: distance of the right point from the epipolar line of the left one.
   const Rigid3d& rfl = out.rig.right_from_left;
   Eigen::Matrix3d tx;
   const Vec3 t = rfl.translation();
@@ -707,6 +713,9 @@ StereoCalibration CalibrateStereo(const std::vector<TargetDetection>& left,
       for (size_t j = 0; j < right[v].features.size(); ++j) {
         const auto& fr = right[v].features[j];
         if (fr.row != fl.row || fr.col != fl.col) continue;
+        // Only pairs whose observations both stayed in the solution (outliers excluded).
+        const int il = obs_index[0][v][i], ir = obs_index[1][v][j];
+        if (il < 0 || ir < 0 || !b.obs[il].active || !b.obs[ir].active) continue;
         const Vec2 pl =
             i < out.left.centres_px[v].size() ? out.left.centres_px[v][i] : fl.centre_px;
         const Vec2 pr =

@@ -212,8 +212,8 @@ json TargetToJson(const CalibrationTarget& t) {
 
 CalibrationTarget TargetFromJson(const json& j, const std::string& context) {
   if (!j.is_object()) throw Error(StrCat(context, ": expected a JSON object"));
-  CalibrationTarget t;
-  try {
+  return WithJsonContext(context, [&] {
+    CalibrationTarget t;
     if (j.contains("type")) t.type = TargetTypeFromName(j["type"].get<std::string>());
     if (j.contains("rows")) t.rows = Integer(j, "rows", context);
     if (j.contains("cols")) t.cols = Integer(j, "cols", context);
@@ -232,14 +232,8 @@ CalibrationTarget TargetFromJson(const json& j, const std::string& context) {
       }
     }
     t.Check();
-  } catch (const json::exception& e) {
-    throw Error(StrCat(context, ": ", e.what()));
-  } catch (const Error& e) {
-    const std::string msg = e.what();
-    if (msg.rfind(context, 0) == 0) throw;
-    throw Error(StrCat(context, ": ", msg));
-  }
-  return t;
+    return t;
+  });
 }
 
 CalibrationTarget ReadTarget(const std::filesystem::path& path) {

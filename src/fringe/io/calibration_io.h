@@ -10,6 +10,7 @@
 #include "fringe/geometry/camera.h"
 #include "fringe/geometry/rigid3.h"
 #include "fringe/geometry/stereo_rig.h"
+#include "fringe/util/error.h"
 
 namespace fringe::io {
 
@@ -29,6 +30,22 @@ StereoRig RigFromJson(const nlohmann::json& j, const std::string& context);
 StereoRig ReadRig(const std::filesystem::path& path);
 void WriteRig(const std::filesystem::path& path, const StereoRig& rig,
               const nlohmann::json& extra = nlohmann::json::object());
+
+// Runs parse() and rethrows nlohmann::json exceptions, and fringe::Errors that do not already
+// start with `context`, as fringe::Error("<context>: <what>"), so every JSON reader names the
+// file and field the same way.
+template <typename Parse>
+auto WithJsonContext(const std::string& context, Parse&& parse) -> decltype(parse()) {
+  try {
+    return parse();
+  } catch (const nlohmann::json::exception& e) {
+    throw Error(context + ": " + e.what());
+  } catch (const Error& e) {
+    const std::string msg = e.what();
+    if (msg.rfind(context, 0) == 0) throw;
+    throw Error(context + ": " + msg);
+  }
+}
 
 // Reads JSON from a file with errors naming the file; writes JSON atomically, pretty printed.
 nlohmann::json ReadJson(const std::filesystem::path& path);

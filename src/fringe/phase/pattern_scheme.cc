@@ -238,8 +238,8 @@ json SchemeToJson(const PatternScheme& scheme) {
 
 PatternScheme SchemeFromJson(const json& j, const std::string& context) {
   if (!j.is_object()) throw Error(StrCat(context, ": expected a JSON object"));
-  PatternScheme s;
-  try {
+  return io::WithJsonContext(context, [&] {
+    PatternScheme s;
     if (j.contains("format") && j["format"] != "fringe-patterns") {
       throw Error(
           StrCat(context, ": format is ", j["format"].dump(), ", expected \"fringe-patterns\""));
@@ -282,14 +282,8 @@ PatternScheme SchemeFromJson(const json& j, const std::string& context) {
     s.dark_frame = j.value("dark_frame", false);
     if (j.contains("images")) s.image_names = j["images"].get<std::vector<std::string>>();
     s.Check();
-  } catch (const json::exception& e) {
-    throw Error(StrCat(context, ": ", e.what()));
-  } catch (const Error& e) {
-    const std::string msg = e.what();
-    if (msg.rfind(context, 0) == 0) throw;
-    throw Error(StrCat(context, ": ", msg));
-  }
-  return s;
+    return s;
+  });
 }
 
 PatternScheme ReadScheme(const std::filesystem::path& path) {

@@ -60,7 +60,8 @@ void AddReconstructCommand(CLI::App& app) {
                   "With --opencv-intrinsics: OpenCV stereo extrinsics (R T, millimetres)");
   sub->add_option("--scheme", a->scheme,
                   "Scheme manifest or preset name; default VIEW/manifest.json, "
-                  "VIEW/left/manifest.json or VIEW/../manifest.json");
+                  "VIEW/left/manifest.json, VIEW/../manifest.json or, in a scan folder, "
+                  "VIEW/../../scheme.json");
   sub->add_option("--out", a->out, "Output PLY (organized: keeps the left camera grid)")
       ->required();
   sub->add_option("--residuals", a->residuals,
@@ -95,7 +96,8 @@ void AddReconstructCommand(CLI::App& app) {
     }
     const std::string scheme_arg =
         a->scheme.empty() ? FirstExisting({view / "manifest.json", view / "left" / "manifest.json",
-                                           view.parent_path() / "manifest.json"},
+                                           view.parent_path() / "manifest.json",
+                                           view.parent_path().parent_path() / "scheme.json"},
                                           "scheme manifest", "--scheme")
                                 .string()
                           : a->scheme;

@@ -176,21 +176,15 @@ struct SetCoefficients {
 SetCoefficients LeastSquaresCoefficients(const PhaseShiftSet& set) {
   const auto shifts = set.Shifts();
   const int n = static_cast<int>(shifts.size());
-  cv::Mat m(n, 3, CV_64F);
-  for (int k = 0; k < n; ++k) {
-    m.at<double>(k, 0) = 1.0;
-    m.at<double>(k, 1) = std::cos(shifts[k]);
-    m.at<double>(k, 2) = -std::sin(shifts[k]);
-  }
-  const cv::Mat q = (m.t() * m).inv(cv::DECOMP_SVD);
-  const cv::Mat c = q * m.t();  // 3 x n
+  cv::Matx33d cov;
+  const cv::Mat c = DemodulationMatrix(shifts, &cov);  // 3 x n
   SetCoefficients out;
   for (int k = 0; k < n; ++k) {
     out.ca.push_back(static_cast<float>(c.at<double>(0, k)));
     out.cc.push_back(static_cast<float>(c.at<double>(1, k)));
     out.cs.push_back(static_cast<float>(c.at<double>(2, k)));
   }
-  out.cov = cv::Matx33d(q.ptr<double>());
+  out.cov = cov;
   return out;
 }
 
@@ -683,6 +677,19 @@ DecodeResult Decode(const PatternScheme& scheme, const std::vector<cv::Mat>& ima
   DecodeResult r;
   Decode(scheme, images, options, &r);
   return r;
+}
+
+cv::Mat DemodulationMatrix(const std::vector<double>& shifts, cv::Matx33d* cov) {
+  const int n = static_cast<int>(shifts.size());
+  cv::Mat m(n, 3, CV_64F);
+  for (int k = 0; k < n; ++k) {
+    m.at<double>(k, 0) = 1.0;
+    m.at<double>(k, 1) = std::cos(shifts[k]);
+    m.at<double>(k, 2) = -std::sin(shifts[k]);
+  }
+  const cv::Mat q = (m.t() * m).inv(cv::DECOMP_SVD);
+  if (cov) *cov = cv::Matx33d(q.ptr<double>());
+  return q * m.t();
 }
 
 }  // namespace fringe::phase

@@ -34,6 +34,13 @@
 
 namespace fringe::phase {
 
+// Least-squares demodulation of one phase-shift set with the model
+// I_k = A + a cos(shift_k) - b sin(shift_k) (a = B cos phi, b = B sin phi): returns the 3 x N
+// CV_64F matrix C with (A, a, b) = C * (I_0 .. I_{N-1}), and in *cov (when given) (M^T M)^-1,
+// the covariance of (A, a, b) per unit noise variance. Shared by the decoder and the gamma
+// model so both demodulate identically.
+cv::Mat DemodulationMatrix(const std::vector<double>& shifts, cv::Matx33d* cov = nullptr);
+
 struct DecodeOptions {
   // Camera noise standard deviation (DN of the images' bit depth), > 0. Only used to derive the
   // automatic modulation threshold.

@@ -1,5 +1,7 @@
 #include "fringe/phase/gamma.h"
 
+#include "fringe/phase/decode.h"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -24,13 +26,7 @@ struct Demodulator {
   std::vector<double> cc, cs;
   explicit Demodulator(const std::vector<double>& shifts) {
     const int n = static_cast<int>(shifts.size());
-    cv::Mat m(n, 3, CV_64F);
-    for (int k = 0; k < n; ++k) {
-      m.at<double>(k, 0) = 1.0;
-      m.at<double>(k, 1) = std::cos(shifts[k]);
-      m.at<double>(k, 2) = -std::sin(shifts[k]);
-    }
-    const cv::Mat c = (m.t() * m).inv(cv::DECOMP_SVD) * m.t();
+    const cv::Mat c = DemodulationMatrix(shifts);
     for (int k = 0; k < n; ++k) {
       cc.push_back(c.at<double>(1, k));
       cs.push_back(c.at<double>(2, k));

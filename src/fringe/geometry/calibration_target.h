@@ -14,7 +14,8 @@ namespace fringe {
 enum class TargetType {
   kConcentricRings,       // dark annulus (outer/inner radius) per feature on white
   kCircleGrid,            // solid dark circles (radius = outer_radius_mm), symmetric grid
-  kAsymmetricCircleGrid,  // OpenCV-style asymmetric grid: odd rows shifted by spacing/2
+  kAsymmetricCircleGrid,  // rows spacing apart, odd rows shifted by spacing/2 (NOT OpenCV's
+                          // layout, whose rows are spacing/2 apart)
   kChessboard,            // rows x cols INNER corners, square size = spacing_mm
 };
 

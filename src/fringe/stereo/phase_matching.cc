@@ -25,6 +25,10 @@ struct Run {
   int begin = 0;
   int end = 0;
   bool increasing = true;
+  // row[begin] and env[end], kept here so the per-pixel scan over a row's runs reads one
+  // contiguous array instead of two scattered samples per run.
+  float first = 0;
+  float last = 0;
 };
 
 using RowRuns = std::vector<std::vector<Run>>;
@@ -43,11 +47,11 @@ RowRuns FindRuns(const cv::Mat& rect_phase, double max_step, double max_reversal
       int dir = 0;
       auto close = [&](int end) {
         if (begin < 0 || end <= begin) return;
-        out.push_back({begin, end, dir > 0});
         env[begin] = row[begin];
         for (int u = begin + 1; u <= end; ++u) {
           env[u] = dir > 0 ? std::max(env[u - 1], row[u]) : std::min(env[u - 1], row[u]);
         }
+        out.push_back({begin, end, dir > 0});
       };
       for (int u = 0; u + 1 < rect_phase.cols; ++u) {
         const float a = row[u], b = row[u + 1];
@@ -69,6 +73,12 @@ RowRuns FindRuns(const cv::Mat& rect_phase, double max_step, double max_reversal
         }
       }
       close(rect_phase.cols - 1);
+      // After all runs are closed: a run starting at the previous run's turning point resets
+      // that envelope sample to the row's value, and the crossing search uses the final one.
+      for (Run& run : out) {
+        run.first = row[run.begin];
+        run.last = env[run.end];
+      }
     }
   });
   return runs;
@@ -120,7 +130,7 @@ int FindCrossing(const RectifiedPhase& rp, int v, double phi, CrossingInterpolat
   const float* env = rp.envelope.ptr<float>(v);
   int count = 0;
   for (const Run& run : rp.runs[v]) {
-    const double a = row[run.begin], b = env[run.end];
+    const double a = run.first, b = run.last;
     // Strict at the start so that a run beginning exactly at the previous run's turning point
     // does not count that crossing twice.
     if (run.increasing ? (phi <= a || phi > b) : (phi >= a || phi < b)) continue;

@@ -87,13 +87,37 @@ RowRuns FindRuns(const cv::Mat& rect_phase, double max_step, double max_reversal
 // Position u where the row's phase first equals phi in one run (the caller checked that phi
 // lies within the run's envelope range).
 double CrossingInRun(const float* row, const float* env, const Run& run, double phi,
-                     CrossingInterpolation interp) {
+                     CrossingInterpolation interp, int* hint) {
   int lo = run.begin, hi = run.end;  // invariant: env[lo] "below" phi, env[hi] not below
+  auto below = [&](int u) { return run.increasing ? env[u] < phi : env[u] > phi; };
+  // The envelope is monotone, so "below" flips exactly once in (begin, end]: any bracketing
+  // finds the same sample. Neighbouring pixels cross close to each other, so gallop out from
+  // the previous crossing (*hint) before halving; this saves most of the dependent loads.
+  const int h = *hint;
+  if (h > lo && h < hi) {
+    if (below(h)) {
+      lo = h;
+      int step = 1;
+      while (lo + step < hi && below(lo + step)) {
+        lo += step;
+        step *= 2;
+      }
+      if (lo + step < hi) hi = lo + step;
+    } else {
+      hi = h;
+      int step = 1;
+      while (hi - step > lo && !below(hi - step)) {
+        hi -= step;
+        step *= 2;
+      }
+      if (hi - step > lo) lo = hi - step;
+    }
+  }
   while (hi - lo > 1) {
     const int mid = (lo + hi) / 2;
-    const bool below = run.increasing ? env[mid] < phi : env[mid] > phi;
-    (below ? lo : hi) = mid;
+    (below(mid) ? lo : hi) = mid;
   }
+  *hint = hi;
   // env[hi] == row[hi] (a new extreme) and row[lo] <= env[lo]: phi is bracketed by the samples.
   lo = hi - 1;
   const double p0 = row[lo], p1 = row[lo + 1];
@@ -124,7 +148,7 @@ struct RectifiedPhase {
 };
 
 int FindCrossing(const RectifiedPhase& rp, int v, double phi, CrossingInterpolation interp,
-                 double* u) {
+                 double* u, int* hint) {
   if (v < 0 || v >= rp.phase.rows) return 0;
   const float* row = rp.phase.ptr<float>(v);
   const float* env = rp.envelope.ptr<float>(v);
@@ -135,7 +159,7 @@ int FindCrossing(const RectifiedPhase& rp, int v, double phi, CrossingInterpolat
     // does not count that crossing twice.
     if (run.increasing ? (phi <= a || phi > b) : (phi >= a || phi < b)) continue;
     if (++count > 1) return 2;
-    *u = CrossingInRun(row, env, run, phi, interp);
+    *u = CrossingInRun(row, env, run, phi, interp, hint);
   }
   return count;
 }
@@ -143,15 +167,16 @@ int FindCrossing(const RectifiedPhase& rp, int v, double phi, CrossingInterpolat
 enum class RowMatch { kOk, kNone, kAmbiguous, kDiscontinuity };
 
 // Crossing at fractional rectified row v: from rows floor(v) and floor(v)+1, interpolated.
+// hints: the caller's last crossing positions in the two rows (search start only; any value).
 RowMatch MatchAtRow(const RectifiedPhase& rp, double v, double phi, const MatchingOptions& options,
-                    double* u) {
+                    double* u, int* hints) {
   constexpr double kOnRow = 1e-3;  // closer than this to a row: that row alone decides
   const int v0 = static_cast<int>(std::floor(v));
   const double w = v - v0;
   double u0 = 0, u1 = 0;
   int n0 = 1, n1 = 1;
-  if (w < 1 - kOnRow) n0 = FindCrossing(rp, v0, phi, options.interpolation, &u0);
-  if (w > kOnRow) n1 = FindCrossing(rp, v0 + 1, phi, options.interpolation, &u1);
+  if (w < 1 - kOnRow) n0 = FindCrossing(rp, v0, phi, options.interpolation, &u0, &hints[0]);
+  if (w > kOnRow) n1 = FindCrossing(rp, v0 + 1, phi, options.interpolation, &u1, &hints[1]);
   if (n0 == 0 || n1 == 0) return RowMatch::kNone;
   if (n0 > 1 || n1 > 1) return RowMatch::kAmbiguous;
   if (w <= kOnRow) {
@@ -270,6 +295,7 @@ MatchResult PhaseMatcher::Match(const PhaseImage& left, const PhaseImage& right)
       const auto* rays = left_rays_.ptr<cv::Vec3f>(r);
       auto* right_px_row = result.right_px.ptr<cv::Vec2f>(r);
       float* err_row = result.reprojection_error_px.ptr<float>(r);
+      int right_hints[2] = {-1, -1}, left_hints[2] = {-1, -1};
       for (int c = 0; c < w; ++c) {
         const double phi = phi_row[c];
         if (!std::isfinite(phi)) continue;
@@ -277,7 +303,7 @@ MatchResult PhaseMatcher::Match(const PhaseImage& left, const PhaseImage& right)
         ++s.left_valid;
         const double ul = rect_px[c][0], vl = rect_px[c][1];
         double ur = 0;
-        switch (MatchAtRow(rect_right, vl, phi, options_, &ur)) {
+        switch (MatchAtRow(rect_right, vl, phi, options_, &ur, right_hints)) {
           case RowMatch::kOk:
             break;
           case RowMatch::kNone:
@@ -291,7 +317,7 @@ MatchResult PhaseMatcher::Match(const PhaseImage& left, const PhaseImage& right)
             continue;
         }
         double ul_back = 0;
-        if (MatchAtRow(rect_left, vl, phi, options_, &ul_back) != RowMatch::kOk ||
+        if (MatchAtRow(rect_left, vl, phi, options_, &ul_back, left_hints) != RowMatch::kOk ||
             std::abs(ul_back - ul) > options_.max_lr_error_px) {
           ++s.lr_inconsistent;
           continue;

@@ -123,31 +123,42 @@ GridNormalSummary EstimateGridNormals(OrganizedPointCloud* grid, const GridNorma
       }
     }
   });
-  // Two-pass chessboard distance transform (exact for the L-infinity metric).
-  constexpr int kFar = 1 << 20;
-  std::vector<int> dist(pts.size());
-  for (size_t i = 0; i < pts.size(); ++i) dist[i] = edge[i] ? 0 : kFar;
-  for (int r = 0; r < h; ++r) {
-    for (int c = 0; c < w; ++c) {
-      int& d = dist[grid->index(c, r)];
-      for (int dc = -1; dc <= 1; ++dc) {
-        if (r > 0 && c + dc >= 0 && c + dc < w)
-          d = std::min(d, dist[grid->index(c + dc, r - 1)] + 1);
+  // Chessboard distance to the nearest edge pixel, clamped at the window radius (only
+  // min(radius, distance) is used). L-infinity distance is separable: per row the distance along
+  // the row, then per pixel the minimum over rows within the radius of max(row offset, that).
+  // Both passes run in parallel (a two-pass raster transform is serial).
+  const int max_rad = options.window_radius_px;
+  std::vector<int> row_dist(pts.size());
+  tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const auto& rows) {
+    for (int r = rows.begin(); r < rows.end(); ++r) {
+      int* d = &row_dist[grid->index(0, r)];
+      const uint8_t* e = &edge[grid->index(0, r)];
+      int last = max_rad;
+      for (int c = 0; c < w; ++c) {
+        last = e[c] ? 0 : std::min(last + 1, max_rad);
+        d[c] = last;
       }
-      if (c > 0) d = std::min(d, dist[grid->index(c - 1, r)] + 1);
+      last = max_rad;
+      for (int c = w - 1; c >= 0; --c) {
+        last = e[c] ? 0 : std::min(last + 1, max_rad);
+        d[c] = std::min(d[c], last);
+      }
     }
-  }
-  for (int r = h - 1; r >= 0; --r) {
-    for (int c = w - 1; c >= 0; --c) {
-      int& d = dist[grid->index(c, r)];
-      for (int dc = -1; dc <= 1; ++dc) {
-        if (r + 1 < h && c + dc >= 0 && c + dc < w) {
-          d = std::min(d, dist[grid->index(c + dc, r + 1)] + 1);
+  });
+  std::vector<int> dist(pts.size());
+  tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const auto& rows) {
+    for (int r = rows.begin(); r < rows.end(); ++r) {
+      int* d = &dist[grid->index(0, r)];
+      std::copy_n(&row_dist[grid->index(0, r)], w, d);
+      for (int k = 1; k <= max_rad; ++k) {
+        for (const int rr : {r - k, r + k}) {
+          if (rr < 0 || rr >= h) continue;
+          const int* o = &row_dist[grid->index(0, rr)];
+          for (int c = 0; c < w; ++c) d[c] = std::min(d[c], std::max(k, o[c]));
         }
       }
-      if (c + 1 < w) d = std::min(d, dist[grid->index(c + 1, r)] + 1);
     }
-  }
+  });
 
   // Integral images (h+1) x (w+1) x kChannels: rows in parallel, then columns in parallel.
   // Left uninitialized (no serial zero fill of ~100 MB): the parallel row pass writes every

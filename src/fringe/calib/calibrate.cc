@@ -511,6 +511,19 @@ void FillCameraResult(const Bundle& b, int cam, const std::vector<TargetDetectio
   }
 }
 
+// Which of fx fy cx cy k1 k2 p1 p2 k3 the refinement estimates (the rest stay fixed).
+std::array<bool, kNumIntrinsics> FreeIntrinsics(const CalibrationOptions& options) {
+  return {true,
+          true,
+          true,
+          true,
+          true,
+          true,
+          options.estimate_tangential,
+          options.estimate_tangential,
+          options.estimate_k3};
+}
+
 }  // namespace
 
 CameraCalibration CalibrateCamera(const std::vector<TargetDetection>& views,
@@ -548,15 +561,7 @@ CameraCalibration CalibrateCamera(const std::vector<TargetDetection>& views,
     return out;
   }
   b.view_used = usable;
-  b.free_intr = {true,
-                 true,
-                 true,
-                 true,
-                 true,
-                 true,
-                 options.estimate_tangential,
-                 options.estimate_tangential,
-                 options.estimate_k3};
+  b.free_intr = FreeIntrinsics(options);
   for (size_t v = 0; v < views.size(); ++v) {
     if (!usable[v]) continue;
     for (const auto& f : views[v].features) {
@@ -639,15 +644,7 @@ StereoCalibration CalibrateStereo(const std::vector<TargetDetection>& left,
   Bundle b;
   b.cams = {out.left.camera, out.right.camera};
   b.right_from_left = VecFromPose(rel[best]);
-  b.free_intr = {true,
-                 true,
-                 true,
-                 true,
-                 true,
-                 true,
-                 options.estimate_tangential,
-                 options.estimate_tangential,
-                 options.estimate_k3};
+  b.free_intr = FreeIntrinsics(options);
   b.view_used = pair;
   b.poses.assign(left.size(), Vec6::Zero());
   for (size_t v = 0; v < left.size(); ++v) {

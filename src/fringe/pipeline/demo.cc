@@ -4,6 +4,8 @@
 #include <cmath>
 #include <fstream>
 #include <iomanip>
+#include <limits>
+#include <map>
 #include <sstream>
 
 #include "fringe/calib/calibrate_folder.h"

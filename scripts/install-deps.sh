@@ -15,7 +15,10 @@ packages=(
   nlohmann-json3-dev                    # JSON
   libgtest-dev libgmock-dev             # tests
   libbenchmark-dev                      # benchmarks
-  libopen3d-dev                         # peer in benchmarks only (ICP, normals)
+  libceres-dev                          # nonlinear least squares (calibration, marker adjustment)
+  libopen3d-dev                         # FPFH + RANSAC coarse alignment, Poisson meshing; peer in benchmarks
+  libcgal-dev                           # meshing alternative measured against Open3D
+  pybind11-dev python3-pybind11 python3-dev python3-numpy python3-pytest   # Python module
 )
 
 missing=()

@@ -109,6 +109,10 @@ class Detector {
         gradient_(gray8, options.edges.smoothing_sigma_px) {}
 
   void Run();
+  // Blob finding, subpixel measurement and de-duplication (Run's first half): fills cands_.
+  void FindCandidates();
+  // The candidates as unordered observations (row = col = -1), in candidate order.
+  std::vector<FeatureObservation> CandidateObservations() const;
 
  private:
   void FindBlobs(std::vector<Blob>* blobs);
@@ -768,7 +772,7 @@ bool Detector::Order(GridMap* result) {
   return true;
 }
 
-void Detector::Run() {
+void Detector::FindCandidates() {
   std::vector<Blob> blobs;
   FindBlobs(&blobs);
   // Subpixel measurement of every blob in parallel (read-only image data); merged in blob
@@ -802,6 +806,26 @@ void Detector::Run() {
   }
   cands_ = std::move(unique);
   out_->num_candidates = static_cast<int>(cands_.size());
+}
+
+std::vector<FeatureObservation> Detector::CandidateObservations() const {
+  std::vector<FeatureObservation> out;
+  for (const Candidate& c : cands_) {
+    FeatureObservation f;
+    f.row = f.col = -1;
+    f.centre_px = c.centre;
+    f.outer_edge_px = c.outer_edge;
+    f.inner_edge_px = c.inner_edge;
+    f.outer = c.outer;
+    f.inner = c.inner;
+    f.fit_rms_px = c.fit_rms;
+    out.push_back(std::move(f));
+  }
+  return out;
+}
+
+void Detector::Run() {
+  FindCandidates();
   GridMap grid;
   if (!Order(&grid)) return;
   std::vector<bool> used(cands_.size(), false);
@@ -880,6 +904,41 @@ TargetDetection DetectTarget(const cv::Mat& gray, const CalibrationTarget& targe
     d.Run();
   }
   out.seconds = timer.ElapsedSeconds();
+  return out;
+}
+
+std::string RingDetection::BriefReport() const {
+  return util::StrCat(rings.size(), " rings, ", rejected.size(), " blobs rejected");
+}
+
+RingDetection DetectRings(const cv::Mat& gray, double inner_to_outer_ratio,
+                          const DetectionOptions& options) {
+  options.Check();
+  util::CheckOption(inner_to_outer_ratio > 0 && inner_to_outer_ratio < 1, "DetectRings",
+                    "inner_to_outer_ratio", inner_to_outer_ratio, "must be in (0, 1)");
+  if (gray.empty() || gray.channels() != 1 || (gray.depth() != CV_8U && gray.depth() != CV_16U)) {
+    throw Error("DetectRings: expected a non-empty single-channel 8- or 16-bit image");
+  }
+  cv::Mat gray8;
+  if (gray.depth() == CV_16U) {
+    cv::normalize(gray, gray8, 0, 255, cv::NORM_MINMAX, CV_8U);
+  } else {
+    gray8 = gray;
+  }
+  // A ring target of unit outer radius without centre dots: the candidate stage of the board
+  // detector is exactly a ring finder.
+  CalibrationTarget rings;
+  rings.type = TargetType::kConcentricRings;
+  rings.outer_radius_mm = 1.0;
+  rings.inner_radius_mm = inner_to_outer_ratio;
+  rings.dot_radius_mm = 0;
+  rings.distinct_features.clear();
+  TargetDetection scratch;
+  Detector d(gray8, rings, options, &scratch);
+  d.FindCandidates();
+  RingDetection out;
+  out.rings = d.CandidateObservations();
+  out.rejected = std::move(scratch.rejected);
   return out;
 }
 

@@ -93,4 +93,18 @@ struct TargetDetection {
 TargetDetection DetectTarget(const cv::Mat& gray, const CalibrationTarget& target,
                              const DetectionOptions& options = {});
 
+// Concentric dark rings anywhere in an image, not ordered on any grid: a dark annulus around a
+// bright disk whose radius is inner_to_outer_ratio times the annulus' outer radius (the sticky
+// markers of multi-view registration). Same candidate search, subpixel edges, ellipse fits and
+// pole-polar ring centres as DetectTarget's ring boards (the true projected centre of the
+// circles' common centre for a planar ring, whatever the perspective), with the same rejection
+// reasons. Features have row = col = -1.
+struct RingDetection {
+  std::vector<FeatureObservation> rings;    // largest first
+  std::vector<RejectedCandidate> rejected;  // blobs that are not rings of this ratio, with why
+  std::string BriefReport() const;
+};
+RingDetection DetectRings(const cv::Mat& gray, double inner_to_outer_ratio,
+                          const DetectionOptions& options = {});
+
 }  // namespace fringe::calib

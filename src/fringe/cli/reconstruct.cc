@@ -10,6 +10,7 @@
 #include "fringe/io/ply.h"
 #include "fringe/phase/pattern_scheme.h"
 #include "fringe/phase/stack_io.h"
+#include "fringe/registration/markers.h"
 #include "fringe/stereo/reconstruct_view.h"
 #include "fringe/util/error.h"
 
@@ -43,6 +44,7 @@ void AddReconstructCommand(CLI::App& app) {
     bool ascii = false;
     bool no_normals = false;
     bool keep_outliers = false;
+    bool no_markers = false;
     stereo::ReconstructionOptions options;
   };
   auto a = std::make_shared<Args>();
@@ -82,6 +84,8 @@ void AddReconstructCommand(CLI::App& app) {
   sub->add_flag("--no-normals", a->no_normals, "Do not estimate normals");
   sub->add_flag("--keep-outliers", a->keep_outliers, "Do not remove flying pixels / small patches");
   sub->add_flag("--ascii", a->ascii, "Write ASCII PLY");
+  sub->add_flag("--no-markers", a->no_markers,
+                "Do not detect sticky markers (default: OUT.markers.json beside the cloud)");
   sub->callback([a] {
     const fs::path view(a->view);
     // left/ and right/ (fringe's layout) or L/ and R/ (common in other tools' captures).
@@ -136,6 +140,13 @@ void AddReconstructCommand(CLI::App& app) {
                  {"fringe reconstruct: left camera frame, mm; quality = fringe modulation (DN)"});
     if (!a->residuals.empty()) io::WriteImage(a->residuals, rec.reprojection_error_px);
     std::cout << "wrote " << a->out << " (" << rec.summary.points << " points)\n";
+    if (!a->no_markers) {
+      const registration::ViewMarkers markers =
+          registration::DetectViewMarkers(rig, rec.texture_left, rec.texture_right, rec.cloud);
+      const fs::path markers_path = registration::MarkersPathForCloud(a->out);
+      registration::WriteViewMarkers(markers_path, markers.markers);
+      std::cout << markers.summary.BriefReport() << "\nwrote " << markers_path.string() << "\n";
+    }
   });
 }
 

@@ -88,6 +88,9 @@ ViewReconstruction ViewReconstructor::Reconstruct(const std::vector<cv::Mat>& le
   s.decode_left = dl.summary;
   s.decode_right = dr.summary;
   s.decode_s = timer.ElapsedSeconds();
+  const double texture_scale = left_images[0].depth() == CV_16U ? 255.0 / 65535.0 : 1.0;
+  dl.background.convertTo(out.texture_left, CV_32F, texture_scale);
+  dr.background.convertTo(out.texture_right, CV_32F, texture_scale);
   out.cloud = OrganizedPointCloud(rig_.left.width, rig_.left.height);
   if (dl.summary.status != phase::DecodeStatus::kSuccess ||
       dr.summary.status != phase::DecodeStatus::kSuccess) {
@@ -98,7 +101,6 @@ ViewReconstruction ViewReconstructor::Reconstruct(const std::vector<cv::Mat>& le
     s.total_s = total.ElapsedSeconds();
     return out;
   }
-  const double texture_scale = left_images[0].depth() == CV_16U ? 255.0 / 65535.0 : 1.0;
 
   timer.Restart();
   MatchResult m = matcher_.Match(ToPhaseImage(dl, texture_scale), ToPhaseImage(dr, texture_scale));

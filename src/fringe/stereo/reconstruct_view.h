@@ -61,6 +61,9 @@ struct ReconstructionSummary {
 struct ViewReconstruction {
   OrganizedPointCloud cloud;      // LEFT grid, LEFT camera frame, mm
   cv::Mat reprojection_error_px;  // CV_32F on the left grid, NaN where no point
+  // Decoded fringe background (texture) of each camera on its own grid, CV_32F, 0-255 scale:
+  // the images marker detection looks at (registration/markers.h).
+  cv::Mat texture_left, texture_right;
   ReconstructionSummary summary;
 };
 

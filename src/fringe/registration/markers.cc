@@ -1,0 +1,353 @@
+#include "fringe/registration/markers.h"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <map>
+
+#include "fringe/io/calibration_io.h"
+#include "fringe/registration/json_util.h"
+#include "fringe/stereo/triangulation.h"
+#include "fringe/util/error.h"
+#include "fringe/util/timer.h"
+
+namespace fringe::registration {
+
+using Eigen::Vector2d;
+using Eigen::Vector3d;
+using nlohmann::json;
+using util::StrCat;
+
+void MarkerDetectionOptions::Check() const {
+  rings.Check();
+  const char* o = "MarkerDetectionOptions";
+  util::CheckOption(inner_to_outer_ratio > 0 && inner_to_outer_ratio < 1, o, "inner_to_outer_ratio",
+                    inner_to_outer_ratio, "must be in (0, 1)");
+  util::CheckOption(max_epipolar_px > 0, o, "max_epipolar_px", max_epipolar_px, "must be > 0");
+  util::CheckOption(max_depth_difference_mm > 0, o, "max_depth_difference_mm",
+                    max_depth_difference_mm, "must be > 0");
+  util::CheckOption(relative_depth_difference >= 0, o, "relative_depth_difference",
+                    relative_depth_difference, "must be >= 0");
+  util::CheckOption(min_outer_radius_mm > 0, o, "min_outer_radius_mm", min_outer_radius_mm,
+                    "must be > 0");
+  util::CheckOption(max_outer_radius_mm > min_outer_radius_mm, o, "max_outer_radius_mm",
+                    max_outer_radius_mm, "must be > min_outer_radius_mm");
+  util::CheckOption(surface_radius_factor > 1, o, "surface_radius_factor", surface_radius_factor,
+                    "must be > 1");
+  util::CheckOption(min_surface_points >= 3, o, "min_surface_points", min_surface_points,
+                    "must be >= 3");
+}
+
+const char* ToString(MarkerDetectionStatus s) {
+  switch (s) {
+    case MarkerDetectionStatus::kOk:
+      return "ok";
+    case MarkerDetectionStatus::kNoMarkers:
+      return "no markers";
+  }
+  return "?";
+}
+
+std::string MarkerDetectionSummary::BriefReport() const {
+  std::string s = StrCat("markers: ", ToString(status), ", ", markers, " markers from ", rings_left,
+                         " left / ", rings_right, " right rings (", ambiguous_resolved,
+                         " resolved by depth), ", rejected.size(), " rejected");
+  if (!message.empty()) s += ": " + message;
+  return s;
+}
+
+double EpipolarDistancePx(const StereoRig& rig, const Vector2d& left_px, const Vector2d& right_px) {
+  const Vector2d xl = rig.left.Unproject(left_px);
+  const Vector2d xr = rig.right.Unproject(right_px);
+  const Eigen::Matrix3d R = rig.right_from_left.rotation_matrix();
+  const Vector3d& t = rig.right_from_left.translation();
+  Eigen::Matrix3d tx;
+  tx << 0, -t.z(), t.y(), t.z(), 0, -t.x(), -t.y(), t.x(), 0;
+  const Vector3d line = (tx * R) * Vector3d(xl.x(), xl.y(), 1);
+  const double norm = line.head<2>().norm();
+  if (norm <= 0) return std::numeric_limits<double>::infinity();
+  return std::abs(line.dot(Vector3d(xr.x(), xr.y(), 1))) / norm * rig.right.fx;
+}
+
+namespace {
+
+cv::Mat To8Bit(const cv::Mat& texture, const char* side) {
+  if (texture.empty() || texture.channels() != 1) {
+    throw Error(StrCat("DetectViewMarkers: the ", side, " texture is empty or not single-channel"));
+  }
+  if (texture.depth() == CV_8U) return texture;
+  if (texture.depth() != CV_32F) {
+    throw Error(StrCat("DetectViewMarkers: the ", side, " texture must be CV_8U or CV_32F"));
+  }
+  cv::Mat f = texture.clone();
+  cv::patchNaNs(f, 0);
+  cv::Mat out;
+  f.convertTo(out, CV_8U);
+  return out;
+}
+
+// The surface around a marker: a plane fitted to the cloud's valid points within radius_px of
+// the left image centre, with one pass dropping points off the plane (the ring's own dark, noisy
+// points, a neighbouring step).
+struct SurfacePlane {
+  bool ok = false;
+  Vector3d point = Vector3d::Zero();
+  Vector3d normal = Vector3d::UnitZ();  // toward the sensor
+  int points = 0;
+};
+
+SurfacePlane FitSurface(const OrganizedPointCloud& cloud, const Vector2d& centre_px,
+                        double radius_px, int min_points) {
+  SurfacePlane plane;
+  std::vector<Vector3d> pts;
+  const int c0 = static_cast<int>(std::floor(centre_px.x() - radius_px));
+  const int c1 = static_cast<int>(std::ceil(centre_px.x() + radius_px));
+  const int r0 = static_cast<int>(std::floor(centre_px.y() - radius_px));
+  const int r1 = static_cast<int>(std::ceil(centre_px.y() + radius_px));
+  for (int r = std::max(0, r0); r <= std::min(cloud.height - 1, r1); ++r) {
+    for (int c = std::max(0, c0); c <= std::min(cloud.width - 1, c1); ++c) {
+      if ((Vector2d(c, r) - centre_px).norm() > radius_px) continue;
+      const size_t i = cloud.index(c, r);
+      if (!cloud.valid[i] || !cloud.cloud.points[i].allFinite()) continue;
+      pts.push_back(cloud.cloud.points[i]);
+    }
+  }
+  for (int pass = 0; pass < 2; ++pass) {
+    if (static_cast<int>(pts.size()) < min_points) return plane;
+    Vector3d mean = Vector3d::Zero();
+    for (const auto& p : pts) mean += p;
+    mean /= static_cast<double>(pts.size());
+    Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+    for (const auto& p : pts) cov += (p - mean) * (p - mean).transpose();
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(cov);
+    Vector3d n = eig.eigenvectors().col(0);
+    if (n.dot(mean) > 0) n = -n;
+    plane.point = mean;
+    plane.normal = n;
+    plane.points = static_cast<int>(pts.size());
+    if (pass == 1) break;
+    double ss = 0;
+    for (const auto& p : pts) ss += std::pow(n.dot(p - mean), 2);
+    const double keep = std::max(0.05, 3 * std::sqrt(ss / pts.size()));
+    std::vector<Vector3d> kept;
+    for (const auto& p : pts) {
+      if (std::abs(n.dot(p - mean)) <= keep) kept.push_back(p);
+    }
+    pts.swap(kept);
+  }
+  plane.ok = plane.points >= min_points;
+  return plane;
+}
+
+// Centre uncertainty of a fitted ring in pixels: a circle's centre fitted to N independent
+// points with orthogonal residual sigma is known to sigma * sqrt(2 / N). Edge samples are ~1 px
+// apart while the pre-smoothing and the Sobel kernel spread each pixel's noise over ~4 of them,
+// so N / 4 samples count as independent.
+double CentreSigmaPx(const calib::FeatureObservation& f) {
+  const double n = static_cast<double>(f.outer_edge_px.size() + f.inner_edge_px.size()) / 4;
+  return std::max(f.fit_rms_px, 0.02) * std::sqrt(2.0 / std::max(n, 1.0));
+}
+
+struct Choice {
+  int right = -1;
+  Vector3d p = Vector3d::Zero();
+  double diff_mm = 0;
+  int candidates = 0;
+};
+
+}  // namespace
+
+ViewMarkers DetectViewMarkers(const StereoRig& rig, const cv::Mat& texture_left,
+                              const cv::Mat& texture_right, const OrganizedPointCloud& cloud,
+                              const MarkerDetectionOptions& options) {
+  options.Check();
+  util::Timer timer;
+  const cv::Mat left8 = To8Bit(texture_left, "left"), right8 = To8Bit(texture_right, "right");
+  if (left8.cols != rig.left.width || left8.rows != rig.left.height ||
+      right8.cols != rig.right.width || right8.rows != rig.right.height) {
+    throw Error("DetectViewMarkers: texture sizes differ from the rig's cameras");
+  }
+  if (cloud.width != rig.left.width || cloud.height != rig.left.height) {
+    throw Error("DetectViewMarkers: the cloud is not on the left camera's grid");
+  }
+  const calib::RingDetection rl =
+      calib::DetectRings(left8, options.inner_to_outer_ratio, options.rings);
+  const calib::RingDetection rr =
+      calib::DetectRings(right8, options.inner_to_outer_ratio, options.rings);
+  ViewMarkers out;
+  MarkerDetectionSummary& s = out.summary;
+  s.rings_left = static_cast<int>(rl.rings.size());
+  s.rings_right = static_cast<int>(rr.rings.size());
+  for (const auto& r : rl.rejected) s.rejected.push_back({r.centre_px, "left image: " + r.reason});
+
+  std::vector<Choice> choice(rl.rings.size());
+  std::vector<SurfacePlane> planes(rl.rings.size());
+  for (size_t i = 0; i < rl.rings.size(); ++i) {
+    const calib::FeatureObservation& L = rl.rings[i];
+    const SurfacePlane plane = FitSurface(
+        cloud, L.centre_px, options.surface_radius_factor * L.outer.a, options.min_surface_points);
+    planes[i] = plane;
+    if (!plane.ok) {
+      s.rejected.push_back(
+          {L.centre_px, StrCat("no measured surface around the ring (", plane.points, " points)")});
+      continue;
+    }
+    const Vector3d ray = rig.left.Ray(L.centre_px);
+    const double den = plane.normal.dot(ray);
+    if (std::abs(den) < 1e-3) {
+      s.rejected.push_back({L.centre_px, "surface seen edge-on"});
+      continue;
+    }
+    const double surface_range = plane.normal.dot(plane.point) / den;
+    double best = std::numeric_limits<double>::infinity();
+    for (size_t j = 0; j < rr.rings.size(); ++j) {
+      const calib::FeatureObservation& R = rr.rings[j];
+      if (EpipolarDistancePx(rig, L.centre_px, R.centre_px) > options.max_epipolar_px) continue;
+      const stereo::TriangulatedPoint tp = stereo::Triangulate(rig, L.centre_px, R.centre_px);
+      if (!tp.ok()) continue;
+      ++choice[i].candidates;
+      const double diff = tp.p_in_left.dot(ray) - surface_range;
+      if (std::abs(diff) < best) {
+        best = std::abs(diff);
+        choice[i].right = static_cast<int>(j);
+        choice[i].p = tp.p_in_left;
+        choice[i].diff_mm = diff;
+      }
+    }
+    if (choice[i].right < 0) {
+      s.rejected.push_back({L.centre_px, "no ring of the right image on its epipolar line"});
+      continue;
+    }
+    const double tol =
+        options.max_depth_difference_mm + options.relative_depth_difference * choice[i].p.z();
+    if (best > tol) {
+      s.rejected.push_back({L.centre_px, StrCat("no epipolar candidate lies on the measured "
+                                                "surface (best depth difference ",
+                                                choice[i].diff_mm, " mm)")});
+      choice[i].right = -1;
+      continue;
+    }
+    const double radius_mm = L.outer.a * choice[i].p.norm() / rig.left.fx;
+    if (radius_mm < options.min_outer_radius_mm || radius_mm > options.max_outer_radius_mm) {
+      s.rejected.push_back({L.centre_px, StrCat("ring of outer radius ", radius_mm,
+                                                " mm, outside the accepted marker sizes")});
+      choice[i].right = -1;
+    }
+  }
+  // One right ring for one left ring: the better depth agreement keeps it.
+  std::map<int, size_t> owner;
+  for (size_t i = 0; i < choice.size(); ++i) {
+    if (choice[i].right < 0) continue;
+    auto it = owner.find(choice[i].right);
+    if (it == owner.end()) {
+      owner[choice[i].right] = i;
+    } else if (std::abs(choice[i].diff_mm) < std::abs(choice[it->second].diff_mm)) {
+      s.rejected.push_back({rl.rings[it->second].centre_px,
+                            "its right ring matches another "
+                            "marker better"});
+      it->second = i;
+    } else {
+      s.rejected.push_back({rl.rings[i].centre_px, "its right ring matches another marker better"});
+    }
+  }
+  for (const auto& [right, i] : owner) {
+    const calib::FeatureObservation& L = rl.rings[i];
+    const calib::FeatureObservation& R = rr.rings[right];
+    ViewMarker m;
+    m.left_px = L.centre_px;
+    m.right_px = R.centre_px;
+    m.centre_in_sensor = choice[i].p;
+    m.normal_in_sensor = planes[i].normal;
+    m.depth_difference_mm = choice[i].diff_mm;
+    m.outer_radius_mm = L.outer.a * m.centre_in_sensor.norm() / rig.left.fx;
+    // Covariance of the centre from the image centres' uncertainty (numeric Jacobian of the
+    // triangulation, one image coordinate at a time).
+    const double sl = CentreSigmaPx(L), sr = CentreSigmaPx(R);
+    Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+    for (int k = 0; k < 4; ++k) {
+      Vector2d lp = m.left_px, rp = m.right_px;
+      const double sigma = k < 2 ? sl : sr;
+      (k < 2 ? lp : rp)[k % 2] += sigma;
+      const stereo::TriangulatedPoint tp = stereo::Triangulate(rig, lp, rp);
+      if (!tp.ok()) continue;
+      const Vector3d d = tp.p_in_left - m.centre_in_sensor;
+      cov += d * d.transpose();
+    }
+    m.sigma_mm = std::sqrt(cov.trace());
+    if (choice[i].candidates > 1) ++s.ambiguous_resolved;
+    out.markers.push_back(m);
+  }
+  // Stable order: by left image row, then column (ids follow it).
+  std::sort(out.markers.begin(), out.markers.end(), [](const ViewMarker& a, const ViewMarker& b) {
+    return a.left_px.y() != b.left_px.y() ? a.left_px.y() < b.left_px.y()
+                                          : a.left_px.x() < b.left_px.x();
+  });
+  for (size_t k = 0; k < out.markers.size(); ++k) out.markers[k].id = static_cast<int>(k);
+  s.markers = static_cast<int>(out.markers.size());
+  s.status = s.markers > 0 ? MarkerDetectionStatus::kOk : MarkerDetectionStatus::kNoMarkers;
+  if (s.markers == 0)
+    s.message = StrCat("no marker found (", s.rings_left, " rings in the left image)");
+  s.seconds = timer.ElapsedSeconds();
+  return out;
+}
+
+// ---- Files ----
+
+std::filesystem::path MarkersPathForCloud(const std::filesystem::path& cloud_path) {
+  std::filesystem::path p = cloud_path;
+  p.replace_extension(".markers.json");
+  return p;
+}
+
+void WriteViewMarkers(const std::filesystem::path& path, const std::vector<ViewMarker>& markers) {
+  json list = json::array();
+  for (const ViewMarker& m : markers) {
+    list.push_back({{"id", m.id},
+                    {"centre_in_sensor", internal::ToJson(m.centre_in_sensor)},
+                    {"normal_in_sensor", internal::ToJson(m.normal_in_sensor)},
+                    {"left_px", internal::ToJson(m.left_px)},
+                    {"right_px", internal::ToJson(m.right_px)},
+                    {"outer_radius_mm", m.outer_radius_mm},
+                    {"sigma_mm", m.sigma_mm},
+                    {"depth_difference_mm", m.depth_difference_mm}});
+  }
+  io::WriteJson(path, {{"format", "fringe-view-markers"},
+                       {"version", 1},
+                       {"frame", "sensor (left camera), mm"},
+                       {"markers", list}});
+}
+
+std::vector<ViewMarker> ReadViewMarkers(const std::filesystem::path& path) {
+  const json j = internal::ReadJsonBounded(path);
+  const std::string ctx = path.string();
+  internal::CheckFormat(j, "fringe-view-markers", ctx);
+  const json& list = internal::BoundedArray(j, "markers", internal::kMaxMarkers, ctx);
+  std::vector<ViewMarker> out;
+  out.reserve(list.size());
+  for (size_t k = 0; k < list.size(); ++k) {
+    const json& e = list[k];
+    const std::string c = StrCat(ctx, ": markers[", k, "]");
+    ViewMarker m;
+    if (!e.is_object() || !e.contains("id") || !e["id"].is_number_integer()) {
+      throw Error(c + ".id: expected an integer");
+    }
+    m.id = e["id"].get<int>();
+    m.centre_in_sensor = internal::Vector3(e, "centre_in_sensor", c);
+    m.normal_in_sensor = internal::UnitVector3(e, "normal_in_sensor", c);
+    m.left_px = internal::Vector2(e, "left_px", c);
+    m.right_px = internal::Vector2(e, "right_px", c);
+    m.outer_radius_mm = internal::FiniteNumber(e, "outer_radius_mm", c);
+    m.sigma_mm = internal::FiniteNumber(e, "sigma_mm", c);
+    if (e.contains("depth_difference_mm")) {
+      m.depth_difference_mm = internal::FiniteNumber(e, "depth_difference_mm", c);
+    }
+    if (m.sigma_mm < 0) throw Error(c + ".sigma_mm: must be >= 0");
+    if (m.outer_radius_mm <= 0) throw Error(c + ".outer_radius_mm: must be > 0");
+    if (m.centre_in_sensor.z() <= 0) throw Error(c + ".centre_in_sensor: behind the sensor");
+    out.push_back(m);
+  }
+  return out;
+}
+
+}  // namespace fringe::registration

@@ -3,14 +3,29 @@
 // no shared file.
 //
 // Exit codes: 0 success, 1 error (bad input, failed step: the message names the file and the
-// problem), 2 usage error (unknown subcommand or flag, bad flag value).
+// problem), 2 usage error (unknown subcommand or flag, bad flag value), 3 partial success (the
+// command finished without some of its inputs, e.g. `scan --keep-going` left a view out).
 #pragma once
+
+#include <stdexcept>
 
 namespace CLI {
 class App;
 }
 
 namespace fringe::cli {
+
+// Thrown by a subcommand AFTER it wrote its results, to make the program exit with `code`
+// (3: partial success) without an error message.
+class ExitWithCode : public std::exception {
+ public:
+  explicit ExitWithCode(int code) : code_(code) {}
+  int code() const { return code_; }
+  const char* what() const noexcept override { return "exit with code"; }
+
+ private:
+  int code_;
+};
 
 int Main(int argc, char** argv);
 

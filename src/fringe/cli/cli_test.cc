@@ -6,7 +6,9 @@
 #include <vector>
 
 #include "fringe/cli/cli.h"
+#include "fringe/io/calibration_io.h"
 #include "fringe/io/ply.h"
+#include "fringe/sim/scan.h"
 #include "fringe/util/files.h"
 #include "fringe_test.h"
 
@@ -60,6 +62,32 @@ TEST(Cli, InfoOnPlyAndTruncatedPly) {
   EXPECT_EQ(RunCli({"info", (dir / "t.ply").string()}, &out, &err), 1);
   EXPECT_NE(err.find("t.ply: truncated"), std::string::npos) << err;
   EXPECT_EQ(std::count(err.begin(), err.end(), '\n'), 1) << "one-line error: " << err;
+}
+
+TEST(Cli, ScanKeepGoingExitsWith3AndFailureExitsWith1) {
+  test::TempDir dir;
+  sim::ScanOptions o;
+  o.scene = "sphere";
+  o.views = 2;
+  o.calibration_images = 0;
+  o.render.sensor.supersampling = 1;
+  sim::SimulateScan(sim::ScaledRig(StereoRig::Reference(), 0.25), o, dir / "scan");
+  std::filesystem::remove(dir / "scan" / "views" / "001" / "left" / "00.png");
+  const std::string rig = (dir / "scan" / "truth" / "rig.json").string();
+  const std::string scan = (dir / "scan").string(), out = (dir / "out").string();
+  std::string stdout_text, err;
+  EXPECT_EQ(RunCli({"--threads", "1", "scan", scan, "--calib", rig, "--out", out}, nullptr, &err),
+            1);
+  EXPECT_NE(err.find("view 001"), std::string::npos) << err;
+  EXPECT_FALSE(std::filesystem::exists(dir / "out"));
+  EXPECT_EQ(RunCli({"-q", "--threads", "1", "scan", scan, "--calib", rig, "--out", out,
+                    "--keep-going", "--json"},
+                   &stdout_text, &err),
+            3)
+      << err;
+  EXPECT_NE(stdout_text.find("\"status\": \"partial\""), std::string::npos) << stdout_text;
+  EXPECT_TRUE(std::filesystem::exists(dir / "out" / "views" / "000.ply"));
+  EXPECT_EQ(RunCli({"--threads", "-1", "scan", scan, "--out", out}), 2);
 }
 
 }  // namespace

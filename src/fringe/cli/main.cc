@@ -1,7 +1,10 @@
+#include <tbb/global_control.h>
+
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <cstdio>
 #include <iostream>
+#include <memory>
 #include <utility>
 #include <vector>
 
@@ -43,9 +46,15 @@ int Main(int argc, char** argv) {
   bool quiet = false, verbose = false;
   app.add_flag("-q,--quiet", quiet, "Print only results and errors");
   app.add_flag("-v,--verbose", verbose, "Print details of every step");
+  int threads = 0;
+  app.add_option("--threads", threads, "Worker threads (0: all cores); results do not depend on it")
+      ->check(CLI::Range(0, 1024))
+      ->capture_default_str();
+  // Lives until Main returns: every parallel loop of the command runs under the limit.
+  std::unique_ptr<tbb::global_control> thread_limit;
   app.footer(
       "Run 'fringe <command> --help' for the options of a command.\n"
-      "Exit codes: 0 success, 1 error, 2 usage error.");
+      "Exit codes: 0 success, 1 error, 2 usage error, 3 partial success (e.g. scan --keep-going).");
 
   auto commands = Registry();
   std::stable_sort(commands.begin(), commands.end(),
@@ -53,6 +62,10 @@ int Main(int argc, char** argv) {
   for (const auto& [order, add] : commands) add(app);
 
   app.parse_complete_callback([&] {
+    if (threads > 0) {
+      thread_limit = std::make_unique<tbb::global_control>(
+          tbb::global_control::max_allowed_parallelism, static_cast<size_t>(threads));
+    }
     util::SetVerbosity(quiet     ? util::Verbosity::kQuiet
                        : verbose ? util::Verbosity::kVerbose
                                  : util::Verbosity::kNormal);
@@ -76,6 +89,8 @@ int Main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     std::fprintf(stderr, "fringe: usage error: %s\nRun 'fringe --help' for usage.\n", e.what());
     return 2;
+  } catch (const ExitWithCode& e) {
+    return e.code();
   } catch (const fringe::Error& e) {
     std::fprintf(stderr, "fringe: error: %s\n", e.what());
     return 1;

@@ -1,0 +1,65 @@
+// fringe scan: a scan folder to a measured model and a report (pipeline/scan.h).
+#include <CLI/CLI.hpp>
+#include <iostream>
+#include <memory>
+
+#include "fringe/cli/cli.h"
+#include "fringe/pipeline/scan.h"
+
+namespace fringe::cli {
+
+void AddScanCommand(CLI::App& app) {
+  struct Args {
+    std::string project;
+    std::string out;
+    std::string calib, cv_intrinsics, cv_extrinsics;
+    bool json = false;
+    pipeline::ScanOptions options;
+  };
+  auto a = std::make_shared<Args>();
+  CLI::App* sub = app.add_subcommand(
+      "scan",
+      "The whole scanner: calibrate if needed, reconstruct every view of a scan folder, and "
+      "write the clouds, summary.json and report.html (docs/scan-folder.md)");
+  sub->add_option("project", a->project,
+                  "Scan folder: scheme.json, views/NNN/{left,right}/, and rig.json or "
+                  "calibration/ board images")
+      ->required();
+  sub->add_option("--out", a->out,
+                  "Output folder (written atomically; an existing one is replaced only when "
+                  "fringe wrote it)")
+      ->required();
+  sub->add_option("--calib", a->calib,
+                  "Rig calibration (rig JSON) instead of the scan folder's rig.json or "
+                  "calibration/");
+  sub->add_option("--opencv-intrinsics", a->cv_intrinsics,
+                  "Instead of --calib: OpenCV stereo intrinsics (M1 D1 M2 D2, YAML/XML)");
+  sub->add_option("--opencv-extrinsics", a->cv_extrinsics,
+                  "With --opencv-intrinsics: OpenCV stereo extrinsics (R T, millimetres)");
+  sub->add_flag("--keep-going", a->options.keep_going,
+                "Leave out views that fail and finish with the others (exit code 3)");
+  sub->add_option("--views-in-flight", a->options.views_in_flight,
+                  "Views reconstructed at once (bounds memory)")
+      ->capture_default_str();
+  sub->add_option("--noise-sigma", a->options.reconstruction.decode.noise_sigma_dn,
+                  "Camera noise in DN (sets the decoder's modulation threshold)")
+      ->capture_default_str();
+  sub->add_flag(
+      "--no-report", [a](int64_t) { a->options.write_report = false; }, "Do not write report.html");
+  sub->add_flag("--json", a->json, "Print the summary as one JSON object");
+  sub->callback([a] {
+    a->options.calib = a->calib;
+    a->options.opencv_intrinsics = a->cv_intrinsics;
+    a->options.opencv_extrinsics = a->cv_extrinsics;
+    const pipeline::ScanSummary s = pipeline::RunScan(a->project, a->out, a->options);
+    if (a->json) {
+      std::cout << s.ToJson().dump(2) << "\n";
+    } else {
+      std::cout << s.BriefReport() << "\nwritten to " << a->out << "/\n";
+    }
+    if (s.partial()) throw ExitWithCode(3);
+  });
+}
+FRINGE_REGISTER_COMMAND(90, AddScanCommand);
+
+}  // namespace fringe::cli

@@ -1,0 +1,98 @@
+// The whole scanner behind `fringe scan PROJECT --out OUT` (thesis capability 6): a scan folder
+// (docs/scan-folder.md) in, a measured model and a report out.
+//
+// Stages, in order:
+//   1. calibration: a rig given in the options (rig JSON, or OpenCV intrinsics + extrinsics),
+//      else PROJECT/rig.json, else calibrated from PROJECT/calibration/ board images;
+//   2. views: every PROJECT/views/NNN/{left,right}/ stack is read, decoded, matched and
+//      triangulated (stereo::ViewReconstructor), written as OUT/views/NNN.ply; views run in
+//      parallel, at most `views_in_flight` at a time so that peak memory stays bounded (the
+//      images of a view are dropped as soon as its cloud exists);
+//   3. registration, fusion and meshing of the reconstructed views (as the modules exist);
+//   4. OUT/summary.json with every figure and OUT/report.html (pipeline/report.h).
+//
+// OUT is written atomically: everything goes to a temporary folder beside OUT that is renamed
+// at the end, so a failure leaves no partial result; an existing OUT is replaced only when
+// fringe wrote it (util::WriteFolderAtomically).
+//
+// Failures: bad input (missing or corrupt image, unreadable calibration, bad options) throws
+// fringe::Error naming the view, the file and the stage. A view that fails (its images, its
+// reconstruction, its registration) either fails the whole scan (the error lists the views that
+// worked) or, with keep_going, is left out: the scan completes with the other views, the
+// summary's status is kPartial and the report names the view and why.
+//
+// Thread safety: RunScan may run concurrently on different folders. Results do not depend on
+// the number of threads (each stage is deterministic; views are collected in name order).
+#pragma once
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "fringe/geometry/stereo_rig.h"
+#include "fringe/stereo/reconstruct_view.h"
+
+namespace fringe::pipeline {
+
+struct ScanOptions {
+  // Rig calibration to use instead of PROJECT/rig.json or PROJECT/calibration/: a rig JSON
+  // file, or OpenCV stereo intrinsics + extrinsics (both, YAML/XML). Empty: not given.
+  std::filesystem::path calib;
+  std::filesystem::path opencv_intrinsics, opencv_extrinsics;
+  // Leave out views that fail and finish with the others (status kPartial) instead of failing.
+  bool keep_going = false;
+  // Views reconstructed at the same time, [1, 64]: each holds its two image stacks (24 images
+  // of 1.3 Mpx: ~60 MB for 8-bit) while it is decoded; 2 keeps both cores busy on this machine.
+  int views_in_flight = 2;
+  stereo::ReconstructionOptions reconstruction;
+  bool write_report = true;  // OUT/report.html
+
+  void Check() const;
+};
+
+enum class ScanStatus {
+  kOk = 0,
+  kPartial,  // keep_going: some views failed and were left out (named in the summary)
+};
+const char* ToString(ScanStatus s);
+
+// One view's outcome.
+struct ScanViewSummary {
+  std::string name;  // folder name, "000"
+  bool ok = false;
+  std::string failed_stage;  // "read", "reconstruct", ... when !ok
+  std::string message;       // why it failed, naming the file
+  int points = 0;
+  double valid_fraction = 0;                             // points / left pixels
+  double decode_valid_left = 0, decode_valid_right = 0;  // decoded pixel fractions
+  double read_s = 0, decode_s = 0, reconstruct_s = 0;    // reconstruct_s: match to normals
+};
+
+struct ScanSummary {
+  ScanStatus status = ScanStatus::kOk;
+  std::string message;
+  std::string calibration_source;  // "rig.json", "calibration/ (15 board pairs)", a path
+  double calibration_rms_left_px = 0, calibration_rms_right_px = 0;  // 0 unless calibrated here
+  std::vector<ScanViewSummary> views;
+  int views_ok = 0;
+  int64_t points = 0;  // sum over the views that worked
+  // Stage times. read_s, decode_s and reconstruct_s are sums over views (several views run at
+  // once, so they can exceed views_s, the wall time of the view stage); the others are wall.
+  double calibrate_s = 0, read_s = 0, decode_s = 0, reconstruct_s = 0, views_s = 0;
+  double register_s = 0, fuse_s = 0, mesh_s = 0, report_s = 0;
+  double total_s = 0;  // wall, calibration excluded (a rig is calibrated once, not per scan)
+  double peak_mem_gib = 0;
+
+  bool partial() const { return status == ScanStatus::kPartial; }
+  std::string BriefReport() const;
+  nlohmann::json ToJson() const;
+};
+
+// Runs the scan of `project` into `out`. Throws fringe::Error for bad input or options, an
+// unwritable or foreign `out`, or (without keep_going) any failed view; `out` is then left as
+// it was.
+ScanSummary RunScan(const std::filesystem::path& project, const std::filesystem::path& out,
+                    const ScanOptions& options = {});
+
+}  // namespace fringe::pipeline

@@ -9,6 +9,7 @@
 #include <limits>
 #include <map>
 #include <mutex>
+#include <opencv2/imgproc.hpp>
 #include <optional>
 #include <sstream>
 
@@ -19,6 +20,7 @@
 #include "fringe/phase/pattern_scheme.h"
 #include "fringe/phase/stack_io.h"
 #include "fringe/pipeline/report.h"
+#include "fringe/registration/markers.h"
 #include "fringe/util/error.h"
 #include "fringe/util/files.h"
 #include "fringe/util/log.h"
@@ -37,6 +39,7 @@ using util::StrCat;
 struct ViewResult {
   ScanViewSummary summary;
   OrganizedPointCloud cloud;
+  std::vector<registration::ViewMarker> markers;
   std::vector<ReportImage> pictures;
 };
 
@@ -124,6 +127,28 @@ cv::Mat GridChannel(const OrganizedPointCloud& cloud, const std::vector<float>* 
   return m;
 }
 
+// The left texture image with the measured markers circled (their outer ring) and numbered.
+cv::Mat TextureWithMarkers(const cv::Mat& texture_left,
+                           const std::vector<registration::ViewMarker>& markers,
+                           const StereoRig& rig, int max_width_px) {
+  cv::Mat grey;
+  texture_left.convertTo(grey, CV_8U);
+  cv::Mat colour;
+  cv::cvtColor(grey, colour, cv::COLOR_GRAY2BGR);
+  const double scale = std::min(1.0, double(max_width_px) / colour.cols);
+  if (scale < 1) cv::resize(colour, colour, cv::Size(), scale, scale, cv::INTER_AREA);
+  for (const registration::ViewMarker& m : markers) {
+    const cv::Point2d c(m.left_px.x() * scale, m.left_px.y() * scale);
+    const double r_px = std::max(
+        4.0, 1.5 * rig.left.fx * m.outer_radius_mm / std::max(1.0, m.centre_in_sensor.z()) * scale);
+    cv::circle(colour, c, static_cast<int>(std::lround(r_px)), cv::Scalar(0, 0, 255), 2,
+               cv::LINE_AA);
+    cv::putText(colour, std::to_string(m.id), c + cv::Point2d(r_px, -r_px),
+                cv::FONT_HERSHEY_SIMPLEX, 0.4, cv::Scalar(0, 255, 255), 1, cv::LINE_AA);
+  }
+  return colour;
+}
+
 std::vector<ReportImage> ViewPictures(const std::string& name, const OrganizedPointCloud& cloud) {
   std::vector<ReportImage> out;
   const cv::Mat depth = GridChannel(cloud, nullptr, 2);
@@ -137,19 +162,15 @@ std::vector<ReportImage> ViewPictures(const std::string& name, const OrganizedPo
         {StrCat("view ", name, ": fringe modulation at measured points, DN"),
          ColourMapWithBar(modulation, std::max(0.0, mr[0]), mr[1], "modulation, DN", 480)});
   }
-  if (cloud.cloud.has_intensity()) {
-    const cv::Mat texture = GridChannel(cloud, &cloud.cloud.intensity, 0);
-    out.push_back({StrCat("view ", name, ": texture (fringe background) at measured points"),
-                   ColourMapWithBar(texture, 0, 255, "grey value (0-255)", 480)});
-  }
   return out;
 }
 
 // Reads, reconstructs and writes one view. Data failures come back in the summary (ok = false,
 // the stage and the reason); nothing is thrown for them so that other views go on.
 ViewResult ProcessView(const fs::path& project, const std::string& name,
-                       const phase::PatternScheme& scheme,
-                       const stereo::ViewReconstructor& reconstructor, const fs::path& out_dir) {
+                       const phase::PatternScheme& scheme, const StereoRig& rig,
+                       const stereo::ViewReconstructor& reconstructor, const ScanOptions& options,
+                       const fs::path& out_dir) {
   ViewResult v;
   ScanViewSummary& s = v.summary;
   s.name = name;
@@ -176,11 +197,25 @@ ViewResult ProcessView(const fs::path& project, const std::string& name,
     }
     s.points = rec.summary.points;
     s.valid_fraction = s.points / std::max(1.0, pixels);
+    v.pictures = ViewPictures(name, rec.cloud);
+    if (options.detect_markers) {
+      stage = "markers";
+      timer.Restart();
+      registration::ViewMarkers markers = registration::DetectViewMarkers(
+          rig, rec.texture_left, rec.texture_right, rec.cloud, options.markers);
+      s.markers = static_cast<int>(markers.markers.size());
+      v.markers = std::move(markers.markers);
+      registration::WriteViewMarkers(out_dir / "views" / (name + ".markers.json"), v.markers);
+      s.markers_s = timer.ElapsedSeconds();
+    }
+    v.pictures.push_back(
+        {StrCat("view ", name, ": left texture (decoded fringe background) with the ", s.markers,
+                " measured markers circled"),
+         TextureWithMarkers(rec.texture_left, v.markers, rig, 480)});
     stage = "write";
     io::WritePly(out_dir / "views" / (name + ".ply"), rec.cloud, io::PlyFormat::kBinaryLittleEndian,
                  {StrCat("fringe scan: view ", name,
                          ", left camera (sensor) frame, mm; quality = fringe modulation (DN)")});
-    v.pictures = ViewPictures(name, rec.cloud);
     v.cloud = std::move(rec.cloud);
     s.ok = true;
   } catch (const Error& e) {
@@ -198,18 +233,19 @@ ViewResult ProcessView(const fs::path& project, const std::string& name,
 ReportTable ViewTable(const std::vector<ScanViewSummary>& views) {
   ReportTable t;
   t.caption = "Views";
-  t.header = {"view",          "status", "points",   "measured px",  "decoded left",
-              "decoded right", "read s", "decode s", "reconstruct s"};
+  t.header = {"view",         "status",        "points", "markers",  "measured px",
+              "decoded left", "decoded right", "read s", "decode s", "reconstruct s"};
   for (const ScanViewSummary& v : views) {
     if (!v.ok) {
       t.rows.push_back({v.name, "FAILED in " + v.failed_stage + ": " + v.message, "", "", "", "",
-                        Fixed(v.read_s, 3), Fixed(v.decode_s, 3), Fixed(v.reconstruct_s, 3)});
+                        "", Fixed(v.read_s, 3), Fixed(v.decode_s, 3), Fixed(v.reconstruct_s, 3)});
       continue;
     }
-    t.rows.push_back(
-        {v.name, "ok", std::to_string(v.points), Fixed(100 * v.valid_fraction, 1) + " %",
-         Fixed(100 * v.decode_valid_left, 1) + " %", Fixed(100 * v.decode_valid_right, 1) + " %",
-         Fixed(v.read_s, 3), Fixed(v.decode_s, 3), Fixed(v.reconstruct_s, 3)});
+    t.rows.push_back({v.name, "ok", std::to_string(v.points), std::to_string(v.markers),
+                      Fixed(100 * v.valid_fraction, 1) + " %",
+                      Fixed(100 * v.decode_valid_left, 1) + " %",
+                      Fixed(100 * v.decode_valid_right, 1) + " %", Fixed(v.read_s, 3),
+                      Fixed(v.decode_s, 3), Fixed(v.reconstruct_s, 3)});
   }
   return t;
 }
@@ -230,6 +266,7 @@ Report BuildReport(const fs::path& project, const ScanSummary& s, const Calibrat
              {"read images", s.read_s},
              {"decode fringes", s.decode_s},
              {"reconstruct", s.reconstruct_s},
+             {"markers", s.markers_s},
              {"views (wall)", s.views_s},
              {"register", s.register_s},
              {"fuse", s.fuse_s},
@@ -336,6 +373,7 @@ json ScanSummary::ToJson() const {
          {"read_s", read_s},
          {"decode_s", decode_s},
          {"reconstruct_s", reconstruct_s},
+         {"markers_s", markers_s},
          {"views_s", views_s},
          {"register_s", register_s},
          {"fuse_s", fuse_s},
@@ -357,7 +395,9 @@ json ScanSummary::ToJson() const {
            {"decode_valid_right", e.decode_valid_right},
            {"read_s", e.read_s},
            {"decode_s", e.decode_s},
-           {"reconstruct_s", e.reconstruct_s}};
+           {"reconstruct_s", e.reconstruct_s},
+           {"markers", e.markers},
+           {"markers_s", e.markers_s}};
     if (!e.ok) {
       o["failed_stage"] = e.failed_stage;
       o["message"] = e.message;
@@ -414,7 +454,8 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
                                            return next++;
                                          }) &
               tbb::make_filter<size_t, void>(tbb::filter_mode::parallel, [&](size_t i) {
-                results[i] = ProcessView(project, names[i], scheme, reconstructor, dir);
+                results[i] =
+                    ProcessView(project, names[i], scheme, cal.rig, reconstructor, options, dir);
                 progress.Advance();
               }));
     }
@@ -425,6 +466,7 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
       s.read_s += v.summary.read_s;
       s.decode_s += v.summary.decode_s;
       s.reconstruct_s += v.summary.reconstruct_s;
+      s.markers_s += v.summary.markers_s;
       if (v.summary.ok) {
         ++s.views_ok;
         s.points += v.summary.points;

@@ -5,7 +5,9 @@
 //   1. calibration: a rig given in the options (rig JSON, or OpenCV intrinsics + extrinsics),
 //      else PROJECT/rig.json, else calibrated from PROJECT/calibration/ board images;
 //   2. views: every PROJECT/views/NNN/{left,right}/ stack is read, decoded, matched and
-//      triangulated (stereo::ViewReconstructor), written as OUT/views/NNN.ply; views run in
+//      triangulated (stereo::ViewReconstructor), its sticky markers measured
+//      (registration::DetectViewMarkers), written as OUT/views/NNN.ply and
+//      OUT/views/NNN.markers.json (sensor frame); views run in
 //      parallel, at most `views_in_flight` at a time so that peak memory stays bounded (the
 //      images of a view are dropped as soon as its cloud exists);
 //   3. registration, fusion and meshing of the reconstructed views (as the modules exist);
@@ -31,6 +33,7 @@
 #include <vector>
 
 #include "fringe/geometry/stereo_rig.h"
+#include "fringe/registration/markers.h"
 #include "fringe/stereo/reconstruct_view.h"
 
 namespace fringe::pipeline {
@@ -46,6 +49,9 @@ struct ScanOptions {
   // of 1.3 Mpx: ~60 MB for 8-bit) while it is decoded; 2 keeps both cores busy on this machine.
   int views_in_flight = 2;
   stereo::ReconstructionOptions reconstruction;
+  // Sticky markers of every view (registration/markers.h), written as OUT/views/NNN.markers.json.
+  bool detect_markers = true;
+  registration::MarkerDetectionOptions markers;
   bool write_report = true;  // OUT/report.html
 
   void Check() const;
@@ -64,9 +70,11 @@ struct ScanViewSummary {
   std::string failed_stage;  // "read", "reconstruct", ... when !ok
   std::string message;       // why it failed, naming the file
   int points = 0;
+  int markers = 0;                                       // sticky markers measured in the view
   double valid_fraction = 0;                             // points / left pixels
   double decode_valid_left = 0, decode_valid_right = 0;  // decoded pixel fractions
   double read_s = 0, decode_s = 0, reconstruct_s = 0;    // reconstruct_s: match to normals
+  double markers_s = 0;
 };
 
 struct ScanSummary {
@@ -77,9 +85,9 @@ struct ScanSummary {
   std::vector<ScanViewSummary> views;
   int views_ok = 0;
   int64_t points = 0;  // sum over the views that worked
-  // Stage times. read_s, decode_s and reconstruct_s are sums over views (several views run at
-  // once, so they can exceed views_s, the wall time of the view stage); the others are wall.
-  double calibrate_s = 0, read_s = 0, decode_s = 0, reconstruct_s = 0, views_s = 0;
+  // Stage times. read_s, decode_s, reconstruct_s and markers_s are sums over views (several views
+  // run at once, so they can exceed views_s, the wall time of the view stage); the others are wall.
+  double calibrate_s = 0, read_s = 0, decode_s = 0, reconstruct_s = 0, markers_s = 0, views_s = 0;
   double register_s = 0, fuse_s = 0, mesh_s = 0, report_s = 0;
   double total_s = 0;  // wall, calibration excluded (a rig is calibrated once, not per scan)
   double peak_mem_gib = 0;

@@ -12,6 +12,7 @@
 #include "fringe/io/calibration_io.h"
 #include "fringe/io/ply.h"
 #include "fringe/pipeline/report_test_util.h"
+#include "fringe/registration/markers.h"
 #include "fringe/sim/scan.h"
 #include "fringe/util/error.h"
 #include "fringe/util/files.h"
@@ -89,6 +90,10 @@ TEST_F(ScanTest, ReconstructsEveryViewAccurately) {
     EXPECT_GT(s.views[v].valid_fraction, kMinValidFraction) << name;
     const OrganizedPointCloud cloud = io::ReadOrganizedPly(out / "views" / (name + ".ply"));
     EXPECT_EQ(static_cast<int>(cloud.NumValid()), s.views[v].points);
+    // The markers file is there and lists what the summary counted.
+    EXPECT_EQ(static_cast<int>(
+                  registration::ReadViewMarkers(out / "views" / (name + ".markers.json")).size()),
+              s.views[v].markers);
     points += s.views[v].points;
     const Rigid3d world_from_sensor =
         io::RigidFromJson(poses["views"][v]["world_from_sensor"], "poses");
@@ -106,7 +111,7 @@ TEST_F(ScanTest, ReconstructsEveryViewAccurately) {
   const std::string html = util::ReadTextFile(out / "report.html");
   int sources = 0;
   const std::vector<cv::Mat> images = testing::EmbeddedImages(html, &sources);
-  EXPECT_GE(sources, 9);  // per view: depth, modulation, texture
+  EXPECT_GE(sources, 9);  // per view: depth, modulation, texture with markers
   EXPECT_EQ(static_cast<int>(images.size()), sources);
   EXPECT_EQ(html.find("://"), std::string::npos);  // no external URL (base64 has no colon)
 }

@@ -23,6 +23,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <ctime>
 #include <iostream>
 #include <nlohmann/json.hpp>
 #include <opencv2/calib3d.hpp>
@@ -63,6 +64,9 @@ struct Result {
   double rms_px = NAN, opencv_rms_px = NAN;
   int images = 0, ours_found = 0, opencv_found = 0;
   double ours_ms = 0, opencv_ms = 0;
+  // One stereo calibration (detections given): wall time and process CPU time (the CPU time
+  // stays comparable on a shared machine; both solvers run single-threaded).
+  double calib_ms = NAN, opencv_calib_ms = NAN, calib_cpu_ms = NAN, opencv_calib_cpu_ms = NAN;
 };
 
 constexpr double kTiltBinDeg = 15;
@@ -167,7 +171,11 @@ Result RunBoard(const StereoRig& rig, const CalibrationTarget& target,
   r.opencv_ms /= std::max(1, r.images);
 
   // Ours: joint stereo calibration.
+  util::Timer calib_timer;
+  const std::clock_t calib_cpu = std::clock();
   const auto cal = calib::CalibrateStereo(left, right, target, rig.left.width, rig.left.height);
+  r.calib_ms = calib_timer.ElapsedMs();
+  r.calib_cpu_ms = 1e3 * double(std::clock() - calib_cpu) / CLOCKS_PER_SEC;
   if (std::getenv("FRINGE_BENCH_VERBOSE")) std::cerr << cal.BriefReport() << "\n";
   if (cal.summary.success) {
     r.rms_px = cal.rms_px;
@@ -214,10 +222,14 @@ Result RunBoard(const StereoRig& rig, const CalibrationTarget& target,
     cv::Mat k1, d1, k2, d2, rr, tt, e, f;
     std::vector<cv::Mat> rv, tv;
     const int flags = cv::CALIB_FIX_K3;
+    util::Timer opencv_timer;
+    const std::clock_t opencv_cpu = std::clock();
     cv::calibrateCamera(obj, il, size, k1, d1, rv, tv, flags);
     cv::calibrateCamera(obj, ir, size, k2, d2, rv, tv, flags);
     r.opencv_rms_px = cv::stereoCalibrate(obj, il, ir, k1, d1, k2, d2, size, rr, tt, e, f,
                                           flags | cv::CALIB_USE_INTRINSIC_GUESS);
+    r.opencv_calib_ms = opencv_timer.ElapsedMs();
+    r.opencv_calib_cpu_ms = 1e3 * double(std::clock() - opencv_cpu) / CLOCKS_PER_SEC;
     r.opencv_focal_err_pct = std::max(
         {PctErr(k1.at<double>(0, 0), rig.left.fx), PctErr(k1.at<double>(1, 1), rig.left.fy),
          PctErr(k2.at<double>(0, 0), rig.right.fx), PctErr(k2.at<double>(1, 1), rig.right.fy)});
@@ -277,6 +289,10 @@ json ToJson(const Result& r) {
           {"opencv_detection_rate", r.images ? double(r.opencv_found) / r.images : 0.0},
           {"ms_per_image", r.ours_ms},
           {"opencv_ms_per_image", r.opencv_ms},
+          {"calibration_ms", num(r.calib_ms)},
+          {"opencv_calibration_ms", num(r.opencv_calib_ms)},
+          {"calibration_cpu_ms", num(r.calib_cpu_ms)},
+          {"opencv_calibration_cpu_ms", num(r.opencv_calib_cpu_ms)},
           {"tilt_bins", bins}};
 }
 
@@ -305,6 +321,8 @@ void PrintTable(const Result& r) {
   row("detection rate", r.images ? double(r.ours_found) / r.images : 0,
       r.images ? double(r.opencv_found) / r.images : 0);
   row("ms per image (detect)", r.ours_ms, r.opencv_ms);
+  row("ms per stereo calibration", r.calib_ms, r.opencv_calib_ms);
+  row("  CPU ms per calibration", r.calib_cpu_ms, r.opencv_calib_cpu_ms);
 }
 
 }  // namespace

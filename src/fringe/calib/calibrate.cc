@@ -23,13 +23,15 @@ void CalibrationOptions::Check() const {
   CheckOption(outlier_sigma > 0, o, "outlier_sigma", outlier_sigma, "must be > 0");
   CheckOption(min_features >= 4, o, "min_features", min_features, "must be >= 4");
   CheckOption(min_views >= 2, o, "min_views", min_views, "must be >= 2");
+  CheckOption(loss_scale_px > 0, o, "loss_scale_px", loss_scale_px, "must be > 0");
 }
 
 std::string CalibrationSummary::BriefReport() const {
   std::ostringstream os;
   os << (success ? "success" : "FAILED") << ": RMS " << initial_rms_px << " -> " << final_rms_px
      << " px, " << num_views_used << " views used, " << num_views_rejected << " rejected, "
-     << num_features << " features, " << iterations << " iterations";
+     << num_features << " features, " << iterations << " iterations, "
+     << ceres::TerminationTypeToString(solve.termination);
   if (!message.empty()) os << " (" << message << ")";
   return os.str();
 }
@@ -45,254 +47,132 @@ namespace {
 
 using Vec2 = Eigen::Vector2d;
 using Vec3 = Eigen::Vector3d;
-using Vec6 = Eigen::Matrix<double, 6, 1>;
-
-Rigid3d PoseFromVec(const Vec6& v) {
-  const Vec3 w = v.head<3>();
-  const double angle = w.norm();
-  const Eigen::Matrix3d r = angle < 1e-300 ? Eigen::Matrix3d::Identity()
-                                           : Eigen::AngleAxisd(angle, w / angle).toRotationMatrix();
-  return Rigid3d(r, v.tail<3>());
-}
-
-Vec6 VecFromPose(const Rigid3d& p) {
-  const Eigen::AngleAxisd aa(p.rotation());
-  Vec6 v;
-  v.head<3>() = aa.axis() * aa.angle();
-  v.tail<3>() = p.translation();
-  return v;
-}
-
-std::array<double, kNumIntrinsics> IntrinsicsOf(const CameraModel& c) {
-  return {c.fx, c.fy, c.cx, c.cy, c.k1, c.k2, c.p1, c.p2, c.k3};
-}
-void SetIntrinsics(CameraModel* c, const double* x) {
-  c->fx = x[0];
-  c->fy = x[1];
-  c->cx = x[2];
-  c->cy = x[3];
-  c->k1 = x[4];
-  c->k2 = x[5];
-  c->p1 = x[6];
-  c->p2 = x[7];
-  c->k3 = x[8];
-}
 
 // One feature observation in the bundle.
 struct Obs {
-  int cam = 0;   // 0: reference (left) camera, 1: right camera (through right_from_left)
-  int view = 0;  // board pose index
+  int device = 0;  // 0: reference (left) camera; others through device_from_reference
+  int view = 0;    // board pose index
   Vec3 board_point;
   Vec2 px;  // measured centre
   const FeatureObservation* feature = nullptr;
   bool active = true;
 };
 
-// Levenberg-Marquardt over intrinsics of 1-2 cameras, one pose per view, optionally
-// right_from_left.
+// Intrinsics of N devices (cameras, projector), one reference_from_board pose per view and a
+// device_from_reference pose per device after the first, refined by Ceres (bundle.h).
 class Bundle {
  public:
-  std::vector<CameraModel> cams;
-  std::vector<Vec6> poses;  // cam0_from_board
-  Vec6 right_from_left = Vec6::Zero();
+  std::vector<CameraModel> devices;
+  std::vector<PoseBlock> reference_from_board;   // per view
+  std::vector<PoseBlock> device_from_reference;  // per device; [0] is the identity, not solved
   std::vector<bool> view_used;
   std::vector<Obs> obs;
-  std::array<bool, kNumIntrinsics> free_intr{};
+  FreeIntrinsics free_intrinsics{};
+  RobustLoss loss = RobustLoss::kNone;
+  double loss_scale_px = 1;
+  SolveOptions solve_options;
 
-  Vec2 Project(const Obs& o, const std::vector<CameraModel>& c, const std::vector<Vec6>& p,
-               const Vec6& rfl) const {
-    Vec3 x = PoseFromVec(p[o.view]) * o.board_point;
-    if (o.cam == 1) x = PoseFromVec(rfl) * x;
-    if (x.z() <= 1e-6) return Vec2(1e6, 1e6);
-    return c[o.cam].Project(x);
-  }
+  // Standard deviations of the last solve, per device (zero where not estimated).
+  std::vector<IntrinsicsBlock> std_intrinsics;
+  std::vector<PoseBlock> std_device_from_reference;
+  bool std_dev_ok = false;
 
-  // Layout: [free intrinsics of each camera][6 per used view][6 right_from_left if 2 cams].
-  void Layout() {
-    intr_index_.clear();
-    int n = 0;
-    for (size_t c = 0; c < cams.size(); ++c) {
-      for (int k = 0; k < kNumIntrinsics; ++k) {
-        if (free_intr[k]) intr_index_.push_back({static_cast<int>(c), k, n++});
-      }
-    }
-    pose_offset_.assign(poses.size(), -1);
-    for (size_t v = 0; v < poses.size(); ++v) {
-      if (view_used[v]) {
-        pose_offset_[v] = n;
-        n += 6;
-      }
-    }
-    rfl_offset_ = cams.size() > 1 ? n : -1;
-    if (cams.size() > 1) n += 6;
-    num_params_ = n;
+  Rigid3d DeviceFromBoard(int device, int view) const {
+    const Rigid3d reference_from_board_pose = RigidFromPoseBlock(reference_from_board[view].data());
+    if (device == 0) return reference_from_board_pose;
+    return RigidFromPoseBlock(device_from_reference[device].data()) * reference_from_board_pose;
   }
 
-  Eigen::VectorXd Pack() const {
-    Eigen::VectorXd x(num_params_);
-    for (const auto& ii : intr_index_) x(ii.index) = IntrinsicsOf(cams[ii.cam])[ii.k];
-    for (size_t v = 0; v < poses.size(); ++v) {
-      if (pose_offset_[v] >= 0) x.segment<6>(pose_offset_[v]) = poses[v];
-    }
-    if (rfl_offset_ >= 0) x.segment<6>(rfl_offset_) = right_from_left;
-    return x;
-  }
-  void Unpack(const Eigen::VectorXd& x, std::vector<CameraModel>* c, std::vector<Vec6>* p,
-              Vec6* rfl) const {
-    *c = cams;
-    *p = poses;
-    *rfl = right_from_left;
-    for (const auto& ii : intr_index_) {
-      auto intr = IntrinsicsOf((*c)[ii.cam]);
-      intr[ii.k] = x(ii.index);
-      SetIntrinsics(&(*c)[ii.cam], intr.data());
-    }
-    for (size_t v = 0; v < poses.size(); ++v) {
-      if (pose_offset_[v] >= 0) (*p)[v] = x.segment<6>(pose_offset_[v]);
-    }
-    if (rfl_offset_ >= 0) *rfl = x.segment<6>(rfl_offset_);
+  Vec2 Project(const Obs& o) const {
+    const Vec3 p = DeviceFromBoard(o.device, o.view) * o.board_point;
+    if (p.z() <= 1e-6) return Vec2(1e6, 1e6);
+    return devices[o.device].Project(p);
   }
 
-  std::vector<int> ActiveObs() const {
-    std::vector<int> a;
-    for (size_t i = 0; i < obs.size(); ++i) {
-      if (obs[i].active && view_used[obs[i].view]) a.push_back(static_cast<int>(i));
-    }
-    return a;
-  }
-
-  double Residuals(const Eigen::VectorXd& x, const std::vector<int>& active,
-                   Eigen::VectorXd* r) const {
-    std::vector<CameraModel> c;
-    std::vector<Vec6> p;
-    Vec6 rfl;
-    Unpack(x, &c, &p, &rfl);
-    r->resize(2 * active.size());
-    for (size_t i = 0; i < active.size(); ++i) {
-      const Obs& o = obs[active[i]];
-      r->segment<2>(2 * i) = Project(o, c, p, rfl) - o.px;
-    }
-    return r->squaredNorm();
-  }
-
-  // Numeric Jacobian (central differences), exploiting which parameters touch which rows.
-  Eigen::MatrixXd Jacobian(const Eigen::VectorXd& x, const std::vector<int>& active) const {
-    const int m = 2 * static_cast<int>(active.size());
-    Eigen::MatrixXd jac = Eigen::MatrixXd::Zero(m, num_params_);
-    std::vector<CameraModel> c;
-    std::vector<Vec6> p;
-    Vec6 rfl;
-    for (int j = 0; j < num_params_; ++j) {
-      const double h = 1e-6 * std::max(1.0, std::abs(x(j)));
-      Eigen::VectorXd xp = x, xm = x;
-      xp(j) += h;
-      xm(j) -= h;
-      // Which observations depend on parameter j.
-      int cam = -1, view = -1;
-      bool is_rfl = false;
-      for (const auto& ii : intr_index_) {
-        if (ii.index == j) cam = ii.cam;
-      }
-      for (size_t v = 0; v < pose_offset_.size(); ++v) {
-        if (pose_offset_[v] >= 0 && j >= pose_offset_[v] && j < pose_offset_[v] + 6) {
-          view = static_cast<int>(v);
-        }
-      }
-      if (rfl_offset_ >= 0 && j >= rfl_offset_) is_rfl = true;
-      std::vector<CameraModel> cp, cm;
-      std::vector<Vec6> pp, pm;
-      Vec6 rp, rm;
-      Unpack(xp, &cp, &pp, &rp);
-      Unpack(xm, &cm, &pm, &rm);
-      for (size_t i = 0; i < active.size(); ++i) {
-        const Obs& o = obs[active[i]];
-        const bool touches =
-            (cam >= 0 && o.cam == cam) || (view >= 0 && o.view == view) || (is_rfl && o.cam == 1);
-        if (!touches) continue;
-        jac.block<2, 1>(2 * i, j) = (Project(o, cp, pp, rp) - Project(o, cm, pm, rm)) / (2 * h);
-      }
-    }
-    (void)c;
-    (void)p;
-    (void)rfl;
-    return jac;
-  }
-
-  // Returns iterations; updates the parameters in place.
-  int Solve(int max_iterations) {
-    Layout();
-    const std::vector<int> active = ActiveObs();
-    Eigen::VectorXd x = Pack(), r;
-    double cost = Residuals(x, active, &r);
-    double mu = 1e-4;
-    int it = 0;
-    for (; it < max_iterations; ++it) {
-      const Eigen::MatrixXd jac = Jacobian(x, active);
-      const Eigen::MatrixXd jtj = jac.transpose() * jac;
-      const Eigen::VectorXd g = jac.transpose() * r;
-      bool improved = false, converged = false;
-      for (int tries = 0; tries < 10; ++tries) {
-        Eigen::MatrixXd a = jtj;
-        a.diagonal() += mu * jtj.diagonal().cwiseMax(1e-9);
-        const Eigen::VectorXd step = a.ldlt().solve(-g);
-        const Eigen::VectorXd xn = x + step;
-        Eigen::VectorXd rn;
-        const double cn = Residuals(xn, active, &rn);
-        if (std::isfinite(cn) && cn < cost) {
-          converged = (cost - cn) < 1e-12 * cost || step.norm() < 1e-12 * (1 + x.norm());
-          x = xn;
-          r = rn;
-          cost = cn;
-          mu = std::max(mu / 5, 1e-12);
-          improved = true;
-          break;
-        }
-        mu *= 10;
-      }
-      if (!improved || converged) break;
-    }
-    Vec6 rfl;
-    Unpack(x, &cams, &poses, &rfl);
-    right_from_left = rfl;
-    // Covariance of the free parameters.
-    const Eigen::MatrixXd jac = Jacobian(x, active);
-    const int m = static_cast<int>(r.size());
-    const double sigma2 = m > num_params_ ? cost / (m - num_params_) : 0;
-    const Eigen::MatrixXd jtj = jac.transpose() * jac;
-    Eigen::MatrixXd cov = sigma2 * jtj.completeOrthogonalDecomposition().pseudoInverse();
-    std_intr_.assign(cams.size(), {});
-    for (const auto& ii : intr_index_) {
-      std_intr_[ii.cam][ii.k] = std::sqrt(std::max(0.0, cov(ii.index, ii.index)));
-    }
-    std_rfl_ = {};
-    if (rfl_offset_ >= 0) {
-      for (int k = 0; k < 6; ++k) {
-        std_rfl_[k] = std::sqrt(std::max(0.0, cov(rfl_offset_ + k, rfl_offset_ + k)));
-      }
-    }
-    return it + 1;
-  }
+  bool Counts(const Obs& o) const { return o.active && view_used[o.view]; }
 
   double Rms() const {
-    const auto active = ActiveObs();
-    if (active.empty()) return 0;
     double ss = 0;
-    for (int i : active)
-      ss += (Project(obs[i], cams, poses, right_from_left) - obs[i].px).squaredNorm();
-    return std::sqrt(ss / active.size());
+    int n = 0;
+    for (const Obs& o : obs) {
+      if (!Counts(o)) continue;
+      ss += (Project(o) - o.px).squaredNorm();
+      ++n;
+    }
+    return n ? std::sqrt(ss / n) : 0;
   }
 
-  std::vector<std::array<double, kNumIntrinsics>> std_intr_;
-  std::array<double, 6> std_rfl_{};
+  // One Ceres solve over the active observations; updates the parameters and the standard
+  // deviations in place.
+  SolveReport Solve() {
+    std::vector<IntrinsicsBlock> intrinsics(devices.size());
+    for (size_t d = 0; d < devices.size(); ++d) intrinsics[d] = IntrinsicsBlockOf(devices[d]);
+    ceres::Problem problem;
+    // One loss object for all blocks; the problem owns it (and deletes it once).
+    ceres::LossFunction* loss_function = NewLossFunction(loss, loss_scale_px);
+    std::vector<bool> device_seen(devices.size(), false);
+    for (const Obs& o : obs) {
+      if (!Counts(o)) continue;
+      double* pose = reference_from_board[o.view].data();
+      if (o.device == 0) {
+        problem.AddResidualBlock(BoardReprojectionCost::Create(o.board_point, o.px), loss_function,
+                                 intrinsics[0].data(), pose);
+      } else {
+        problem.AddResidualBlock(ChainedReprojectionCost::Create(o.board_point, o.px),
+                                 loss_function, intrinsics[o.device].data(),
+                                 device_from_reference[o.device].data(), pose);
+      }
+      device_seen[o.device] = true;
+    }
+    if (problem.NumResidualBlocks() == 0) {
+      delete loss_function;
+      SolveReport r;
+      r.message = "no observations";
+      return r;
+    }
+    for (size_t d = 0; d < devices.size(); ++d) {
+      if (!device_seen[d]) continue;
+      if (ceres::Manifold* m = NewIntrinsicsManifold(free_intrinsics)) {
+        problem.SetManifold(intrinsics[d].data(), m);
+      }
+    }
+    const SolveReport report = calib::Solve(solve_options, &problem);
+    for (size_t d = 0; d < devices.size(); ++d) {
+      SetIntrinsicsFromBlock(intrinsics[d].data(), &devices[d]);
+    }
+    // Standard deviations at this optimum.
+    std::vector<const double*> blocks;
+    for (size_t d = 0; d < devices.size(); ++d) {
+      if (device_seen[d]) blocks.push_back(intrinsics[d].data());
+    }
+    for (size_t d = 1; d < devices.size(); ++d) {
+      if (device_seen[d]) blocks.push_back(device_from_reference[d].data());
+    }
+    std::vector<std::vector<double>> std_devs;
+    std_dev_ok = StandardDeviations(&problem, blocks, &std_devs);
+    std_intrinsics.assign(devices.size(), IntrinsicsBlock{});
+    std_device_from_reference.assign(devices.size(), PoseBlock{});
+    size_t i = 0;
+    for (size_t d = 0; d < devices.size(); ++d) {
+      if (!device_seen[d]) continue;
+      if (std_dev_ok) std::copy_n(std_devs[i].begin(), kNumIntrinsics, std_intrinsics[d].begin());
+      ++i;
+    }
+    for (size_t d = 1; d < devices.size(); ++d) {
+      if (!device_seen[d]) continue;
+      if (std_dev_ok) {
+        std::copy_n(std_devs[i].begin(), kPoseBlockSize, std_device_from_reference[d].begin());
+      }
+      ++i;
+    }
+    return report;
+  }
 
- private:
-  struct IntrIndex {
-    int cam, k, index;
-  };
-  std::vector<IntrIndex> intr_index_;
-  std::vector<int> pose_offset_;
-  int rfl_offset_ = -1;
-  int num_params_ = 0;
+  int NumActive() const {
+    int n = 0;
+    for (const Obs& o : obs) n += Counts(o) ? 1 : 0;
+    return n;
+  }
 };
 
 // Re-measures a circular feature's centre with the current camera and pose (header comment).
@@ -360,7 +240,7 @@ bool IsCircular(const CalibrationTarget& t) { return t.type != TargetType::kChes
 // Initial camera, distortion and poses.
 bool Initialise(const std::vector<TargetDetection>& views, const std::vector<bool>& usable,
                 const CalibrationTarget& target, int width, int height, bool estimate_k3,
-                bool estimate_tangential, CameraModel* cam, std::vector<Vec6>* poses) {
+                bool estimate_tangential, CameraModel* cam, std::vector<PoseBlock>* poses) {
   std::vector<std::vector<cv::Point3f>> obj;
   std::vector<std::vector<cv::Point2f>> img;
   for (size_t v = 0; v < views.size(); ++v) {
@@ -396,12 +276,12 @@ bool Initialise(const std::vector<TargetDetection>& views, const std::vector<boo
   std::array<double, 5> d{};
   for (int i = 0; i < std::min<int>(5, dist.total()); ++i) d[i] = dist.at<double>(i);
   cam->SetDistortion(d);
-  poses->assign(views.size(), Vec6::Zero());
+  poses->assign(views.size(), PoseBlock{});
   size_t i = 0;
   for (size_t v = 0; v < views.size(); ++v) {
     if (!usable[v]) continue;
-    (*poses)[v] << rvecs[i].at<double>(0), rvecs[i].at<double>(1), rvecs[i].at<double>(2),
-        tvecs[i].at<double>(0), tvecs[i].at<double>(1), tvecs[i].at<double>(2);
+    (*poses)[v] = {rvecs[i].at<double>(0), rvecs[i].at<double>(1), rvecs[i].at<double>(2),
+                   tvecs[i].at<double>(0), tvecs[i].at<double>(1), tvecs[i].at<double>(2)};
     ++i;
   }
   return cam->fx > 0 && cam->fy > 0 && std::isfinite(cam->fx);
@@ -411,22 +291,25 @@ std::string ViewName(const std::vector<std::string>& names, size_t v) {
   return v < names.size() ? names[v] : util::StrCat("view ", v);
 }
 
-// Solve, re-measure circular centres, reject bad views / outlier features; repeated.
-void RunRounds(Bundle* b, const std::vector<const CalibrationTarget*>& targets_per_cam,
+// Solve, re-measure circular centres, reject bad views / outlier features; repeated. The
+// last solve follows the last change, so the result is a solver optimum of the final
+// observations (its termination decides success).
+void RunRounds(Bundle* b, const std::vector<const CalibrationTarget*>& targets_per_device,
                const CalibrationOptions& options, CalibrationSummary* s) {
-  const CalibrationTarget& target = *targets_per_cam[0];
+  const CalibrationTarget& target = *targets_per_device[0];
   s->initial_rms_px = b->Rms();
   const int rounds = IsCircular(target) ? options.centre_rounds : 0;
-  for (int round = 0; round <= rounds + 2; ++round) {
-    s->iterations += b->Solve(options.max_iterations);
-    bool changed = false;
+  bool changed = true;
+  for (int round = 0; round <= rounds + 2 && changed; ++round) {
+    s->solve = b->Solve();
+    s->iterations += s->solve.iterations;
+    changed = false;
     // Bad views.
-    std::vector<double> view_rms(b->poses.size(), 0);
-    std::vector<int> view_n(b->poses.size(), 0);
+    std::vector<double> view_rms(b->reference_from_board.size(), 0);
+    std::vector<int> view_n(b->reference_from_board.size(), 0);
     for (const auto& o : b->obs) {
-      if (!o.active || !b->view_used[o.view]) continue;
-      view_rms[o.view] +=
-          (b->Project(o, b->cams, b->poses, b->right_from_left) - o.px).squaredNorm();
+      if (!b->Counts(o)) continue;
+      view_rms[o.view] += (b->Project(o) - o.px).squaredNorm();
       ++view_n[o.view];
     }
     std::vector<double> rms_list;
@@ -453,8 +336,8 @@ void RunRounds(Bundle* b, const std::vector<const CalibrationTarget*>& targets_p
     // Outlier features.
     const double rms = b->Rms();
     for (auto& o : b->obs) {
-      if (!o.active || !b->view_used[o.view]) continue;
-      const double e = (b->Project(o, b->cams, b->poses, b->right_from_left) - o.px).norm();
+      if (!b->Counts(o)) continue;
+      const double e = (b->Project(o) - o.px).norm();
       if (e > std::max(options.outlier_sigma * rms, 1.0)) {
         o.active = false;
         changed = true;
@@ -464,35 +347,36 @@ void RunRounds(Bundle* b, const std::vector<const CalibrationTarget*>& targets_p
     if (round < rounds) {
       for (auto& o : b->obs) {
         if (o.feature == nullptr) continue;
-        const CameraModel& cam = b->cams[o.cam];
-        Rigid3d pose = PoseFromVec(b->poses[o.view]);
-        if (o.cam == 1) pose = PoseFromVec(b->right_from_left) * pose;
         Vec2 c;
-        if (RemeasureCentre(*o.feature, *targets_per_cam[o.cam], cam, pose, &c)) o.px = c;
+        if (RemeasureCentre(*o.feature, *targets_per_device[o.device], b->devices[o.device],
+                            b->DeviceFromBoard(o.device, o.view), &c)) {
+          o.px = c;
+        }
       }
       changed = true;
     }
-    if (!changed) break;
+  }
+  if (changed) {
+    s->solve = b->Solve();
+    s->iterations += s->solve.iterations;
   }
   s->final_rms_px = b->Rms();
 }
 
 void FillCameraResult(const Bundle& b, int cam, const std::vector<TargetDetection>& views,
                       CameraCalibration* out) {
-  out->camera = b.cams[cam];
+  out->camera = b.devices[cam];
   out->camera_from_board.assign(views.size(), Rigid3d());
   out->centres_px.assign(views.size(), {});
   out->residuals_px.assign(views.size(), {});
-  const Rigid3d rfl = PoseFromVec(b.right_from_left);
   for (size_t v = 0; v < views.size(); ++v) {
-    if (!b.view_used[v]) continue;
-    out->camera_from_board[v] = cam == 1 ? rfl * PoseFromVec(b.poses[v]) : PoseFromVec(b.poses[v]);
+    if (b.view_used[v]) out->camera_from_board[v] = b.DeviceFromBoard(cam, static_cast<int>(v));
   }
   std::vector<double> ss(views.size(), 0), mx(views.size(), 0);
   std::vector<int> n(views.size(), 0);
   for (const auto& o : b.obs) {
-    if (o.cam != cam || !b.view_used[o.view]) continue;
-    const Vec2 r = o.px - b.Project(o, b.cams, b.poses, b.right_from_left);
+    if (o.device != cam || !b.view_used[o.view]) continue;
+    const Vec2 r = o.px - b.Project(o);
     out->centres_px[o.view].push_back(o.px);
     out->residuals_px[o.view].push_back(r);
     if (!o.active) continue;
@@ -506,13 +390,11 @@ void FillCameraResult(const Bundle& b, int cam, const std::vector<TargetDetectio
     vr.rms_px = n[v] ? std::sqrt(ss[v] / n[v]) : 0;
     vr.max_px = mx[v];
   }
-  if (cam < static_cast<int>(b.std_intr_.size())) {
-    out->std_dev = b.std_intr_[cam];
-  }
+  if (cam < static_cast<int>(b.std_intrinsics.size())) out->std_dev = b.std_intrinsics[cam];
 }
 
 // Which of fx fy cx cy k1 k2 p1 p2 k3 the refinement estimates (the rest stay fixed).
-std::array<bool, kNumIntrinsics> FreeIntrinsics(const CalibrationOptions& options) {
+FreeIntrinsics FreeIntrinsicsOf(const CalibrationOptions& options) {
   return {true,
           true,
           true,
@@ -522,6 +404,29 @@ std::array<bool, kNumIntrinsics> FreeIntrinsics(const CalibrationOptions& option
           options.estimate_tangential,
           options.estimate_tangential,
           options.estimate_k3};
+}
+
+void Configure(const CalibrationOptions& options, Bundle* b) {
+  b->free_intrinsics = FreeIntrinsicsOf(options);
+  b->loss = options.loss;
+  b->loss_scale_px = options.loss_scale_px;
+  b->solve_options.max_iterations = options.max_iterations;
+}
+
+// Success needs enough views and a converged final solve; the message says what failed.
+void Conclude(int num_views_used, int min_views, CalibrationSummary* s) {
+  if (num_views_used < min_views) {
+    if (s->message.empty()) {
+      s->message = util::StrCat("too few views left after rejection (", num_views_used, ", need ",
+                                min_views, ")");
+    }
+  } else if (!s->solve.converged()) {
+    s->message = util::StrCat("solver did not converge: ", s->solve.BriefReport());
+  } else if (!std::isfinite(s->final_rms_px)) {
+    s->message = "reprojection RMS not finite";
+  } else {
+    s->success = true;
+  }
 }
 
 }  // namespace
@@ -554,14 +459,15 @@ CameraCalibration CalibrateCamera(const std::vector<TargetDetection>& views,
     return out;
   }
   Bundle b;
-  b.cams.resize(1);
+  b.devices.resize(1);
+  b.device_from_reference.assign(1, PoseBlock{});
   if (!Initialise(views, usable, target, width, height, options.estimate_k3,
-                  options.estimate_tangential, &b.cams[0], &b.poses)) {
+                  options.estimate_tangential, &b.devices[0], &b.reference_from_board)) {
     s.message = "initialisation failed";
     return out;
   }
   b.view_used = usable;
-  b.free_intr = FreeIntrinsics(options);
+  Configure(options, &b);
   for (size_t v = 0; v < views.size(); ++v) {
     if (!usable[v]) continue;
     for (const auto& f : views[v].features) {
@@ -583,8 +489,7 @@ CameraCalibration CalibrateCamera(const std::vector<TargetDetection>& views,
     if (usable[v] && !b.view_used[v]) ++s.num_views_rejected;
     s.num_features += s.views[v].num_features;
   }
-  s.success = s.num_views_used >= options.min_views && std::isfinite(s.final_rms_px);
-  if (!s.success && s.message.empty()) s.message = "too few views left after rejection";
+  Conclude(s.num_views_used, options.min_views, &s);
   return out;
 }
 
@@ -642,13 +547,13 @@ StereoCalibration CalibrateStereo(const std::vector<TargetDetection>& left,
     }
   }
   Bundle b;
-  b.cams = {out.left.camera, out.right.camera};
-  b.right_from_left = VecFromPose(rel[best]);
-  b.free_intr = FreeIntrinsics(options);
+  b.devices = {out.left.camera, out.right.camera};
+  b.device_from_reference = {PoseBlock{}, PoseBlockOf(rel[best])};
+  Configure(options, &b);
   b.view_used = pair;
-  b.poses.assign(left.size(), Vec6::Zero());
+  b.reference_from_board.assign(left.size(), PoseBlock{});
   for (size_t v = 0; v < left.size(); ++v) {
-    if (pair[v]) b.poses[v] = VecFromPose(out.left.camera_from_board[v]);
+    if (pair[v]) b.reference_from_board[v] = PoseBlockOf(out.left.camera_from_board[v]);
   }
   // obs_index[cam][view][feature] -> index into b.obs (-1: none), for the epipolar statistics.
   std::vector<std::vector<int>> obs_index[2];
@@ -663,7 +568,7 @@ StereoCalibration CalibrateStereo(const std::vector<TargetDetection>& left,
         obs_index[cam][v][k] = static_cast<int>(b.obs.size());
         const auto& f = views[v].features[k];
         Obs o;
-        o.cam = cam;
+        o.device = cam;
         o.view = static_cast<int>(v);
         o.board_point = target.FeatureCentre(f.row, f.col);
         // Start from the single-camera re-measured centres.
@@ -686,13 +591,13 @@ StereoCalibration CalibrateStereo(const std::vector<TargetDetection>& left,
   l.summary.success = r.summary.success = true;
   out.left = l;
   out.right = r;
-  out.rig.left = b.cams[0];
-  out.rig.right = b.cams[1];
-  out.rig.right_from_left = PoseFromVec(b.right_from_left);
-  out.extrinsic_std_dev = b.std_rfl_;
+  out.rig.left = b.devices[0];
+  out.rig.right = b.devices[1];
+  out.rig.right_from_left = RigidFromPoseBlock(b.device_from_reference[1].data());
+  out.extrinsic_std_dev = b.std_device_from_reference[1];
   out.left_from_board.assign(left.size(), Rigid3d());
   for (size_t v = 0; v < left.size(); ++v) {
-    if (b.view_used[v]) out.left_from_board[v] = PoseFromVec(b.poses[v]);
+    if (b.view_used[v]) out.left_from_board[v] = b.DeviceFromBoard(0, static_cast<int>(v));
   }
   // Epipolar distances of matched features (same view, same grid position), in the right
   // image: distance of the right point from the epipolar line of the left one.
@@ -728,11 +633,12 @@ StereoCalibration CalibrateStereo(const std::vector<TargetDetection>& left,
     }
   }
   out.epipolar_rms_px = n ? std::sqrt(ss / n) : 0;
-  s.num_views_used = out.num_pairs;
-  s.num_features = 0;
-  for (const auto& vr : s.views) s.num_features += vr.used ? 1 : 0;
-  s.num_features = static_cast<int>(b.ActiveObs().size());
-  s.success = std::isfinite(out.rms_px);
+  s.num_views_used = 0;
+  for (size_t v = 0; v < left.size(); ++v) s.num_views_used += b.view_used[v] ? 1 : 0;
+  s.num_views_rejected = out.num_pairs - s.num_views_used;
+  s.num_features = b.NumActive();
+  // Each camera had min_views alone; the extrinsics need one common view.
+  Conclude(s.num_views_used, 1, &s);
   return out;
 }
 

@@ -2,10 +2,13 @@
 //
 // Method: Z. Zhang, "A flexible new technique for camera calibration" (PAMI 2000). The start
 // comes from OpenCV's cv::calibrateCamera on the raw detected centres (its plane-homography
-// initialisation and refinement: robust under heavy distortion); then our Levenberg-Marquardt
-// (Eigen, numeric Jacobian with the problem's block structure) refines fx fy cx cy k1 k2 p1 p2
-// [k3] and all poses on OUR centres, re-measured between rounds as below, minimising the
-// reprojection error (camera model: geometry/camera.h).
+// initialisation and refinement: robust under heavy distortion); then Ceres Solver
+// (Levenberg-Marquardt, automatic derivatives of the camera model of geometry/camera.h, the
+// parameter blocks of bundle.h: one intrinsics block per device, one pose per board view, one
+// device_from_reference pose per further device) refines fx fy cx cy k1 k2 p1 p2 [k3] and all
+// poses on OUR centres, re-measured between rounds as below, minimising the reprojection error,
+// optionally under a robust loss. The final solve must converge (Ceres' CONVERGENCE), else the
+// calibration is a reported failure carrying Ceres' termination type and message.
 //
 // Circular features are re-measured between refinement rounds with the current model: their
 // subpixel edge points are undistorted to ideal pinhole pixels, the ellipses refitted there (an
@@ -19,7 +22,8 @@
 //
 // Robustness: views whose RMS exceeds max(max_image_rms_px, 3 x median) are rejected with a
 // message and the problem solved again; single features beyond outlier_sigma x RMS are dropped.
-// Standard deviations: sqrt(diag(sigma^2 (J^T J)^-1)) at the optimum, sigma^2 = SSE / (m - n).
+// Standard deviations: sqrt(diag(sigma^2 (J^T J)^-1)) at the optimum from ceres::Covariance,
+// sigma^2 = SSE / (m - n) (bundle.h, StandardDeviations).
 //
 // Stereo: both cameras calibrated alone, right_from_left initialised from the per-view relative
 // poses, then one joint refinement of both intrinsics, left_from_board per view and
@@ -34,6 +38,7 @@
 #include <string>
 #include <vector>
 
+#include "fringe/calib/bundle.h"
 #include "fringe/calib/detect.h"
 #include "fringe/geometry/calibration_target.h"
 #include "fringe/geometry/camera.h"
@@ -45,17 +50,19 @@ namespace fringe::calib {
 struct CalibrationOptions {
   bool estimate_k3 = false;         // estimate k3 (else fixed at 0)
   bool estimate_tangential = true;  // estimate p1 p2 (else fixed at 0)
-  int max_iterations = 200;         // LM iterations per solve, >= 1
+  int max_iterations = 200;         // Ceres iterations per solve, >= 1
   int centre_rounds = 3;            // re-measurements of circular centres with the model, [0, 10]
   double max_image_rms_px = 1.0;    // views above max(this, 3 x median RMS) are rejected, > 0
   double outlier_sigma = 6.0;       // drop features beyond this many RMS (and > 1 px), > 0
   int min_features = 6;             // fewer features in a view: the view is not used, >= 4
   int min_views = 3;                // fewer usable views: calibration fails, >= 2
+  RobustLoss loss = RobustLoss::kNone;  // robust loss on each feature's reprojection error
+  double loss_scale_px = 1.0;           // the loss's scale (pixels), > 0
   void Check() const;
 };
 
-// Parameter order of std_dev: fx fy cx cy k1 k2 p1 p2 k3 (0 for fixed parameters).
-constexpr int kNumIntrinsics = 9;
+// Parameter order of std_dev: fx fy cx cy k1 k2 p1 p2 k3 (0 for fixed parameters); the
+// intrinsics block of bundle.h (kNumIntrinsics).
 
 struct ViewResidual {
   std::string name;
@@ -67,9 +74,10 @@ struct ViewResidual {
 };
 
 struct CalibrationSummary {
-  bool success = false;
+  bool success = false;  // enough views and the final solve converged
   std::string message;
-  int iterations = 0;  // LM iterations, all rounds
+  int iterations = 0;  // Ceres iterations, all rounds
+  SolveReport solve;   // the final Ceres solve: termination type, message, costs
   double initial_rms_px = 0;
   double final_rms_px = 0;
   int num_views_used = 0;

@@ -139,6 +139,59 @@ TEST(CalibrateStereo, CirclesRoundTripRemovesBias) {
   EXPECT_GT(raw_rms, 3 * final_rms);
 }
 
+// With feature and view rejection off, a robust loss keeps gross centre errors from biasing
+// the intrinsics; a solve cut short by the iteration limit is a reported failure.
+TEST(CalibrateCamera, RobustLossResistsGrossErrorsAndNonConvergenceFails) {
+  constexpr double kMaxRobustFocalErr = 2e-4;  // relative
+  constexpr double kMinImprovement = 3;        // plain error / robust error
+  const StereoRig rig = SmallRig();
+  const CalibrationTarget target = CalibrationTarget::Reference();
+  SimViews sv = Simulate(rig, target, 8, false, 5);
+  int corrupted = 0;
+  for (auto& d : sv.left) {
+    for (size_t k = 0; k < d.features.size(); ++k) {
+      auto& f = d.features[k];
+      // No edge points: no re-measurement, the centres stay as given.
+      f.outer_edge_px.clear();
+      f.inner_edge_px.clear();
+      if (k % 13 == 0) {
+        f.centre_px += Eigen::Vector2d(3, -2);
+        ++corrupted;
+      }
+    }
+  }
+  EXPECT_GT(corrupted, 20);
+  CalibrationOptions options;
+  options.outlier_sigma = 1e9;
+  options.max_image_rms_px = 100;
+  const auto plain = CalibrateCamera(sv.left, target, 640, 512, options);
+  options.loss = RobustLoss::kCauchy;
+  options.loss_scale_px = 0.1;
+  const auto robust = CalibrateCamera(sv.left, target, 640, 512, options);
+  std::cout << "plain: " << plain.summary.BriefReport()
+            << "\nrobust: " << robust.summary.BriefReport() << "\n";
+  ASSERT_TRUE(plain.summary.success) << plain.summary.message;
+  ASSERT_TRUE(robust.summary.success) << robust.summary.message;
+  EXPECT_EQ(robust.summary.solve.termination, ceres::CONVERGENCE);
+  const double plain_err = RelErr(plain.camera.fx, rig.left.fx);
+  const double robust_err = RelErr(robust.camera.fx, rig.left.fx);
+  std::cout << "focal error: plain " << plain_err << ", Cauchy " << robust_err << "\n";
+  EXPECT_LT(robust_err, kMaxRobustFocalErr);
+  EXPECT_GT(plain_err, kMinImprovement * robust_err);
+
+  options.max_iterations = 1;
+  const auto cut = CalibrateCamera(sv.left, target, 640, 512, options);
+  EXPECT_FALSE(cut.summary.success);
+  EXPECT_EQ(cut.summary.solve.termination, ceres::NO_CONVERGENCE);
+  EXPECT_NE(cut.summary.message.find("did not converge"), std::string::npos) << cut.summary.message;
+}
+
+TEST(CalibrationOptions, LossScaleChecked) {
+  CalibrationOptions o;
+  o.loss_scale_px = 0;
+  EXPECT_THROW(o.Check(), Error);
+}
+
 TEST(CalibrateCamera, TooFewViewsIsAStatus) {
   const CalibrationTarget target = CalibrationTarget::Reference();
   std::vector<TargetDetection> views(2);

@@ -64,11 +64,10 @@ Eigen::Matrix3d CameraModel::K() const {
 }
 
 Eigen::Vector2d CameraModel::Distort(const Eigen::Vector2d& xy) const {
-  const double x = xy.x(), y = xy.y();
-  const double r2 = x * x + y * y;
-  const double radial = 1 + r2 * (k1 + r2 * (k2 + r2 * k3));
-  return {x * radial + 2 * p1 * x * y + p2 * (r2 + 2 * x * x),
-          y * radial + p1 * (r2 + 2 * y * y) + 2 * p2 * x * y};
+  const std::array<double, 5> d = Distortion();
+  Eigen::Vector2d xy_distorted;
+  DistortNormalized(d.data(), xy.x(), xy.y(), &xy_distorted.x(), &xy_distorted.y());
+  return xy_distorted;
 }
 
 Eigen::Matrix2d CameraModel::DistortJacobian(const Eigen::Vector2d& xy) const {

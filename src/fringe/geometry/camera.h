@@ -20,6 +20,18 @@
 
 namespace fringe {
 
+// The distortion model above on any scalar type T (double; ceres::Jet for the automatic
+// derivatives of calibration, calib/bundle.h): the one implementation behind
+// CameraModel::Distort and the cost functions, so the two cannot drift apart.
+// d = {k1, k2, p1, p2, k3}; (x, y) undistorted normalized, (xd, yd) distorted normalized.
+template <typename T>
+void DistortNormalized(const T* d, const T& x, const T& y, T* xd, T* yd) {
+  const T r2 = x * x + y * y;
+  const T radial = T(1) + r2 * (d[0] + r2 * (d[1] + r2 * d[4]));
+  *xd = x * radial + T(2) * d[2] * x * y + d[3] * (r2 + T(2) * x * x);
+  *yd = y * radial + d[2] * (r2 + T(2) * y * y) + T(2) * d[3] * x * y;
+}
+
 struct CameraModel {
   int width = 1280;                               // image width in pixels, > 0
   int height = 1024;                              // image height in pixels, > 0

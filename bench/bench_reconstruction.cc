@@ -6,8 +6,10 @@
 //   calibration and with the calibration estimated from simulated board images (calib module);
 //   noise floors PF_floor / F_floor: the same figures from the TRUE surface points of the same
 //   pixels displaced along their rays by the depth noise propagated from the phase-noise limit
-//   (sigma_phi = sqrt(2/N) sigma_I / B per camera, through the phase gradient along the epipolar
-//   line and the triangulation geometry); depth_noise_ratio = RMS measured range error / RMS
+//   (since issue 10 the whole stack's: phase::AbsolutePhaseSigmaPx, the inverse-variance
+//   combination of every set's sigma_u = P/(2 pi) sqrt(2/N) sigma_I / B per camera, with the same
+//   B in every set; through the phase gradient along the epipolar line and the triangulation
+//   geometry); depth_noise_ratio = RMS measured range error / RMS
 //   propagated sigma (plates, true calibration).
 //   Demo part: RMS signed deviation from the truth mesh and coverage (left pixels seeing the lit
 //   part that give a point).
@@ -15,7 +17,8 @@
 //   against the simulator's true normals, and time.
 //   Time per view: 2 x 1280x1024, 12 images each, in memory -> organized cloud with normals.
 //
-// Usage: bench_reconstruction [--json] [--quick]   (--quick: fewer positions, no calibration)
+// Usage: bench_reconstruction [--json] [--quick] [--finest-set-only]   (--quick: fewer positions,
+// no calibration; --finest-set-only: absolute phase from the finest set alone, as before issue 10)
 #include <tbb/global_control.h>
 
 #include <Eigen/Geometry>
@@ -64,7 +67,8 @@ struct Context {
   std::optional<StereoRig> rig_est;
   phase::PatternScheme scheme = phase::MakeScheme("heterodyne-4x3");
   std::vector<cv::Mat> patterns;
-  double sigma_dn = 0;  // camera noise incl. quantisation
+  double sigma_dn = 0;      // camera noise incl. quantisation
+  bool whole_stack = true;  // decoder combines every set (false: --finest-set-only)
   sim::RenderOptions render;
   nlohmann::json calib_json;
 };
@@ -82,9 +86,11 @@ double PredictedRangeSigma(const Context& ctx, const stereo::Rectification& rect
                            const Eigen::Vector3d& p, const Eigen::Vector3d& n,
                            double modulation_dn) {
   const StereoRig& rig = ctx.rig_true;
-  const phase::PhaseShiftSet& set0 = ctx.scheme.phase_sets[0];
+  // The decoder's absolute phase: the whole stack's inverse-variance combination (issue 10),
+  // or the finest set alone with --finest-set-only. The cloud keeps set 0's modulation; the
+  // sets are taken to have the same modulation (no camera or projector defocus here).
   const double sigma_u =
-      std::sqrt(2.0 / set0.steps) * ctx.sigma_dn / modulation_dn * set0.period_px / (2 * M_PI);
+      phase::AbsolutePhaseSigmaPx(ctx.scheme, ctx.sigma_dn, modulation_dn, ctx.whole_stack);
   // Projector column change per rectified right pixel along the epipolar line, on the local
   // tangent plane of the true surface.
   const Eigen::Vector2d rr = rect.ProjectRectified(stereo::Side::kRight, p);
@@ -174,12 +180,14 @@ double AngleDeg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
 
 int main(int argc, char** argv) {
   using namespace fringe;
-  bool json_out = false, quick = false;
+  bool json_out = false, quick = false, finest_only = false;
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--json")) json_out = true;
     if (!std::strcmp(argv[i], "--quick")) quick = true;
+    if (!std::strcmp(argv[i], "--finest-set-only")) finest_only = true;
   }
   Context ctx;
+  ctx.whole_stack = !finest_only;
   ctx.patterns = phase::GeneratePatterns(ctx.scheme, ctx.render.projector.gamma);
   ctx.sigma_dn = std::sqrt(std::pow(ctx.render.sensor.read_noise_dn, 2) + 1.0 / 12);
   nlohmann::json j;
@@ -191,6 +199,8 @@ int main(int argc, char** argv) {
 
   stereo::ReconstructionOptions options;
   options.decode.noise_sigma_dn = ctx.sigma_dn;
+  options.decode.whole_stack = ctx.whole_stack;
+  j["whole_stack_phase"] = ctx.whole_stack;
   const stereo::ViewReconstructor recon_true(ctx.rig_true, ctx.scheme, options);
   std::optional<stereo::ViewReconstructor> recon_est;
   if (ctx.rig_est) recon_est.emplace(*ctx.rig_est, ctx.scheme, options);
@@ -282,6 +292,7 @@ int main(int argc, char** argv) {
   const int n_plate = quick ? 2 : 6;
   double f_max = 0, f_floor_max = 0, f_ratio_max = 0, f_est_max = 0;
   double noise_measured = 0, noise_predicted = 0;
+  int64_t noise_n = 0;
   nlohmann::json plates = nlohmann::json::array();
   for (int k = 0; k < n_plate; ++k) {
     const double roll = M_PI * k / n_plate;
@@ -301,6 +312,7 @@ int main(int argc, char** argv) {
     const eval::PlaneResult fp = eval::PlaneFigures(f.floor);
     noise_measured += f.sum_sq_measured;
     noise_predicted += f.sum_sq_predicted;
+    noise_n += f.n;
     nlohmann::json e = {{"position", k},
                         {"status", eval::ToString(p.status)},
                         {"F_mm", p.F_mm},
@@ -420,6 +432,7 @@ int main(int argc, char** argv) {
   j["F_floor_mm"] = f_floor_max;
   j["PF_over_floor_max"] = pf_ratio_max;
   j["F_over_floor_max"] = f_ratio_max;
+  j["plate_depth_noise_mm"] = noise_n > 0 ? std::sqrt(noise_measured / noise_n) : 0.0;
   j["depth_noise_ratio"] = noise_predicted > 0 ? std::sqrt(noise_measured / noise_predicted) : 0;
   j["demo_rms_mm"] = dev.rms_mm;
   j["demo_deviation"] = {{"mean_mm", dev.mean_mm},

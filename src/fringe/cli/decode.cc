@@ -29,7 +29,8 @@ void AddDecodeCommand(CLI::App& app) {
       ->required();
   sub->add_option("--out", a->out, "Output folder (replaced atomically)")->required();
   sub->add_option("--noise-sigma", a->options.noise_sigma_dn,
-                  "Camera noise in DN (sets the automatic modulation threshold)")
+                  "Camera noise in DN (sets the automatic modulation threshold); 0 estimates it "
+                  "from the images' least-squares residual")
       ->capture_default_str();
   sub->add_option("--min-modulation", a->options.min_modulation_dn,
                   "Modulation threshold in DN (<= 0: from the noise analysis)")

@@ -1,8 +1,12 @@
 // fringe reconstruct: one view (left/ and right/ fringe image stacks) -> organized point cloud.
 #include <CLI/CLI.hpp>
+#include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <memory>
+#include <nlohmann/json.hpp>
+#include <optional>
 
 #include "fringe/cli/cli.h"
 #include "fringe/io/calibration_io.h"
@@ -31,6 +35,29 @@ fs::path FirstExisting(const std::vector<fs::path>& candidates, const char* what
       util::StrCat("reconstruct: no ", what, " given (", flag, ") and none found at", tried));
 }
 
+// The bit depth of a scan folder's images (scan.json "bit_depth", docs/scan-folder.md) when
+// `view` is a view of one (SCAN/views/NNN); nullopt otherwise.
+std::optional<int> ScanBitDepth(const fs::path& view) {
+  const fs::path manifest = view.parent_path().parent_path() / "scan.json";
+  if (view.parent_path().filename() != "views" || !fs::is_regular_file(manifest)) {
+    return std::nullopt;
+  }
+  nlohmann::json j;
+  try {
+    std::ifstream in(manifest);
+    j = nlohmann::json::parse(in);
+  } catch (const std::exception& e) {
+    throw Error(util::StrCat(manifest.string(), ": not valid JSON (", e.what(), ")"));
+  }
+  if (!j.is_object() || !j.contains("bit_depth")) return std::nullopt;
+  const auto& b = j["bit_depth"];
+  if (!b.is_number_integer() || b.get<int>() < 1 || b.get<int>() > 16) {
+    throw Error(util::StrCat(manifest.string(), ": bit_depth must be an integer in [1, 16], got ",
+                             b.dump()));
+  }
+  return b.get<int>();
+}
+
 }  // namespace
 
 void AddReconstructCommand(CLI::App& app) {
@@ -45,6 +72,7 @@ void AddReconstructCommand(CLI::App& app) {
     bool no_normals = false;
     bool keep_outliers = false;
     bool no_markers = false;
+    int bit_depth = 0;
     stereo::ReconstructionOptions options;
   };
   auto a = std::make_shared<Args>();
@@ -69,8 +97,17 @@ void AddReconstructCommand(CLI::App& app) {
   sub->add_option("--residuals", a->residuals,
                   "Also write the per-pixel reprojection residual (32-bit float TIFF, pixels)");
   sub->add_option("--noise-sigma", a->options.decode.noise_sigma_dn,
-                  "Camera noise in DN (sets the decoder's modulation threshold)")
+                  "Camera noise in DN (sets the decoder's modulation threshold); 0 estimates it "
+                  "from the images' least-squares residual")
       ->capture_default_str();
+  sub->add_option("--min-modulation", a->options.decode.min_modulation_dn,
+                  "Fringe modulation threshold in DN (0: from the noise and the scheme)")
+      ->capture_default_str();
+  sub->add_option("--bit-depth", a->bit_depth,
+                  "Significant bits of the images (e.g. 12 for 12-bit data in 16-bit PNGs): the "
+                  "full scale for saturation, exposure and texture; default from the scan "
+                  "folder's scan.json, else the image container's (8 or 16)")
+      ->check(CLI::Range(1, 16));
   sub->add_option("--gamma", a->options.decode.projector_gamma,
                   "Projector gamma to correct at decode time (patterns not pre-compensated)")
       ->capture_default_str();
@@ -121,6 +158,8 @@ void AddReconstructCommand(CLI::App& app) {
                                             "calibration", "--calib")
                             : fs::path(a->calib));
     }
+    if (a->bit_depth == 0) a->bit_depth = ScanBitDepth(view).value_or(0);
+    if (a->bit_depth > 0) a->options.decode.full_scale_dn = std::ldexp(1.0, a->bit_depth) - 1;
     a->options.compute_normals = !a->no_normals;
     a->options.remove_outliers = !a->keep_outliers;
     const stereo::ViewReconstruction rec =

@@ -257,7 +257,8 @@ std::vector<UnwrapStepNoise> StepNoise(const PatternScheme& s) {
     for (size_t k = 0; k < s.phase_sets.size(); ++k)
       var += top.weights[k] * top.weights[k] * var_cycles[k];
     if (chain.size() > 1) {
-      steps.push_back({std::sqrt(var), 0.5 * (top.period - s.Span()) / top.period});
+      steps.push_back(
+          {std::sqrt(var), std::max(kMinTopMargin, 0.5 * (top.period - s.Span()) / top.period)});
     }
   }
   for (size_t l = chain.size() - 1; l >= 1; --l) {
@@ -284,6 +285,8 @@ struct Kernel {
   const Chain& chain;
   const std::vector<std::unique_ptr<GammaPhaseCorrection>>& gamma;
   float b_min_sq, saturation, min_background, min_ratio_sq, max_residual;
+  // Per set: period (px) and the whole-stack weight per unit B^2, 1 / (P^2 var per unit noise).
+  std::array<float, kMaxSets> periods, stack_weight;
   DecodeResult* out;
   std::vector<std::array<int64_t, 6>>* row_counts;  // valid, sat, under, lowmod, shadow, order
 
@@ -307,9 +310,10 @@ struct Kernel {
       float* out_bg = out->background.ptr<float>(r);
       uint8_t* out_mask = out->mask.ptr<uint8_t>(r);
 
-      // Saturation: the largest value over all images.
+      // Saturation: the largest value over the phase-shift images. A saturated Gray-code or
+      // white frame still gives an unambiguous bright decision, so it does not reject a pixel.
       std::copy(rows[0], rows[0] + w, maxi.begin());
-      for (size_t i = 1; i < images.size(); ++i) MaxRow<T>(w, rows[i], maxi.data());
+      for (int i = 1; i < scheme.NumPhaseImages(); ++i) MaxRow<T>(w, rows[i], maxi.data());
       // Least squares per set: phase (as a fraction of the period), B^2; A of set 0.
       for (int s = 0; s < num_sets; ++s) {
         const int first = scheme.PhaseImageIndex(s);
@@ -407,6 +411,24 @@ struct Kernel {
             v[c] = (ff[c] + k) * pf;
           }
         }
+        if (opt.whole_stack && num_sets > 1) {
+          // Once the orders are known every set measures the same projector coordinate: take
+          // each set's order from the finest estimate and combine them weighted by their
+          // inverse variance, B_s^2 / (P_s^2 var_s) with var_s the set's phase variance per unit
+          // noise (sqrt(N/2) better per set for equal shifts).
+          for (int c = 0; c < w; ++c) {
+            float num = 0.0f, den = 0.0f;
+            for (int s = 0; s < num_sets; ++s) {
+              const float ps = periods[s];
+              const float f = frac[static_cast<size_t>(s) * w + c];
+              const float us = (f + RoundF(v[c] / ps - f)) * ps;
+              const float ws = bsq[static_cast<size_t>(s) * w + c] * stack_weight[s];
+              num += ws * (us - v[c]);
+              den += ws;
+            }
+            v[c] += den > 0.0f ? num / den : 0.0f;
+          }
+        }
       }
 
       // Mask and outputs.
@@ -445,8 +467,8 @@ float MedianOfValid(const cv::Mat& abs, const cv::Mat& mask, int r, int c, int r
 
 void DecodeOptions::Check() const {
   const char* o = "DecodeOptions";
-  CheckOption(noise_sigma_dn > 0 && std::isfinite(noise_sigma_dn), o, "noise_sigma_dn",
-              noise_sigma_dn, "must be > 0");
+  CheckOption(noise_sigma_dn >= 0 && std::isfinite(noise_sigma_dn), o, "noise_sigma_dn",
+              noise_sigma_dn, "must be >= 0 (0 estimates it from the images)");
   CheckOption(order_error_probability > 0 && order_error_probability < 0.1, o,
               "order_error_probability", order_error_probability, "must be in (0, 0.1)");
   CheckOption(std::isfinite(min_modulation_dn), o, "min_modulation_dn", min_modulation_dn,
@@ -467,18 +489,46 @@ void DecodeOptions::Check() const {
               "must be in (0, 10]");
 }
 
+const char* ToString(NoiseSource s) {
+  switch (s) {
+    case NoiseSource::kGiven:
+      return "given";
+    case NoiseSource::kEstimated:
+      return "estimated";
+    case NoiseSource::kAssumed:
+      return "assumed";
+  }
+  return "?";
+}
+
 std::string DecodeSummary::BriefReport() const {
   return StrCat(status == DecodeStatus::kSuccess ? "decoded" : "FAILED", ": ", valid, "/", pixels,
                 " valid (", 100.0 * ValidFraction(), " %), rejected saturated ", rejected_saturated,
                 ", under-exposed ", rejected_underexposed, ", low modulation ",
-                rejected_low_modulation, " (B < ", min_modulation_dn, " DN), shadow ",
-                rejected_shadow, ", ambiguous order ", rejected_order_ambiguous, ", spatial ",
-                rejected_spatial, "; orders repaired ", orders_repaired, "; ", time_ms, " ms",
-                message.empty() ? "" : "; ", message);
+                rejected_low_modulation, " (B < ", min_modulation_dn, " DN",
+                threshold_bounded ? ", bounded" : "", "; noise ", noise.sigma_dn, " DN ",
+                ToString(noise.source), "), shadow ", rejected_shadow, ", ambiguous order ",
+                rejected_order_ambiguous, ", spatial ", rejected_spatial, "; orders repaired ",
+                orders_repaired, "; ", time_ms, " ms", message.empty() ? "" : "; ", message);
 }
 
 double WrappedPhaseSigma(const PatternScheme& scheme, int set, double sigma_dn, double b_dn) {
   return std::sqrt(PhaseVariancePerUnit(scheme, set)) * sigma_dn / b_dn;
+}
+
+double AbsolutePhaseSigmaPx(const PatternScheme& scheme, double sigma_dn, double b_dn,
+                            bool whole_stack) {
+  auto var_px = [&](size_t s) {
+    const double p = scheme.phase_sets[s].period_px;
+    return p * p / (4 * M_PI * M_PI) * PhaseVariancePerUnit(scheme, static_cast<int>(s)) *
+           sigma_dn * sigma_dn / (b_dn * b_dn);
+  };
+  if (!whole_stack || scheme.gray_bits > 0 || scheme.phase_sets.size() == 1) {
+    return std::sqrt(var_px(0));
+  }
+  double info = 0;
+  for (size_t s = 0; s < scheme.phase_sets.size(); ++s) info += 1.0 / var_px(s);
+  return std::sqrt(1.0 / info);
 }
 
 namespace {
@@ -506,7 +556,93 @@ double ModulationThreshold(const PatternScheme& scheme, double sigma_dn, double 
     const double mid = std::sqrt(lo * hi);
     (OrderErrorProbability(steps, sigma_dn, mid) > probability ? lo : hi) = mid;
   }
-  return hi;
+  const auto c = LeastSquaresCoefficients(scheme.phase_sets[0]);
+  const double noise_only =
+      sigma_dn * std::sqrt(-std::log(probability) * (c.cov(1, 1) + c.cov(2, 2)));
+  return std::max(hi, noise_only);
+}
+
+NoiseEstimate EstimateNoise(const PatternScheme& scheme, const std::vector<cv::Mat>& images,
+                            double full_scale_dn) {
+  constexpr int kNoiseBlock = 16;
+  NoiseEstimate est;
+  int set = -1;
+  for (size_t s = 0; s < scheme.phase_sets.size(); ++s) {
+    if (scheme.phase_sets[s].steps >= 4) {
+      set = static_cast<int>(s);
+      break;
+    }
+  }
+  if (set < 0) {
+    est.message = StrCat("no phase set has 4 or more steps (3-step sets leave no residual): ",
+                         kAssumedNoiseSigmaDn, " DN assumed; give --noise-sigma if known");
+    return est;
+  }
+  const auto shifts = scheme.phase_sets[set].Shifts();
+  const int n = static_cast<int>(shifts.size());
+  const cv::Mat c = DemodulationMatrix(shifts);  // 3 x n
+  // Residual operator R = I - M C: r = R * intensities.
+  cv::Mat m(n, 3, CV_64F);
+  for (int k = 0; k < n; ++k) {
+    m.at<double>(k, 0) = 1.0;
+    m.at<double>(k, 1) = std::cos(shifts[k]);
+    m.at<double>(k, 2) = -std::sin(shifts[k]);
+  }
+  const cv::Mat r = cv::Mat::eye(n, n, CV_64F) - m * c;
+  const int first = scheme.PhaseImageIndex(set);
+  const cv::Mat& im0 = images.at(first);
+  std::vector<std::vector<float>> per_row((im0.rows + 1) / 2);
+  tbb::parallel_for(0, static_cast<int>(per_row.size()), [&](int i) {
+    const int y = 2 * i;
+    std::vector<double> x(n);
+    double block_sum = 0;
+    int block_count = 0;
+    for (int col = 0; col < im0.cols; col += 2) {
+      bool clipped = false;
+      for (int k = 0; k < n; ++k) {
+        const cv::Mat& im = images[first + k];
+        x[k] = im.depth() == CV_16U ? im.at<uint16_t>(y, col) : im.at<uint8_t>(y, col);
+        clipped = clipped || x[k] <= 0 || x[k] >= full_scale_dn;
+      }
+      if (clipped) continue;
+      double rss = 0;
+      for (int j = 0; j < n; ++j) {
+        double e = 0;
+        for (int k = 0; k < n; ++k) e += r.at<double>(j, k) * x[k];
+        rss += e * e;
+      }
+      // Means over blocks of kNoiseBlock pixels: 8-bit residuals take few distinct values, and
+      // the median of block means is continuous and still robust to the odd defect.
+      block_sum += rss / (n - 3);
+      if (++block_count == kNoiseBlock) {
+        per_row[i].push_back(static_cast<float>(block_sum / kNoiseBlock));
+        block_sum = 0;
+        block_count = 0;
+      }
+    }
+  });
+  std::vector<float> all;
+  for (const auto& v : per_row) all.insert(all.end(), v.begin(), v.end());
+  if (all.size() < 20) {
+    est.message = StrCat("too few unclipped pixels to estimate the noise from set ", set, ": ",
+                         kAssumedNoiseSigmaDn, " DN assumed");
+    return est;
+  }
+  const auto mid = all.begin() + static_cast<std::ptrdiff_t>(all.size() / 2);
+  std::nth_element(all.begin(), mid, all.end());
+  // Median of chi^2_k / k for k = kNoiseBlock (N - 3) degrees of freedom (Wilson-Hilferty,
+  // within 0.1 % for k >= 16).
+  const int dof = kNoiseBlock * (n - 3);
+  const double chi_median = std::pow(1.0 - 2.0 / (9.0 * dof), 3.0);
+  est.sigma_dn = std::sqrt(*mid / chi_median);
+  est.source = NoiseSource::kEstimated;
+  est.set = set;
+  est.pixels = static_cast<int64_t>(all.size()) * kNoiseBlock;
+  est.message = StrCat("camera noise ", est.sigma_dn,
+                       " DN estimated from the least-squares "
+                       "residual of phase set ",
+                       set, " (", n, " steps, ", est.pixels, " pixels)");
+  return est;
 }
 
 double JumpFraction(const cv::Mat& absolute_phase, const cv::Mat& mask, double period_px,
@@ -555,7 +691,12 @@ void Decode(const PatternScheme& scheme, const std::vector<cv::Mat>& images,
   }
   const cv::Size size = images[0].size();
   const bool is16 = images[0].depth() == CV_16U;
-  const double full = options.full_scale_dn > 0 ? options.full_scale_dn : (is16 ? 65535.0 : 255.0);
+  const double container_full = is16 ? 65535.0 : 255.0;
+  if (options.full_scale_dn > container_full) {
+    throw Error(StrCat("full scale ", options.full_scale_dn, " DN exceeds what the ", is16 ? 16 : 8,
+                       "-bit images hold (", container_full, "): check the bit depth"));
+  }
+  const double full = options.full_scale_dn > 0 ? options.full_scale_dn : container_full;
 
   std::vector<SetCoefficients> coeffs;
   std::vector<std::unique_ptr<GammaPhaseCorrection>> gamma(scheme.phase_sets.size());
@@ -568,10 +709,24 @@ void Decode(const PatternScheme& scheme, const std::vector<cv::Mat>& images,
     }
   }
   const Chain chain = HeterodyneChain(scheme);
-  const double b_min =
-      options.min_modulation_dn > 0
-          ? options.min_modulation_dn
-          : ModulationThreshold(scheme, options.noise_sigma_dn, options.order_error_probability);
+  NoiseEstimate noise;
+  if (options.noise_sigma_dn > 0) {
+    noise.sigma_dn = options.noise_sigma_dn;
+    noise.source = NoiseSource::kGiven;
+    noise.message = StrCat("camera noise ", noise.sigma_dn, " DN given");
+  } else if (options.min_modulation_dn <= 0) {
+    noise = EstimateNoise(scheme, images, full);
+  }
+  bool bounded = false;
+  double b_min = options.min_modulation_dn;
+  if (b_min <= 0) {
+    b_min = ModulationThreshold(scheme, noise.sigma_dn, options.order_error_probability);
+    const double cap = kMaxModulationThresholdFraction * full;
+    if (b_min > cap) {
+      b_min = cap;
+      bounded = true;
+    }
+  }
 
   result->absolute_phase.create(size, CV_32F);
   result->wrapped_phase.create(size, CV_32F);
@@ -580,6 +735,13 @@ void Decode(const PatternScheme& scheme, const std::vector<cv::Mat>& images,
   result->mask.create(size, CV_8U);
   std::vector<std::array<int64_t, 6>> row_counts(size.height);
 
+  std::array<float, kMaxSets> periods{}, stack_weight{};
+  for (size_t i = 0; i < scheme.phase_sets.size(); ++i) {
+    const double p = scheme.phase_sets[i].period_px;
+    periods[i] = static_cast<float>(p);
+    stack_weight[i] =
+        static_cast<float>(1.0 / (p * p * PhaseVariancePerUnit(scheme, static_cast<int>(i))));
+  }
   auto run = [&](auto tag) {
     using T = decltype(tag);
     Kernel<T> k{scheme,
@@ -593,6 +755,8 @@ void Decode(const PatternScheme& scheme, const std::vector<cv::Mat>& images,
                 static_cast<float>(options.min_background_fraction * full),
                 static_cast<float>(options.min_modulation_ratio * options.min_modulation_ratio),
                 static_cast<float>(options.max_order_residual),
+                periods,
+                stack_weight,
                 result,
                 &row_counts};
     tbb::parallel_for(tbb::blocked_range<int>(0, size.height, 8), k);
@@ -606,6 +770,9 @@ void Decode(const PatternScheme& scheme, const std::vector<cv::Mat>& images,
   DecodeSummary& sum = result->summary;
   sum = DecodeSummary();
   sum.min_modulation_dn = b_min;
+  sum.threshold_bounded = bounded;
+  sum.full_scale_dn = full;
+  sum.noise = noise;
   sum.pixels = static_cast<int64_t>(size.area());
   std::array<int64_t, 6> total{};
   for (const auto& rc : row_counts) {
@@ -665,10 +832,29 @@ void Decode(const PatternScheme& scheme, const std::vector<cv::Mat>& images,
       }
     }
   }
+  // Why pixels were rejected, in words, when it is not the usual shadow and background.
+  std::vector<std::string> notes;
+  if (bounded) {
+    notes.push_back(StrCat("the automatic modulation threshold was bounded to ", b_min, " DN (",
+                           kMaxModulationThresholdFraction,
+                           " of full scale): the scheme's unwrapping margin is too small for "
+                           "the noise"));
+  }
+  const int64_t rejected = sum.pixels - sum.valid;
+  if (rejected > 0 && sum.rejected_low_modulation > rejected / 2) {
+    notes.push_back(StrCat("most rejected pixels have a fringe modulation below ", b_min, " DN (",
+                           options.min_modulation_dn > 0 ? "given" : noise.message, ")"));
+  }
+  if (rejected > 0 && sum.rejected_saturated > rejected / 2) {
+    notes.push_back(
+        "most rejected pixels are saturated in a phase-shift image: lower the "
+        "exposure or add one");
+  }
   if (sum.valid == 0) {
     sum.status = DecodeStatus::kNoValidPixels;
-    sum.message = "no pixel passed the quality mask";
+    notes.insert(notes.begin(), "no pixel passed the quality mask");
   }
+  for (const auto& n : notes) sum.message += (sum.message.empty() ? "" : "; ") + n;
   sum.time_ms = timer.ElapsedMs();
 }
 

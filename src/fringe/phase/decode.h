@@ -15,7 +15,10 @@
 // periods or rejecting the pixel.
 //
 // Noise analysis: with camera noise sigma_I and modulation B, the wrapped phase of an N-step
-// set has sigma_phi = sqrt(2/N) sigma_I / B (equally spaced shifts). Each unwrapping step is a
+// set has sigma_phi = sqrt(2/N) sigma_I / B (equally spaced shifts). Once the fringe orders are
+// fixed, every set of a multi-frequency scheme measures the same projector coordinate with
+// variance (P_s / 2 pi)^2 sigma_phi_s^2; the decoder combines them by inverse variance (the
+// whole stack's limit, AbsolutePhaseSigmaPx). Each unwrapping step is a
 // linear combination of the sets' phases whose error must stay below half a fine period; this
 // gives the modulation below which a wrong order becomes likely (ModulationThreshold), which is
 // the default modulation threshold of the mask.
@@ -41,10 +44,14 @@ namespace fringe::phase {
 // model so both demodulate identically.
 cv::Mat DemodulationMatrix(const std::vector<double>& shifts, cv::Matx33d* cov = nullptr);
 
+// Camera noise assumed when it can be neither given nor estimated (a scheme of 3-step sets only
+// has no least-squares residual), DN.
+constexpr double kAssumedNoiseSigmaDn = 2.0;
+
 struct DecodeOptions {
-  // Camera noise standard deviation (DN of the images' bit depth), > 0. Only used to derive the
-  // automatic modulation threshold.
-  double noise_sigma_dn = 2.0;
+  // Camera noise standard deviation (DN of the images' bit depth), >= 0; 0 estimates it from
+  // the images (EstimateNoise). Only used to derive the automatic modulation threshold.
+  double noise_sigma_dn = 0.0;
   // Probability of a wrong fringe order per pixel at the automatic modulation threshold,
   // in (0, 0.1).
   double order_error_probability = 1e-6;
@@ -54,8 +61,9 @@ struct DecodeOptions {
   // Full scale of the camera in DN; <= 0 means that of the image depth (255 or 65535). Set it
   // for 10- or 12-bit sensors stored in 16-bit images (e.g. 4095).
   double full_scale_dn = 0.0;
-  // Saturation level (DN): a pixel is rejected when any image reaches it; <= 0 means the full
-  // scale.
+  // Saturation level (DN): a pixel is rejected when an image of a phase-shift set reaches it
+  // (a Gray-code or white frame may saturate: its bright decision stays unambiguous); <= 0
+  // means the full scale.
   double saturation_dn = 0.0;
   // Under-exposure: background A of set 0 below this fraction of full scale, in [0, 1).
   double min_background_fraction = 0.01;
@@ -71,12 +79,42 @@ struct DecodeOptions {
   // When the spatial check fails: shift the pixel by whole periods if that agrees with the
   // neighbourhood (true), or reject it (false, or when no shift agrees).
   bool repair_orders = true;
+  // Multi-frequency (heterodyne) schemes: once the orders are known, the absolute phase is the
+  // inverse-variance weighted mean of every set's estimate (weights B_s^2 N_s / P_s^2 for equal
+  // shifts) instead of the finest set's alone. false: the finest set alone (as before issue 10).
+  bool whole_stack = true;
   // Gamma of the projector when the patterns were not pre-compensated (1 = none, the default):
   // the decoder removes the resulting periodic phase error with a look-up table (gamma.h).
   double projector_gamma = 1.0;
 
   void Check() const;  // throws fringe::Error naming the field
 };
+
+// The automatic modulation threshold never exceeds this fraction of the full scale: a scheme
+// whose unwrapping margin asks for more (a beat of beats equal to the projector span) would
+// otherwise reject every pixel.
+constexpr double kMaxModulationThresholdFraction = 0.25;
+
+// Where the camera noise used for the modulation threshold came from.
+enum class NoiseSource { kGiven, kEstimated, kAssumed };
+const char* ToString(NoiseSource s);
+
+struct NoiseEstimate {
+  double sigma_dn = kAssumedNoiseSigmaDn;
+  NoiseSource source = NoiseSource::kAssumed;
+  int set = -1;         // phase set whose residual gave the estimate, -1 when assumed
+  int64_t pixels = 0;   // pixels used
+  std::string message;  // how it was obtained, for the summary
+};
+
+// Camera noise from the least-squares residual of the first phase set with N >= 4 steps:
+// RSS / (N - 3) has mean sigma^2; the median over unclipped pixels (every 2nd row and column),
+// divided by the median of chi^2 / dof, is robust to the few pixels at edges and defects.
+// Gamma harmonics also enter the residual: on uncompensated patterns the estimate is high
+// (a higher, safer threshold). Without a set of N >= 4 the result is kAssumedNoiseSigmaDn with
+// source kAssumed. full_scale_dn: pixels reaching it (or 0) in the set are skipped.
+NoiseEstimate EstimateNoise(const PatternScheme& scheme, const std::vector<cv::Mat>& images,
+                            double full_scale_dn);
 
 enum class DecodeStatus { kSuccess, kNoValidPixels };
 
@@ -91,9 +129,12 @@ struct DecodeSummary {
   int64_t rejected_low_modulation = 0;
   int64_t rejected_shadow = 0;
   int64_t rejected_order_ambiguous = 0;
-  int64_t rejected_spatial = 0;  // spatial check failed and could not be repaired
-  int64_t orders_repaired = 0;   // fringe-order errors detected by the spatial check and fixed
-  double min_modulation_dn = 0;  // threshold used
+  int64_t rejected_spatial = 0;    // spatial check failed and could not be repaired
+  int64_t orders_repaired = 0;     // fringe-order errors detected by the spatial check and fixed
+  double min_modulation_dn = 0;    // threshold used
+  bool threshold_bounded = false;  // the automatic threshold hit kMaxModulationThresholdFraction
+  double full_scale_dn = 0;        // full scale used (options or the image depth)
+  NoiseEstimate noise;             // camera noise behind the automatic threshold
   double time_ms = 0;
 
   double ValidFraction() const { return pixels ? static_cast<double>(valid) / pixels : 0.0; }
@@ -121,9 +162,21 @@ void Decode(const PatternScheme& scheme, const std::vector<cv::Mat>& images,
 // Standard deviation of set `set`'s wrapped phase (radians) for camera noise sigma_dn and
 // modulation b_dn: sqrt(trace-based LS variance) = sqrt(2/N) sigma / B for equal shifts.
 double WrappedPhaseSigma(const PatternScheme& scheme, int set, double sigma_dn, double b_dn);
+// Standard deviation (projector px) of the absolute phase at camera noise sigma_dn and the same
+// modulation b_dn in every set: the finest set's, or with whole_stack the inverse-variance
+// combination of every set of a multi-frequency scheme (Gray-code schemes use set 0 alone).
+double AbsolutePhaseSigmaPx(const PatternScheme& scheme, double sigma_dn, double b_dn,
+                            bool whole_stack = true);
 // Probability that some unwrapping step picks a wrong order at modulation b_dn (Gaussian noise).
 double OrderErrorProbability(const PatternScheme& scheme, double sigma_dn, double b_dn);
-// Smallest modulation with OrderErrorProbability <= probability.
+// Smallest modulation with OrderErrorProbability <= probability, and at least the modulation
+// that noise alone (no fringe: shadow, ambient light) exceeds with that probability,
+// sigma sqrt(-ln(p) (Q11 + Q22)) for set 0 (B^2 of pure noise is sigma^2 (Q11 + Q22) / 2 times a
+// chi^2 with 2 degrees of freedom). The coarsest heterodyne level is given at least kMinTopMargin
+// of its period as margin beyond the projector span, the presets' margin (a beat of beats equal
+// to the span has none, which would ask for an infinite modulation; pixels near the projector's
+// edges are then left to the residual and spatial checks).
+constexpr double kMinTopMargin = 0.1;
 double ModulationThreshold(const PatternScheme& scheme, double sigma_dn, double probability);
 
 // Fraction of valid pixels whose absolute phase differs from the median of the valid pixels in

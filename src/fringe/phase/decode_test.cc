@@ -132,6 +132,7 @@ TEST(Decode, HeterodyneOrdersAreCorrectOverTheFullWidthNearTheThreshold) {
     so.noise_sigma_dn = 2;
     DecodeOptions opt;
     opt.spatial_check_fraction = 0;  // count raw unwrapping errors
+    opt.noise_sigma_dn = 2;          // the threshold of the noise model at the true sigma
     const DecodeResult r = Decode(s, RenderSyntheticStack(s, u, so), opt);
     const Errors e = Compare(s, r, u);
     EXPECT_EQ(e.wrong_orders, 0) << name;
@@ -232,6 +233,108 @@ TEST(Decode, TwelveBitDataInSixteenBitImagesUsesTheGivenFullScale) {
   const DecodeResult r = Decode(s, images, opt);
   EXPECT_EQ(r.summary.rejected_saturated, 100);
   EXPECT_EQ(r.summary.valid, u.total() - 100) << r.summary.BriefReport();
+  EXPECT_EQ(Compare(s, r, u).wrong_orders, 0);
+}
+
+TEST(Decode, NoiseIsEstimatedFromTheResidualOfAFourStepSet) {
+  // Issue 10: gamma-compensated 8-bit images (pattern quantisation and gamma harmonics enter the
+  // residual too); the estimate must be within 10 % of the true sigma.
+  constexpr double kMaxRelativeError = 0.10;
+  for (const std::string name : {"heterodyne-4x3", "thesis-4+3+3"}) {
+    for (const double sigma : {1.0, 1.5, 3.0}) {
+      const PatternScheme s = MakeScheme(name, 1280, 800);
+      const cv::Mat u = LinearProjectorMap(s, kSize);
+      SyntheticStackOptions so;
+      so.modulation_dn = 90;
+      so.noise_sigma_dn = sigma;
+      so.projector_gamma = 2.2;
+      so.precompensate_gamma = 2.2;
+      so.seed = 77;
+      const auto images = RenderSyntheticStack(s, u, so);
+      const DecodeResult r = Decode(s, images);  // noise_sigma_dn = 0: estimate
+      SCOPED_TRACE(name + " sigma " + std::to_string(sigma) + ": " + r.summary.BriefReport());
+      EXPECT_EQ(r.summary.noise.source, NoiseSource::kEstimated);
+      EXPECT_EQ(r.summary.noise.set, 0);
+      EXPECT_NEAR(r.summary.noise.sigma_dn, sigma, kMaxRelativeError * sigma);
+      EXPECT_NE(r.summary.BriefReport().find("estimated"), std::string::npos);
+      // The threshold follows the estimate.
+      EXPECT_NEAR(r.summary.min_modulation_dn,
+                  ModulationThreshold(s, r.summary.noise.sigma_dn, 1e-6), 1e-9);
+      EXPECT_FALSE(r.summary.threshold_bounded);
+    }
+  }
+}
+
+TEST(Decode, ThreeStepSchemesKeepTheAssumedNoiseAndSaySo) {
+  const PatternScheme s = MakeScheme("heterodyne-3x3", 1280, 800);
+  const cv::Mat u = LinearProjectorMap(s, kSize);
+  const DecodeResult r = Decode(s, RenderSyntheticStack(s, u, SyntheticStackOptions()));
+  EXPECT_EQ(r.summary.noise.source, NoiseSource::kAssumed);
+  EXPECT_EQ(r.summary.noise.sigma_dn, kAssumedNoiseSigmaDn);
+  EXPECT_NE(r.summary.noise.message.find("3-step"), std::string::npos);
+  DecodeOptions given;
+  given.noise_sigma_dn = 1.25;
+  const DecodeResult g = Decode(s, RenderSyntheticStack(s, u, SyntheticStackOptions()), given);
+  EXPECT_EQ(g.summary.noise.source, NoiseSource::kGiven);
+  EXPECT_EQ(g.summary.noise.sigma_dn, 1.25);
+}
+
+TEST(Decode, BeatOfBeatsEqualToTheSpanGivesABoundedThreshold) {
+  // Periods 1280/70, 1280/64, 1280/59 on a 1280-px projector: the beat of beats is the span
+  // up to rounding. The scheme is accepted and decodes with a finite threshold.
+  PatternScheme s = MakeScheme("heterodyne-4x3", 1280, 800);
+  const int counts[3] = {70, 64, 59};
+  for (int i = 0; i < 3; ++i) s.phase_sets[i].period_px = 1280.0 / counts[i];
+  ASSERT_NO_THROW(s.Check());
+  const double b_min = ModulationThreshold(s, 2.0, 1e-6);
+  EXPECT_LT(b_min, 50.0);
+  // Inside the projector (away from its very edges, where the zero margin leaves the order to
+  // the checks) almost every pixel decodes with the right order.
+  cv::Mat u = LinearProjectorMap(s, kSize);
+  u = u * (1200.0 / 1279.0) + 40.0;
+  SyntheticStackOptions so;
+  so.noise_sigma_dn = 1.5;
+  const DecodeResult r = Decode(s, RenderSyntheticStack(s, u, so));
+  EXPECT_GT(r.summary.ValidFraction(), 0.99) << r.summary.BriefReport();
+  EXPECT_EQ(Compare(s, r, u).wrong_orders, 0);
+}
+
+TEST(Decode, AutomaticThresholdIsBoundedAndTheSummarySaysWhy) {
+  // A noise so large that the order-error model asks for more modulation than the camera can
+  // give: the threshold stops at kMaxModulationThresholdFraction of full scale and the summary
+  // says why so many pixels were rejected.
+  const PatternScheme s = MakeScheme("heterodyne-4x3", 1280, 800);
+  const cv::Mat u = LinearProjectorMap(s, kSize);
+  SyntheticStackOptions so;
+  so.modulation_dn = 20;
+  DecodeOptions opt;
+  opt.noise_sigma_dn = 10;  // asks for B > 100 DN
+  const DecodeResult r = Decode(s, RenderSyntheticStack(s, u, so), opt);
+  EXPECT_TRUE(r.summary.threshold_bounded);
+  EXPECT_DOUBLE_EQ(r.summary.min_modulation_dn, kMaxModulationThresholdFraction * 255);
+  EXPECT_NE(r.summary.message.find("bounded"), std::string::npos) << r.summary.message;
+  EXPECT_NE(r.summary.message.find("modulation below"), std::string::npos) << r.summary.message;
+}
+
+TEST(Decode, SaturatedGrayCodeImagesDoNotRejectPixels) {
+  // Issue 10: a specular spot saturates the bright Gray-code stripes but not the phase images;
+  // the bright decision is unambiguous, so the pixels decode. Saturation in a phase image still
+  // rejects.
+  const PatternScheme s = MakeScheme("gray+4", 1280, 800);
+  const cv::Mat u = LinearProjectorMap(s, kSize);
+  SyntheticStackOptions so;
+  so.modulation_dn = 80;
+  so.noise_sigma_dn = 1;
+  auto images = RenderSyntheticStack(s, u, so);
+  const cv::Rect spot(100, 100, 40, 30), phase_spot(200, 100, 20, 20);
+  for (int i = s.NumPhaseImages(); i < s.NumImages(); ++i) {
+    cv::Mat roi = images[i](spot);
+    roi.setTo(255, roi > so.background_dn);
+  }
+  images[1](phase_spot).setTo(255);
+  const DecodeResult r = Decode(s, images);
+  EXPECT_EQ(r.summary.rejected_saturated, phase_spot.area()) << r.summary.BriefReport();
+  EXPECT_EQ(cv::countNonZero(r.mask(spot)), spot.area());
   EXPECT_EQ(Compare(s, r, u).wrong_orders, 0);
 }
 

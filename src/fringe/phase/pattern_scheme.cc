@@ -35,6 +35,9 @@ double ShiftConditioning(const std::vector<double>& shifts) {
   return evals.at<double>(2) / evals.at<double>(0);
 }
 
+// Relative tolerance of the coarsest period against the projector span.
+constexpr double kSpanTolerance = 1e-9;
+
 unsigned Gray(unsigned k) { return k ^ (k >> 1); }
 
 }  // namespace
@@ -123,7 +126,7 @@ void PatternScheme::Check() const {
   const double span = Span();
   if (gray_bits > 0) {
     const double covered = std::ldexp(1.0, gray_bits) * phase_sets[0].period_px;
-    CheckOption(covered >= span, o, "gray_bits", gray_bits,
+    CheckOption(covered >= span * (1 - kSpanTolerance), o, "gray_bits", gray_bits,
                 StrCat("2^bits periods of ", phase_sets[0].period_px,
                        " px must cover the projector span of ", span, " px")
                     .c_str());
@@ -141,7 +144,9 @@ void PatternScheme::Check() const {
       }
       p = next;
     }
-    CheckOption(p[0] >= span, o, "phase_sets", p[0],
+    // Relative tolerance: periods given as span / count (1280/70, 1280/64, 1280/59) have a beat
+    // of beats equal to the span up to rounding (1279.9999999999914).
+    CheckOption(p[0] >= span * (1 - kSpanTolerance), o, "phase_sets", p[0],
                 StrCat("the coarsest (beat) period must cover the projector span of ", span,
                        " px (or add Gray code)")
                     .c_str());

@@ -78,6 +78,12 @@ nlohmann::json DecodeSummaryToJson(const DecodeSummary& s) {
           {"rejected_spatial", s.rejected_spatial},
           {"orders_repaired", s.orders_repaired},
           {"min_modulation_dn", s.min_modulation_dn},
+          {"threshold_bounded", s.threshold_bounded},
+          {"full_scale_dn", s.full_scale_dn},
+          {"noise_sigma_dn", s.noise.sigma_dn},
+          {"noise_source", ToString(s.noise.source)},
+          {"noise_message", s.noise.message},
+          {"message", s.message},
           {"time_ms", s.time_ms}};
 }
 

@@ -16,11 +16,11 @@ namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-// A monotonic stretch [begin, end] (end > begin) of valid samples in a rectified row whose
-// neighbouring samples differ by at most max_phase_step_px. Noise may reverse a step by up to
-// max_reversal_px without ending the run; the search then uses the run's monotone envelope
-// (running max of an increasing run, running min of a decreasing one) and finds the FIRST
-// crossing, so a noisy wiggle never produces a second candidate.
+// A monotonic stretch [begin, end] (end > begin) of valid samples in a rectified row without a
+// discontinuity between neighbouring samples. Noise may move the phase against the run's
+// direction without ending the run; the search then uses the run's monotone envelope (running
+// max of an increasing run, running min of a decreasing one) and finds the FIRST crossing, so a
+// noisy wiggle never produces a second candidate.
 struct Run {
   int begin = 0;
   int end = 0;
@@ -33,46 +33,141 @@ struct Run {
 
 using RowRuns = std::vector<std::vector<Run>>;
 
-// Runs per row, and the envelope image (same size as rect_phase).
-RowRuns FindRuns(const cv::Mat& rect_phase, double max_step, double max_reversal,
-                 cv::Mat* envelope) {
+// Samples per block of the local phase gradient; the gradient of a block is the median |step|
+// over the block and one block on each side (48 steps), so a discontinuity or a few noisy steps
+// do not move it.
+constexpr int kGradientBlock = 16;
+// Blocks with fewer valid steps than this use the row's median; the local gradient is never
+// taken below kGradientFloor times the row's median (a turning point has a true gradient of 0,
+// and noise there must not split the run into many pieces).
+constexpr int kMinGradientSteps = 4;
+constexpr float kGradientFloor = 0.25f;
+
+float MedianOf(std::vector<float>* v) {
+  if (v->empty()) return 0.0f;
+  const auto mid = v->begin() + static_cast<std::ptrdiff_t>(v->size() / 2);
+  std::nth_element(v->begin(), mid, v->end());
+  return *mid;
+}
+
+// The local phase gradient (projector pixels per rectified pixel) at every step u -> u + 1 of a
+// row: the median |step| around it. It includes the noise of the steps, which is what the
+// matcher's step and reversal thresholds must stay above. Multiplying the phase by a power of
+// two multiplies it exactly by the same factor, so thresholds in its units do not depend on the
+// phase scale.
+void LocalGradient(const float* row, int cols, std::vector<float>* gradient,
+                   std::vector<float>* scratch) {
+  gradient->assign(std::max(cols - 1, 0), 0.0f);
+  if (cols < 2) return;
+  std::vector<float>& steps = *scratch;
+  steps.clear();
+  for (int u = 0; u + 1 < cols; ++u) {
+    const float d = row[u + 1] - row[u];
+    if (std::isfinite(d)) steps.push_back(std::abs(d));
+  }
+  const float row_median = MedianOf(&steps);
+  const float floor = kGradientFloor * row_median;
+  const int num_blocks = (cols - 1 + kGradientBlock - 1) / kGradientBlock;
+  for (int b = 0; b < num_blocks; ++b) {
+    const int lo = std::max(0, (b - 1) * kGradientBlock);
+    const int hi = std::min(cols - 1, (b + 2) * kGradientBlock);
+    steps.clear();
+    for (int u = lo; u < hi; ++u) {
+      const float d = row[u + 1] - row[u];
+      if (std::isfinite(d)) steps.push_back(std::abs(d));
+    }
+    const float g =
+        static_cast<int>(steps.size()) >= kMinGradientSteps ? MedianOf(&steps) : row_median;
+    const int end = std::min(cols - 1, (b + 1) * kGradientBlock);
+    for (int u = b * kGradientBlock; u < end; ++u) (*gradient)[u] = std::max(g, floor);
+  }
+}
+
+// Runs per row, and the envelope image (same size as rect_phase). A step larger than
+// max_step_gradients local gradients ends a run (a discontinuity). The direction of a run is
+// that of its first net change larger than max_reversal_gradients local gradients, and the run
+// turns when the phase has retreated from the run's extreme by more than that: judged against
+// the envelope, not one step, so that a run whose first step is a small noise step against the
+// trend still follows the trend (phase advancing by a fraction of a projector pixel per camera
+// pixel, with noise of the same size, is common with fine cameras or coarse projectors).
+RowRuns FindRuns(const cv::Mat& rect_phase, double max_step_gradients,
+                 double max_reversal_gradients, cv::Mat* envelope) {
   RowRuns runs(rect_phase.rows);
   *envelope = rect_phase.clone();
+  const float step_ratio = static_cast<float>(max_step_gradients);
+  const float reversal_ratio = static_cast<float>(max_reversal_gradients);
   tbb::parallel_for(tbb::blocked_range<int>(0, rect_phase.rows), [&](const auto& range) {
+    std::vector<float> gradient, scratch;
     for (int v = range.begin(); v < range.end(); ++v) {
       const float* row = rect_phase.ptr<float>(v);
       float* env = envelope->ptr<float>(v);
       auto& out = runs[v];
+      const int cols = rect_phase.cols;
+      LocalGradient(row, cols, &gradient, &scratch);
       int begin = -1;
-      int dir = 0;
+      int dir = 0;         // 0: not decided yet
+      int lo = 0, hi = 0;  // undecided: samples of the lowest / highest phase since begin
+      int extreme = 0;     // decided: sample of the run's extreme so far
+      auto push = [&](int b, int e, int d) {
+        env[b] = row[b];
+        for (int u = b + 1; u <= e; ++u) {
+          env[u] = d > 0 ? std::max(env[u - 1], row[u]) : std::min(env[u - 1], row[u]);
+        }
+        out.push_back({b, e, d > 0});
+      };
       auto close = [&](int end) {
         if (begin < 0 || end <= begin) return;
-        env[begin] = row[begin];
-        for (int u = begin + 1; u <= end; ++u) {
-          env[u] = dir > 0 ? std::max(env[u - 1], row[u]) : std::min(env[u - 1], row[u]);
+        if (dir != 0) {
+          push(begin, end, dir);
+        } else if (row[hi] != row[lo]) {
+          // A short stretch whose net change stayed below the reversal threshold: its extremes
+          // give the direction.
+          push(std::min(lo, hi), std::max(lo, hi), hi > lo ? 1 : -1);
         }
-        out.push_back({begin, end, dir > 0});
       };
-      for (int u = 0; u + 1 < rect_phase.cols; ++u) {
+      for (int u = 0; u + 1 < cols; ++u) {
         const float a = row[u], b = row[u + 1];
         const float step = b - a;
-        const bool ok = std::isfinite(a) && std::isfinite(b) && std::abs(step) <= max_step;
+        const float g = gradient[u];
+        const bool ok = std::isfinite(a) && std::isfinite(b) && std::abs(step) <= step_ratio * g;
         if (!ok) {
           close(u);
           begin = -1;
           continue;
         }
+        const float reversal = reversal_ratio * g;
+        const int next = u + 1;
         if (begin < 0) {
-          if (step == 0) continue;  // wait for a direction
           begin = u;
-          dir = step > 0 ? 1 : -1;
-        } else if (step * dir < 0 && std::abs(step) > max_reversal) {
-          close(u);  // turning point: a new run starts at this sample
-          begin = u;
+          dir = 0;
+          lo = hi = u;
+        }
+        if (dir == 0) {
+          if (b > row[hi]) hi = next;
+          if (b < row[lo]) lo = next;
+          if (row[hi] - row[lo] > reversal) {
+            dir = hi > lo ? 1 : -1;
+            begin = std::min(lo, hi);
+            extreme = std::max(lo, hi);
+          }
+          continue;
+        }
+        if (dir * (b - row[extreme]) > 0) {
+          extreme = next;
+        } else if (dir * (row[extreme] - b) > reversal) {
+          // Turning point at the extreme: the run ends there and a new one, in the other
+          // direction, starts at the same sample.
+          close(extreme);
+          begin = extreme;
           dir = -dir;
+          int e = begin + 1;
+          for (int k = begin + 2; k <= next; ++k) {
+            if (dir * (row[k] - row[e]) > 0) e = k;
+          }
+          extreme = e;
         }
       }
-      close(rect_phase.cols - 1);
+      close(cols - 1);
       // After all runs are closed: a run starting at the previous run's turning point resets
       // that envelope sample to the row's value, and the crossing search uses the final one.
       for (Run& run : out) {
@@ -217,9 +312,13 @@ void MatchingOptions::Check() const {
   using util::CheckOption;
   const char* kName = "MatchingOptions";
   CheckOption(min_modulation >= 0, kName, "min_modulation", min_modulation, "must be >= 0");
-  CheckOption(max_phase_step_px > 0, kName, "max_phase_step_px", max_phase_step_px, "must be > 0");
-  CheckOption(max_reversal_px >= 0 && max_reversal_px < max_phase_step_px, kName, "max_reversal_px",
-              max_reversal_px, "must be in [0, max_phase_step_px)");
+  CheckOption(max_step_gradients > 0 && std::isfinite(max_step_gradients), kName,
+              "max_step_gradients", max_step_gradients, "must be > 0");
+  CheckOption(max_reversal_gradients >= 0 && max_reversal_gradients < max_step_gradients, kName,
+              "max_reversal_gradients", max_reversal_gradients,
+              "must be in [0, max_step_gradients)");
+  CheckOption(lr_warning_fraction >= 0 && lr_warning_fraction <= 1, kName, "lr_warning_fraction",
+              lr_warning_fraction, "must be in [0, 1]");
   CheckOption(max_row_crossing_diff_px > 0, kName, "max_row_crossing_diff_px",
               max_row_crossing_diff_px, "must be > 0");
   CheckOption(max_lr_error_px > 0, kName, "max_lr_error_px", max_lr_error_px, "must be > 0");
@@ -234,12 +333,13 @@ void MatchingOptions::Check() const {
 }
 
 std::string MatchingSummary::BriefReport() const {
-  return util::StrCat(
-      "matching: ", points, " points from ", left_valid, " valid left pixels (no crossing ",
-      no_crossing, ", ambiguous ", ambiguous, ", discontinuity ", discontinuity, ", left-right ",
-      lr_inconsistent, ", triangulation ", triangulation_failed, ", residual ", large_residual,
-      ", projector ", projector_inconsistent, ", depth range ", out_of_depth_range,
-      "), mean reprojection error ", mean_reprojection_error_px, " px, ", time_s, " s");
+  return util::StrCat("matching: ", points, " points from ", left_valid,
+                      " valid left pixels (no crossing ", no_crossing, ", ambiguous ", ambiguous,
+                      ", discontinuity ", discontinuity, ", left-right ", lr_inconsistent,
+                      ", triangulation ", triangulation_failed, ", residual ", large_residual,
+                      ", projector ", projector_inconsistent, ", depth range ", out_of_depth_range,
+                      "), mean reprojection error ", mean_reprojection_error_px, " px, ", time_s,
+                      " s", warning.empty() ? "" : "; warning: ", warning);
 }
 
 PhaseMatcher::PhaseMatcher(const StereoRig& rig, const MatchingOptions& options)
@@ -270,10 +370,10 @@ MatchResult PhaseMatcher::Match(const PhaseImage& left, const PhaseImage& right)
   RectifiedPhase rect_left, rect_right;
   rect_left.phase = rect_.RectifyFloat(Side::kLeft, phase_left);
   rect_right.phase = rect_.RectifyFloat(Side::kRight, phase_right);
-  rect_left.runs = FindRuns(rect_left.phase, options_.max_phase_step_px, options_.max_reversal_px,
-                            &rect_left.envelope);
-  rect_right.runs = FindRuns(rect_right.phase, options_.max_phase_step_px, options_.max_reversal_px,
-                             &rect_right.envelope);
+  rect_left.runs = FindRuns(rect_left.phase, options_.max_step_gradients,
+                            options_.max_reversal_gradients, &rect_left.envelope);
+  rect_right.runs = FindRuns(rect_right.phase, options_.max_step_gradients,
+                             options_.max_reversal_gradients, &rect_right.envelope);
   cv::Mat texture;
   if (!left.texture.empty()) left.texture.convertTo(texture, CV_32F);
 
@@ -385,9 +485,32 @@ MatchResult PhaseMatcher::Match(const PhaseImage& left, const PhaseImage& right)
     error_sum += row_error_sum[r];
   }
   total.mean_reprojection_error_px = total.points > 0 ? error_sum / total.points : 0.0;
+  if (total.left_valid > 0 &&
+      total.lr_inconsistent > options_.lr_warning_fraction * total.left_valid) {
+    total.warning = util::StrCat(
+        100.0 * total.lr_inconsistent / total.left_valid,
+        " % of the valid left pixels failed the left-right check (the phase maps of the two "
+        "cameras disagree: check the calibration, the scheme's phase offset and the fringe "
+        "modulation)");
+  }
   total.time_s = timer.ElapsedSeconds();
   return result;
 }
+
+namespace internal {
+
+std::vector<PhaseRun> RowRuns(const std::vector<float>& row, const MatchingOptions& options) {
+  options.Check();
+  const cv::Mat phase(1, static_cast<int>(row.size()), CV_32FC1, const_cast<float*>(row.data()));
+  cv::Mat envelope;
+  const auto runs =
+      FindRuns(phase, options.max_step_gradients, options.max_reversal_gradients, &envelope);
+  std::vector<PhaseRun> out;
+  for (const Run& r : runs[0]) out.push_back({r.begin, r.end, r.increasing});
+  return out;
+}
+
+}  // namespace internal
 
 MatchResult MatchPhase(const StereoRig& rig, const PhaseImage& left, const PhaseImage& right,
                        const MatchingOptions& options) {

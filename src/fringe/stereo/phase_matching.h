@@ -13,8 +13,9 @@
 // interpolated, not a matching cost.
 //
 // Rejections (each counted in the summary): no crossing, several crossings (ambiguous), phase
-// not monotonic (a reversal larger than max_reversal_px) / jump between neighbouring samples
-// larger than max_phase_step_px (a depth discontinuity or a fringe-order error), the crossings of
+// not monotonic (a retreat from the run's extreme larger than max_reversal_gradients local phase
+// gradients) / jump between neighbouring samples larger than max_step_gradients local gradients
+// (a depth discontinuity or a fringe-order error), the crossings of
 // the two bracketing rows disagreeing (discontinuity across rows), left-right inconsistency (the
 // rectified LEFT row searched for the same phase must give back the left pixel), low modulation,
 // failed triangulation, large reprojection residual, disagreement with the calibrated projector.
@@ -30,6 +31,7 @@
 
 #include <opencv2/core.hpp>
 #include <string>
+#include <vector>
 
 #include "fringe/geometry/point_cloud.h"
 #include "fringe/stereo/rectification.h"
@@ -53,13 +55,17 @@ enum class CrossingInterpolation {
 struct MatchingOptions {
   // Pixels whose left modulation is below this are skipped, DN, >= 0 (0: rely on the mask).
   double min_modulation = 0;
-  // Largest phase change between neighbouring rectified samples of a monotonic run, projector
-  // pixels, > 0. Larger steps are discontinuities; matching never interpolates across them.
-  double max_phase_step_px = 4.0;
-  // Largest step against a run's direction that is taken for noise rather than a turning point,
-  // projector pixels, [0, max_phase_step_px). Real phase maps wiggle by a few hundredths to
-  // tenths of a projector pixel between neighbouring samples.
-  double max_reversal_px = 0.5;
+  // Thresholds along a rectified row are in units of the local phase gradient g (the median
+  // |phase step| between neighbouring samples around a sample, noise included), not in
+  // projector pixels, so that matching does not depend on the phase scale: the same matches
+  // whether the camera samples the projector at 0.3 or 3 projector pixels per pixel.
+  // A step larger than this many g is a discontinuity (depth step or fringe-order error);
+  // matching never interpolates across it. > 0.
+  double max_step_gradients = 6.0;
+  // A run of samples turns (a new monotonic run starts at its extreme) when the phase retreats
+  // from the run's extreme by more than this many g; smaller retreats are noise. Also the net
+  // change that gives a new run its direction. [0, max_step_gradients).
+  double max_reversal_gradients = 2.0;
   CrossingInterpolation interpolation = CrossingInterpolation::kLinear;
   // Largest difference of the crossings in the two rectified rows bracketing a left pixel,
   // rectified pixels, > 0.
@@ -74,6 +80,10 @@ struct MatchingOptions {
   // the check off. It removes the matches that phase alone cannot tell from true ones: at
   // occlusions the same phase can occur once in each row on different surfaces.
   double max_projector_error_px = 1.0;
+  // The summary warns when more than this fraction of the valid left pixels fail the
+  // left-right check (long streaks of such failures mean the phase is not what the matcher
+  // expects), [0, 1].
+  double lr_warning_fraction = 0.03;
   // Points outside this depth range (left camera z) are dropped, mm, 0 <= min < max.
   double min_depth_mm = 1.0;
   double max_depth_mm = 1e5;
@@ -105,6 +115,8 @@ struct MatchingSummary {
   int points = 0;
   double mean_reprojection_error_px = 0;
   double time_s = 0;
+  // Empty, or why the result deserves a look (e.g. many left-right rejections).
+  std::string warning;
   std::string BriefReport() const;
 };
 
@@ -133,6 +145,18 @@ class PhaseMatcher {
   cv::Mat left_rect_px_;  // CV_32FC2: rectified pixel of every original left pixel
   cv::Mat left_rays_;     // CV_32FC3: unit viewing ray of every original left pixel
 };
+
+namespace internal {
+// One monotonic run of a rectified row, as the matcher finds them (exposed for tests).
+struct PhaseRun {
+  int begin = 0;  // first sample
+  int end = 0;    // last sample, > begin
+  bool increasing = true;
+};
+// The runs of one row of rectified phase (NaN = invalid) under options' step and reversal
+// thresholds.
+std::vector<PhaseRun> RowRuns(const std::vector<float>& row, const MatchingOptions& options);
+}  // namespace internal
 
 // One-off convenience.
 MatchResult MatchPhase(const StereoRig& rig, const PhaseImage& left, const PhaseImage& right,

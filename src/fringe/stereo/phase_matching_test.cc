@@ -4,6 +4,9 @@
 
 #include <cmath>
 
+#include "fringe/phase/decode.h"
+#include "fringe/phase/pattern_scheme.h"
+#include "fringe/phase/synthetic.h"
 #include "fringe/stereo/test_scene.h"
 #include "fringe/util/error.h"
 
@@ -158,6 +161,217 @@ TEST(PhaseMatching, WrongImageSizeThrows) {
   const StereoRig rig = testing::ScaledReferenceRig(kRigScale);
   const cv::Mat small(10, 10, CV_32FC1, cv::Scalar(0));
   EXPECT_THROW(MatchPhase(rig, Ph(small), Ph(small)), Error);
+}
+
+// The reference rig's cameras at 1/4 resolution and its projector at 1/10: on the plane below
+// the cameras sample the projector at 0.2-0.35 projector pixels per pixel (a finer camera or a
+// coarser projector than the reference rig), the situation of real captures where the phase
+// advances by less than its noise between some neighbouring pixels.
+StereoRig LowGradientRig() {
+  StereoRig rig = testing::ScaledReferenceRig(kRigScale);
+  rig.projector = testing::ScaleCamera(*StereoRig::Reference().projector, 0.1);
+  return rig;
+}
+
+// Renders the gray+4 fringe stack a camera sees for the projector columns `u` (NaN: unlit,
+// which gets a flat grey without fringes) with camera noise sigma_dn and decodes it.
+PhaseImage DecodedView(const phase::PatternScheme& scheme, const cv::Mat& u, double modulation_dn,
+                       double sigma_dn, uint64_t seed) {
+  cv::Mat lit = u == u;  // not NaN
+  cv::Mat u_filled = u.clone();
+  u_filled.setTo(0, ~lit);
+  phase::SyntheticStackOptions so;
+  so.modulation_dn = modulation_dn;
+  so.noise_sigma_dn = sigma_dn;
+  so.seed = seed;
+  auto images = phase::RenderSyntheticStack(scheme, u_filled, so);
+  for (auto& im : images) im.setTo(so.background_dn, ~lit);
+  phase::DecodeOptions opt;
+  opt.noise_sigma_dn = sigma_dn;
+  const phase::DecodeResult d = phase::Decode(scheme, images, opt);
+  PhaseImage p;
+  p.phase = d.absolute_phase;
+  p.mask = d.mask;
+  p.modulation = d.modulation;
+  return p;
+}
+
+// Fringe modulation of the low-gradient view: with sigma 1.5 DN and the gray+4 period of 32
+// projector px the phase noise is 0.07 projector px, a quarter of the phase step per pixel.
+constexpr double kLowGradientModulationDn = 80;
+
+struct LowGradientCase {
+  StereoRig rig;
+  phase::PatternScheme scheme;
+  testing::TrueView left_truth;
+  PhaseImage left, right;
+};
+
+LowGradientCase MakeLowGradientCase(double modulation_dn, double sigma_dn) {
+  LowGradientCase c;
+  c.rig = LowGradientRig();
+  c.scheme = phase::MakeScheme("gray+4", c.rig.projector->width, c.rig.projector->height);
+  Scene scene;
+  scene.planes.push_back({Eigen::Vector3d(0.25, -0.1, -1).normalized(), -480});
+  c.left_truth = testing::TraceView(c.rig, scene, false);
+  const auto right_truth = testing::TraceView(c.rig, scene, true);
+  c.left = DecodedView(c.scheme, c.left_truth.phase, modulation_dn, sigma_dn, 101);
+  c.right = DecodedView(c.scheme, right_truth.phase, modulation_dn, sigma_dn, 202);
+  return c;
+}
+
+// Valid left pixels whose true surface point the right camera sees (2 px inside its image) as
+// a valid pixel: the pixels a matcher should match. *matched: how many of them have a point.
+int EligiblePixels(const LowGradientCase& c, const MatchResult& m, int* matched) {
+  int n = 0;
+  *matched = 0;
+  for (int r = 0; r < c.rig.left.height; ++r) {
+    for (int col = 0; col < c.rig.left.width; ++col) {
+      if (!c.left.mask.at<uint8_t>(r, col)) continue;
+      const Eigen::Vector3d& p = c.left_truth.p_in_left[c.left_truth.phase.cols * r + col];
+      if (!p.allFinite()) continue;
+      const Eigen::Vector2d q = c.rig.right.Project(c.rig.right_from_left * p);
+      if (q.x() < 2 || q.y() < 2 || q.x() > c.rig.right.width - 3 ||
+          q.y() > c.rig.right.height - 3) {
+        continue;
+      }
+      if (!c.right.mask.at<uint8_t>(static_cast<int>(std::lround(q.y())),
+                                    static_cast<int>(std::lround(q.x())))) {
+        continue;
+      }
+      ++n;
+      *matched += m.cloud.valid[m.cloud.index(col, r)];
+    }
+  }
+  return n;
+}
+
+TEST(PhaseMatching, LowPhaseGradientKeepsCoverage) {
+  // Issue 10: with 0.2-0.35 projector px per camera pixel and sigma 1.5 DN, runs whose first
+  // step is a noise step against the trend used to cover nothing, losing streaks of a row to the
+  // left-right check.
+  constexpr double kMinCoverage = 0.99;
+  constexpr double kMaxLeftRightFraction = 0.01;
+  // On the 4x downscaled rig a pixel of disparity is ~2.5 mm of depth; the phase noise
+  // (0.07 projector px) over the gradient is ~0.25 px per camera, so the depth noise is ~1 mm.
+  // A wrong crossing would be many pixels off.
+  constexpr double kMaxRmsPointErrorMm = 1.5;
+  constexpr double kMaxPointErrorMm = 8.0;
+  const LowGradientCase c = MakeLowGradientCase(kLowGradientModulationDn, 1.5);
+  // The premise: the phase advances by 0.2-0.35 projector px per left pixel.
+  std::vector<float> gradient;
+  for (int r = 0; r < c.rig.left.height; r += 8) {
+    for (int col = 0; col + 1 < c.rig.left.width; col += 8) {
+      const float a = c.left_truth.phase.at<float>(r, col),
+                  b = c.left_truth.phase.at<float>(r, col + 1);
+      if (std::isfinite(a) && std::isfinite(b)) gradient.push_back(b - a);
+    }
+  }
+  ASSERT_GT(gradient.size(), 100u);
+  std::sort(gradient.begin(), gradient.end());
+  EXPECT_GT(gradient[gradient.size() / 20], 0.2f);
+  EXPECT_LT(gradient[gradient.size() * 19 / 20], 0.35f);
+
+  const MatchResult m = MatchPhase(c.rig, c.left, c.right);
+  SCOPED_TRACE(m.summary.BriefReport());
+  int matched = 0;
+  const int eligible = EligiblePixels(c, m, &matched);
+  ASSERT_GT(eligible, c.rig.left.width * c.rig.left.height / 2);
+  EXPECT_GE(static_cast<double>(matched) / eligible, kMinCoverage);
+  EXPECT_LT(static_cast<double>(m.summary.lr_inconsistent) / m.summary.left_valid,
+            kMaxLeftRightFraction);
+  EXPECT_TRUE(m.summary.warning.empty());
+  const Errors e = Compare(c.rig, c.left_truth, m);
+  EXPECT_LT(e.rms_point_mm, kMaxRmsPointErrorMm);
+  EXPECT_LT(e.max_point_mm, kMaxPointErrorMm);
+}
+
+TEST(PhaseMatching, MatchesDoNotDependOnThePhaseScale) {
+  // Doubling every phase (as if the projector had twice the pixels) must give the same matches;
+  // the projector check reads phase as a projector column, so it is off here.
+  const LowGradientCase c = MakeLowGradientCase(kLowGradientModulationDn, 1.5);
+  MatchingOptions options;
+  options.max_projector_error_px = 0;
+  const MatchResult m1 = MatchPhase(c.rig, c.left, c.right, options);
+  PhaseImage left2 = c.left, right2 = c.right;
+  left2.phase = c.left.phase * 2;
+  right2.phase = c.right.phase * 2;
+  const MatchResult m2 = MatchPhase(c.rig, left2, right2, options);
+  ASSERT_GT(m1.summary.points, 0);
+  EXPECT_EQ(m1.summary.points, m2.summary.points);
+  EXPECT_EQ(m1.summary.lr_inconsistent, m2.summary.lr_inconsistent);
+  int differing = 0;
+  for (size_t i = 0; i < m1.cloud.valid.size(); ++i) {
+    differing += m1.cloud.valid[i] != m2.cloud.valid[i];
+  }
+  EXPECT_EQ(differing, 0);
+}
+
+// A rectified row whose phase advances by 0.28 projector px per sample with noise of 0.06 px,
+// starting with a small step against the trend (the real capture of issue 10).
+std::vector<float> SlowRow(int n, float scale) {
+  std::vector<float> row(n);
+  cv::RNG rng(3);
+  for (int u = 0; u < n; ++u) row[u] = scale * static_cast<float>(0.28 * u + rng.gaussian(0.06));
+  row[1] = row[0] - 0.05f * scale;
+  return row;
+}
+
+TEST(PhaseMatching, SlowRowStartingAgainstTheTrendIsOneIncreasingRun) {
+  // The run's direction comes from its net change, not from its first step: the whole row is
+  // one increasing run. Before issue 10 the first step made it a decreasing run that never
+  // turned (no step reversed by more than 0.5 px), so it covered nothing.
+  for (const float scale : {1.0f, 2.0f, 0.25f}) {
+    const auto runs = internal::RowRuns(SlowRow(600, scale), MatchingOptions());
+    ASSERT_EQ(runs.size(), 1u) << "scale " << scale;
+    EXPECT_TRUE(runs[0].increasing);
+    EXPECT_LE(runs[0].begin, 1);
+    EXPECT_EQ(runs[0].end, 599);
+  }
+}
+
+TEST(PhaseMatching, RunsTurnAndBreakRelativeToTheLocalGradient) {
+  // Up 0.3 px per sample for 100 samples, down for 100, a jump of 20 gradients, up again; the
+  // same at 1/10 and 10x the phase scale.
+  for (const float scale : {1.0f, 0.1f, 10.0f}) {
+    std::vector<float> row;
+    for (int u = 0; u < 100; ++u) row.push_back(scale * 0.3f * u);
+    for (int u = 0; u < 100; ++u) row.push_back(scale * (30.0f - 0.3f * u));
+    for (int u = 0; u < 100; ++u) row.push_back(scale * (6.0f + 0.3f * u));
+    const auto runs = internal::RowRuns(row, MatchingOptions());
+    ASSERT_EQ(runs.size(), 3u) << "scale " << scale;
+    EXPECT_TRUE(runs[0].increasing);
+    EXPECT_EQ(runs[0].begin, 0);
+    EXPECT_EQ(runs[0].end, 100);  // the turning point (30, twice: samples 99 is 29.7)
+    EXPECT_FALSE(runs[1].increasing);
+    EXPECT_EQ(runs[1].begin, 100);
+    EXPECT_EQ(runs[1].end, 199);  // the jump to 6 after 0.3 ends the run
+    EXPECT_TRUE(runs[2].increasing);
+    EXPECT_EQ(runs[2].begin, 200);
+    EXPECT_EQ(runs[2].end, 299);
+  }
+}
+
+TEST(PhaseMatching, ManyLeftRightRejectionsAreWarnedAbout) {
+  // Right phase shifted by half a period against the left: crossings land elsewhere and the
+  // left-right check fails widely; the summary must say so.
+  const StereoRig rig = testing::ScaledReferenceRig(kRigScale);
+  Scene scene;
+  scene.planes.push_back({Eigen::Vector3d(0, 0, -1), -500});
+  const auto left = testing::TraceView(rig, scene, false);
+  const auto right = testing::TraceView(rig, scene, true);
+  cv::Mat noisy_left = left.phase.clone();
+  cv::RNG rng(7);
+  cv::Mat noise(noisy_left.size(), CV_32F);
+  rng.fill(noise, cv::RNG::NORMAL, 0, 3.0);  // far beyond the 1 px left-right tolerance
+  noisy_left += noise;
+  MatchingOptions options;
+  options.max_projector_error_px = 0;
+  const MatchResult m = MatchPhase(rig, Ph(noisy_left), Ph(right.phase), options);
+  SCOPED_TRACE(m.summary.BriefReport());
+  ASSERT_GT(m.summary.lr_inconsistent, options.lr_warning_fraction * m.summary.left_valid);
+  EXPECT_NE(m.summary.warning.find("left-right"), std::string::npos);
+  EXPECT_NE(m.summary.BriefReport().find("warning"), std::string::npos);
 }
 
 }  // namespace

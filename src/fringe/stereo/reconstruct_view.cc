@@ -88,7 +88,9 @@ ViewReconstruction ViewReconstructor::Reconstruct(const std::vector<cv::Mat>& le
   s.decode_left = dl.summary;
   s.decode_right = dr.summary;
   s.decode_s = timer.ElapsedSeconds();
-  const double texture_scale = left_images[0].depth() == CV_16U ? 255.0 / 65535.0 : 1.0;
+  // Texture on the 0-255 scale from the full scale the decoder used (the bit depth's, e.g.
+  // 4095 for 12-bit data in 16-bit images), not the container's.
+  const double texture_scale = 255.0 / dl.summary.full_scale_dn;
   dl.background.convertTo(out.texture_left, CV_32F, texture_scale);
   dr.background.convertTo(out.texture_right, CV_32F, texture_scale);
   out.cloud = OrganizedPointCloud(rig_.left.width, rig_.left.height);

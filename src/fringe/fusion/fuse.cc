@@ -347,8 +347,11 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
             w *= 1 / (1 + q * q);
           }
           pts.weight[k] = static_cast<float>(std::isfinite(w) ? w : 0);
+          // Isolated points take the view's median spacing; grazing ones at most 4 times it
+          // (the largest radius sets every tile's halo).
+          const float median = static_cast<float>(median_spacing[pts.view[k]]);
           float sp = spacing[pts.view[k]][i];
-          if (!std::isfinite(sp)) sp = static_cast<float>(median_spacing[pts.view[k]]);
+          sp = std::isfinite(sp) ? std::min(sp, 4 * median) : median;
           pts.spacing_mm[k] = sp;
           pts.radius_mm[k] = static_cast<float>(options.spacing_factor * sp + reg_term);
           pts.seed_radius_mm[k] = static_cast<float>(options.seed_factor * sp + reg_term);
@@ -421,7 +424,12 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
   std::vector<int32_t> assign(pts.size(), kNone);
   std::vector<uint8_t> keep_own(nc, 0);
   std::vector<uint32_t> member_start(nc + 1, 0), members;
-  Tiles centre_tiles = tiles;
+  Tiles centre_tiles;  // the same tiles, listing centres
+  centre_tiles.origin = tiles.origin;
+  centre_tiles.size = tiles.size;
+  centre_tiles.count = tiles.count;
+  centre_tiles.core.resize(tiles.core.size());
+  centre_tiles.halo.resize(tiles.halo.size());
   // Centres move by a fraction of a spacing; a larger halo keeps the queries exact.
   const double centre_margin_mm = 2 * margin_mm;
   for (int it = 0; it < options.max_iterations && nc > 0; ++it) {

@@ -176,7 +176,8 @@ void AddReconstructCommand(CLI::App& app) {
     }
     io::WritePly(a->out, rec.cloud,
                  a->ascii ? io::PlyFormat::kAscii : io::PlyFormat::kBinaryLittleEndian,
-                 {"fringe reconstruct: left camera frame, mm; quality = fringe modulation (DN)"});
+                 {"fringe reconstruct: left camera frame, mm; quality = fringe modulation (DN), "
+                  "intensity = texture, residual_px = reprojection residual (px)"});
     if (!a->residuals.empty()) io::WriteImage(a->residuals, rec.reprojection_error_px);
     std::cout << "wrote " << a->out << " (" << rec.summary.points << " points)\n";
     if (!a->no_markers) {

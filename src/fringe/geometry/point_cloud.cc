@@ -22,6 +22,7 @@ void PointCloud::CheckConsistent() const {
   CheckAttribute(colors, size(), "colors");
   CheckAttribute(intensity, size(), "intensity");
   CheckAttribute(quality, size(), "quality");
+  CheckAttribute(residual_px, size(), "residual_px");
 }
 
 void PointCloud::PushBackFrom(const PointCloud& other, size_t i) {
@@ -30,6 +31,7 @@ void PointCloud::PushBackFrom(const PointCloud& other, size_t i) {
   if (other.has_colors()) colors.push_back(other.colors[i]);
   if (other.has_intensity()) intensity.push_back(other.intensity[i]);
   if (other.has_quality()) quality.push_back(other.quality[i]);
+  if (other.has_residual()) residual_px.push_back(other.residual_px[i]);
 }
 
 void PointCloud::Reserve(size_t n) {
@@ -38,6 +40,7 @@ void PointCloud::Reserve(size_t n) {
   colors.reserve(n);
   intensity.reserve(n);
   quality.reserve(n);
+  residual_px.reserve(n);
 }
 
 void PointCloud::Bounds(Eigen::Vector3d* min, Eigen::Vector3d* max) const {

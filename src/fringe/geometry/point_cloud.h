@@ -20,6 +20,7 @@ struct PointCloud {
   std::vector<Color3u8> colors;          // RGB, or empty
   std::vector<float> intensity;          // texture grey value (0-255 scale), or empty
   std::vector<float> quality;            // larger is better (e.g. fringe modulation), or empty
+  std::vector<float> residual_px;        // triangulation reprojection residual (px), or empty
 
   size_t size() const { return points.size(); }
   bool empty() const { return points.empty(); }
@@ -27,6 +28,7 @@ struct PointCloud {
   bool has_colors() const { return !colors.empty(); }
   bool has_intensity() const { return !intensity.empty(); }
   bool has_quality() const { return !quality.empty(); }
+  bool has_residual() const { return !residual_px.empty(); }
 
   // Throws fringe::Error when an attribute is neither empty nor of size() entries.
   void CheckConsistent() const;

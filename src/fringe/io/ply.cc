@@ -225,7 +225,7 @@ class BodyReader {
 
 struct VertexSlots {
   int x = -1, y = -1, z = -1, nx = -1, ny = -1, nz = -1, r = -1, g = -1, b = -1;
-  int intensity = -1, quality = -1, grid = -1;
+  int intensity = -1, quality = -1, residual = -1, grid = -1;
   bool color_is_float = false;
 };
 
@@ -257,6 +257,8 @@ VertexSlots FindVertexSlots(const PlyElement& e) {
       s.intensity = k;
     else if (n == "quality" || n == "confidence" || n == "scalar_quality")
       s.quality = k;
+    else if (n == "residual_px")
+      s.residual = k;
     else if (n == "grid_index")
       s.grid = k;
   }
@@ -311,6 +313,7 @@ PlyData ReadPly(const std::filesystem::path& path) {
       if (colors) c.colors.resize(e.count);
       if (s.intensity >= 0) c.intensity.resize(e.count);
       if (s.quality >= 0) c.quality.resize(e.count);
+      if (s.residual >= 0) c.residual_px.resize(e.count);
       if (s.grid >= 0) out.grid_index.resize(e.count);
       std::vector<double> v(e.properties.size());
       for (size_t item = 0; item < e.count; ++item) {
@@ -335,6 +338,7 @@ PlyData ReadPly(const std::filesystem::path& path) {
         }
         if (s.intensity >= 0) c.intensity[item] = static_cast<float>(v[s.intensity]);
         if (s.quality >= 0) c.quality[item] = static_cast<float>(v[s.quality]);
+        if (s.residual >= 0) c.residual_px[item] = static_cast<float>(v[s.residual]);
         if (s.grid >= 0) out.grid_index[item] = static_cast<uint32_t>(v[s.grid]);
       }
     } else {
@@ -395,6 +399,9 @@ OrganizedPointCloud ReadOrganizedPly(const std::filesystem::path& path) {
   OrganizedPointCloud grid(w, h, d.cloud.has_normals(), d.cloud.has_intensity(),
                            d.cloud.has_quality());
   if (d.cloud.has_colors()) grid.cloud.colors.assign(grid.valid.size(), Color3u8{0, 0, 0});
+  if (d.cloud.has_residual()) {
+    grid.cloud.residual_px.assign(grid.valid.size(), std::numeric_limits<float>::quiet_NaN());
+  }
   for (size_t i = 0; i < d.cloud.size(); ++i) {
     const uint32_t g = d.grid_index[i];
     if (g >= grid.valid.size()) {
@@ -407,6 +414,7 @@ OrganizedPointCloud ReadOrganizedPly(const std::filesystem::path& path) {
     if (d.cloud.has_colors()) grid.cloud.colors[g] = d.cloud.colors[i];
     if (d.cloud.has_intensity()) grid.cloud.intensity[g] = d.cloud.intensity[i];
     if (d.cloud.has_quality()) grid.cloud.quality[g] = d.cloud.quality[i];
+    if (d.cloud.has_residual()) grid.cloud.residual_px[g] = d.cloud.residual_px[i];
   }
   return grid;
 }
@@ -437,6 +445,7 @@ void WritePlyImpl(const std::filesystem::path& path, const PointCloud& cloud,
       out << "property uchar red\nproperty uchar green\nproperty uchar blue\n";
     if (cloud.has_intensity()) out << "property float intensity\n";
     if (cloud.has_quality()) out << "property float quality\n";
+    if (cloud.has_residual()) out << "property float residual_px\n";
     if (grid_index) out << "property uint grid_index\n";
     if (!triangles.empty()) {
       out << "element face " << triangles.size() << "\nproperty list uchar int vertex_indices\n";
@@ -463,6 +472,7 @@ void WritePlyImpl(const std::filesystem::path& path, const PointCloud& cloud,
         }
         if (cloud.has_intensity()) out << " " << cloud.intensity[i];
         if (cloud.has_quality()) out << " " << cloud.quality[i];
+        if (cloud.has_residual()) out << " " << cloud.residual_px[i];
         if (grid_index) out << " " << i;
         out << "\n";
       } else {
@@ -474,6 +484,7 @@ void WritePlyImpl(const std::filesystem::path& path, const PointCloud& cloud,
         if (cloud.has_colors()) put(cloud.colors[i]);
         if (cloud.has_intensity()) put(cloud.intensity[i]);
         if (cloud.has_quality()) put(cloud.quality[i]);
+        if (cloud.has_residual()) put(cloud.residual_px[i]);
         if (grid_index) put(static_cast<uint32_t>(i));
         if (buf.size() > (1 << 20)) {
           out.write(buf.data(), static_cast<std::streamsize>(buf.size()));

@@ -1,8 +1,8 @@
 // PLY (Stanford polygon format) reading and writing.
 //
 // Reads ASCII, binary little- and big-endian PLY with any element layout: the vertex element's
-// x y z, nx ny nz, red green blue (or r g b / diffuse_*), intensity, quality (or confidence) and
-// grid_index are picked up; a face element's vertex_indices (or vertex_index) lists become
+// x y z, nx ny nz, red green blue (or r g b / diffuse_*), intensity, quality (or confidence),
+// residual_px and grid_index are picked up; a face element's vertex_indices (or vertex_index) lists become
 // triangles (polygons are fanned); all other elements and properties (e.g. the Stanford scans'
 // range_grid) are parsed and skipped. Errors name the file and what was wrong (truncation,
 // bad header, bad number, index out of range).

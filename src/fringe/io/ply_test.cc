@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <fstream>
 
@@ -26,19 +27,22 @@ PointCloud RandomCloud(size_t n) {
     c.colors.push_back({static_cast<uint8_t>(i % 256), 7, 200});
     c.intensity.push_back(static_cast<float>(i % 255));
     c.quality.push_back(static_cast<float>(u(rng)));
+    c.residual_px.push_back(static_cast<float>(std::abs(u(rng)) / 1000));
   }
   return c;
 }
 
 void ExpectSame(const PointCloud& a, const PointCloud& b) {
   ASSERT_EQ(a.size(), b.size());
-  ASSERT_TRUE(b.has_normals() && b.has_colors() && b.has_intensity() && b.has_quality());
+  ASSERT_TRUE(b.has_normals() && b.has_colors() && b.has_intensity() && b.has_quality() &&
+              b.has_residual());
   for (size_t i = 0; i < a.size(); ++i) {
     EXPECT_LT((a.points[i] - b.points[i]).norm(), kFloatTolMm);
     EXPECT_LT((a.normals[i] - b.normals[i]).norm(), 1e-6);
     EXPECT_EQ(a.colors[i], b.colors[i]);
     EXPECT_FLOAT_EQ(a.intensity[i], b.intensity[i]);
     EXPECT_FLOAT_EQ(a.quality[i], b.quality[i]);
+    EXPECT_FLOAT_EQ(a.residual_px[i], b.residual_px[i]);
   }
 }
 
@@ -64,6 +68,10 @@ TEST(Ply, OrganizedKeepsGrid) {
   g.cloud.points[g.index(6, 4)] = {4, 5, 6};
   g.cloud.normals[g.index(6, 4)] = {0, 1, 0};
   g.valid[g.index(6, 4)] = 1;
+  g.cloud.quality[g.index(6, 4)] = 37.5f;
+  g.cloud.intensity[g.index(6, 4)] = 121.f;
+  g.cloud.residual_px.assign(g.valid.size(), 0.f);
+  g.cloud.residual_px[g.index(6, 4)] = 0.125f;
   for (PlyFormat f : {PlyFormat::kBinaryLittleEndian, PlyFormat::kAscii}) {
     WritePly(dir / "g.ply", g, f);
     const OrganizedPointCloud r = ReadOrganizedPly(dir / "g.ply");
@@ -72,6 +80,11 @@ TEST(Ply, OrganizedKeepsGrid) {
     EXPECT_EQ(r.NumValid(), 2u);
     EXPECT_TRUE(r.valid[r.index(2, 3)]);
     EXPECT_EQ(r.cloud.points[r.index(6, 4)], Eigen::Vector3d(4, 5, 6));
+    // The per-point properties fusion weighs by come back on their pixel.
+    ASSERT_TRUE(r.cloud.has_quality() && r.cloud.has_intensity() && r.cloud.has_residual());
+    EXPECT_FLOAT_EQ(r.cloud.quality[r.index(6, 4)], 37.5f);
+    EXPECT_FLOAT_EQ(r.cloud.intensity[r.index(6, 4)], 121.f);
+    EXPECT_FLOAT_EQ(r.cloud.residual_px[r.index(6, 4)], 0.125f);
   }
   // A plain (unorganized) file is refused as organized.
   WritePly(dir / "p.ply", g.Compact());

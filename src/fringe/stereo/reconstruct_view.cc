@@ -123,6 +123,10 @@ ViewReconstruction ViewReconstructor::Reconstruct(const std::vector<cv::Mat>& le
       }
     }
   }
+  // The residual travels with each point (PLY property residual_px) so that later stages
+  // (fusion) can weigh points without the image beside the cloud.
+  out.cloud.cloud.residual_px.assign(out.reprojection_error_px.begin<float>(),
+                                     out.reprojection_error_px.end<float>());
   if (options_.compute_normals) {
     timer.Restart();
     s.normals = EstimateGridNormals(&out.cloud, options_.normals);

@@ -4,8 +4,9 @@
 //
 // Output: an organized point cloud on the LEFT camera grid, in the LEFT camera frame (the
 // sensor frame), millimetres; quality = left fringe modulation (DN), intensity = left fringe
-// background (texture, 0-255 scale), normals toward the sensor. The per-pixel reprojection
-// residual of the triangulation is returned beside it.
+// background (texture, 0-255 scale), residual_px = reprojection residual of the triangulation
+// (pixels; also returned as an image beside the cloud), normals toward the sensor. Fusion
+// weighs points by these (docs/formats.md).
 //
 // Only vertical fringes (absolute phase = projector column) can be matched along epipolar rows
 // of a horizontal-baseline rig; other schemes are rejected with fringe::Error. The single-camera

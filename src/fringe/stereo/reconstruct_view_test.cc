@@ -106,6 +106,20 @@ TEST(ReconstructView, SimulatedPlane) {
   EXPECT_EQ(c.compared, c.points);  // no point where the left camera sees nothing lit
   EXPECT_LT(c.rms_mm, kRmsTolMm);
   EXPECT_LT(c.normals_mean_deg, kNormalsTolDeg);
+  // Every kept point carries the properties fusion weighs by: modulation, texture and the
+  // reprojection residual (the same value as the residual image, below the matcher's limit).
+  const PointCloud& pc = rec.cloud.cloud;
+  ASSERT_TRUE(pc.has_quality() && pc.has_intensity() && pc.has_residual());
+  const float max_residual_px = static_cast<float>(MatchingOptions().max_reprojection_error_px);
+  for (size_t i = 0; i < rec.cloud.valid.size(); ++i) {
+    if (!rec.cloud.valid[i]) continue;
+    const int r = static_cast<int>(i) / rec.cloud.width,
+              col = static_cast<int>(i) % rec.cloud.width;
+    ASSERT_EQ(pc.residual_px[i], rec.reprojection_error_px.at<float>(r, col));
+    ASSERT_LE(pc.residual_px[i], max_residual_px);
+    ASSERT_GT(pc.quality[i], 0.f);
+    ASSERT_GT(pc.intensity[i], 0.f);
+  }
 }
 
 TEST(ReconstructView, SimulatedSphereOnPlate) {

@@ -1,0 +1,214 @@
+// fringe fuse: registered view clouds -> one single-layer fused cloud (+ optional mesh).
+#include <CLI/CLI.hpp>
+#include <filesystem>
+#include <iostream>
+#include <map>
+#include <memory>
+#include <nlohmann/json.hpp>
+
+#include "fringe/cli/cli.h"
+#include "fringe/fusion/fuse.h"
+#include "fringe/fusion/mesh.h"
+#include "fringe/io/calibration_io.h"
+#include "fringe/io/ply.h"
+#include "fringe/util/error.h"
+#include "fringe/util/files.h"
+
+namespace fringe::cli {
+namespace {
+
+namespace fs = std::filesystem;
+
+// world_from_sensor by view name from a poses.json (the schema of the simulator's
+// truth/poses.json and of `fringe register`'s DIR/poses.json; docs/scan-folder.md).
+std::map<std::string, Rigid3d> ReadPoses(const fs::path& path) {
+  const nlohmann::json j = io::ReadJson(path);
+  return io::WithJsonContext(path.string(), [&] {
+    std::map<std::string, Rigid3d> poses;
+    for (const auto& v : j.at("views")) {
+      const std::string name = v.at("view").get<std::string>();
+      if (!poses
+               .emplace(name, io::RigidFromJson(v.at("world_from_sensor"),
+                                                path.string() + ": view " + name))
+               .second) {
+        throw Error(util::StrCat(path.string(), ": view '", name, "' appears twice"));
+      }
+    }
+    if (poses.empty()) throw Error(util::StrCat(path.string(), ": no views"));
+    return poses;
+  });
+}
+
+bool SameFile(const fs::path& a, const fs::path& b) {
+  std::error_code ec;
+  return fs::weakly_canonical(a, ec) == fs::weakly_canonical(b, ec);
+}
+
+nlohmann::json SummaryJson(const fusion::FusionSummary& s) {
+  return {{"status", fusion::ToString(s.status)},
+          {"message", s.message},
+          {"views", s.views},
+          {"input_points", s.input_points},
+          {"overlap_points", s.overlap_points},
+          {"clusters", s.clusters},
+          {"passed_through", s.passed_through},
+          {"unassigned", s.unassigned},
+          {"disagreeing_clusters", s.disagreeing_clusters},
+          {"fused_points", s.fused_points},
+          {"iterations", s.iterations},
+          {"last_max_shift_mm", s.last_max_shift_mm},
+          {"median_spacing_mm", s.median_spacing_mm},
+          {"time_s", s.time_s}};
+}
+
+nlohmann::json SummaryJson(const fusion::MeshSummary& s) {
+  return {{"status", fusion::ToString(s.status)},
+          {"message", s.message},
+          {"input_points", s.input_points},
+          {"poisson_triangles", s.poisson_triangles},
+          {"trimmed_vertices", s.trimmed_vertices},
+          {"vertices", s.vertices},
+          {"triangles", s.triangles},
+          {"watertight", s.watertight},
+          {"decimated", s.decimated},
+          {"decimation_rms_mm", s.decimation_rms_mm},
+          {"decimation_max_mm", s.decimation_max_mm},
+          {"poisson_s", s.poisson_s},
+          {"total_s", s.total_s}};
+}
+
+}  // namespace
+
+void AddFuseCommand(CLI::App& app) {
+  struct Args {
+    std::vector<std::string> inputs;
+    std::string poses;
+    std::string out;
+    std::string mesh;
+    bool json = false;
+    bool ascii = false;
+    fusion::FusionOptions fusion;
+    fusion::MeshOptions meshing;
+  };
+  auto a = std::make_shared<Args>();
+  CLI::App* sub = app.add_subcommand(
+      "fuse",
+      "Fuse registered views into one single-layer cloud (adaptive-neighbourhood mean "
+      "clustering) and optionally mesh it (screened Poisson)");
+  sub->add_option("inputs", a->inputs,
+                  "View clouds (organized PLY in their sensor frame, from fringe reconstruct) with "
+                  "--poses, or one folder written by fringe register (DIR/poses.json + "
+                  "DIR/registered/NAME.ply)")
+      ->required();
+  sub->add_option(
+      "--poses", a->poses,
+      "poses.json: world_from_sensor per view, the view named by its cloud's file stem");
+  sub->add_option("--out", a->out, "Fused cloud (PLY, world frame)")->required();
+  sub->add_option("--mesh", a->mesh, "Also write a mesh (.ply with normals, or .stl)");
+  sub->add_flag("--watertight", a->meshing.watertight,
+                "Keep the closed Poisson surface (default: trim what the data do not support)");
+  sub->add_option("--max-triangles", a->meshing.max_triangles,
+                  "Decimate the mesh to at most N triangles (quadric error; the deviation it adds "
+                  "is reported)");
+  sub->add_option("--poisson-depth", a->meshing.poisson_depth, "Poisson octree depth")
+      ->capture_default_str();
+  sub->add_option("--registration-rms", a->fusion.registration_rms_mm,
+                  "Registration residual (mm): widens the overlap radius")
+      ->capture_default_str();
+  sub->add_flag("--json", a->json, "Print the summary as JSON");
+  sub->add_flag("--ascii", a->ascii, "Write the fused cloud as ASCII PLY");
+  sub->callback([a] {
+    a->fusion.Check();
+    a->meshing.Check();
+    std::vector<fusion::FusionView> views;
+    std::vector<fs::path> read;
+    if (a->inputs.size() == 1 && fs::is_directory(a->inputs[0])) {
+      // A registration folder: the registered (world-frame) clouds go back to their sensor
+      // frames by the inverse poses, so that no pose is applied twice and the viewing angles
+      // are known.
+      const fs::path dir(a->inputs[0]);
+      const fs::path poses_path = a->poses.empty() ? dir / "poses.json" : fs::path(a->poses);
+      util::RequireFile(poses_path, "poses file");
+      for (const auto& [name, world_from_sensor] : ReadPoses(poses_path)) {
+        const fs::path cloud = dir / "registered" / (name + ".ply");
+        if (!fs::exists(cloud)) {
+          throw Error(util::StrCat("fuse: ", poses_path.string(), " names view '", name, "' but ",
+                                   cloud.string(), " does not exist"));
+        }
+        fusion::FusionView v{name, io::ReadOrganizedPly(cloud), world_from_sensor};
+        const Rigid3d sensor_from_world = world_from_sensor.Inverse();
+        for (size_t i = 0; i < v.cloud.valid.size(); ++i) {
+          if (!v.cloud.valid[i]) continue;
+          v.cloud.cloud.points[i] = sensor_from_world * v.cloud.cloud.points[i];
+          if (v.cloud.cloud.has_normals()) {
+            v.cloud.cloud.normals[i] = sensor_from_world.RotateDirection(v.cloud.cloud.normals[i]);
+          }
+        }
+        views.push_back(std::move(v));
+        read.push_back(cloud);
+      }
+    } else {
+      if (a->poses.empty()) {
+        throw Error(
+            "fuse: view clouds need --poses (poses.json), or give one folder written by "
+            "fringe register");
+      }
+      const std::map<std::string, Rigid3d> poses = ReadPoses(a->poses);
+      for (const auto& in : a->inputs) {
+        const fs::path cloud(in);
+        const std::string name = cloud.stem().string();
+        const auto it = poses.find(name);
+        if (it == poses.end()) {
+          throw Error(util::StrCat("fuse: ", a->poses, " has no pose for view '", name, "' (",
+                                   cloud.string(), ")"));
+        }
+        views.push_back({name, io::ReadOrganizedPly(cloud), it->second});
+        read.push_back(cloud);
+      }
+    }
+    for (const auto& p : read) {
+      if (SameFile(p, a->out) || (!a->mesh.empty() && SameFile(p, a->mesh))) {
+        throw Error(util::StrCat("fuse: output would overwrite the input ", p.string()));
+      }
+    }
+    if (!a->mesh.empty() && SameFile(a->out, a->mesh)) {
+      throw Error("fuse: --out and --mesh name the same file");
+    }
+
+    const fusion::FusionResult fused = fusion::FuseViews(views, a->fusion);
+    nlohmann::json summary = {{"fusion", SummaryJson(fused.summary)}};
+    if (!a->json) std::cout << fused.summary.BriefReport() << "\n";
+    if (!fused.summary.has_output()) {
+      if (a->json) std::cout << summary.dump(2) << "\n";
+      throw Error(util::StrCat("fuse: ", fusion::ToString(fused.summary.status), ": ",
+                               fused.summary.message));
+    }
+    // Mesh first: a failed mesh leaves no output at all.
+    fusion::MeshResult mesh;
+    if (!a->mesh.empty()) {
+      mesh = fusion::MeshPoisson(fused.fused, a->meshing);
+      summary["mesh"] = SummaryJson(mesh.summary);
+      if (!a->json) std::cout << mesh.summary.BriefReport() << "\n";
+      if (!mesh.summary.ok()) {
+        if (a->json) std::cout << summary.dump(2) << "\n";
+        throw Error(util::StrCat("fuse: mesh: ", fusion::ToString(mesh.summary.status), ": ",
+                                 mesh.summary.message));
+      }
+    }
+    io::WritePly(a->out, fused.fused, {},
+                 a->ascii ? io::PlyFormat::kAscii : io::PlyFormat::kBinaryLittleEndian,
+                 {"fringe fuse: world frame (the first view's sensor frame after fringe register), "
+                  "mm; intensity = texture (also as grey colour), quality = weighted modulation"});
+    if (!a->mesh.empty()) fusion::WriteMeshFile(a->mesh, mesh);
+    if (a->json) {
+      std::cout << summary.dump(2) << "\n";
+    } else {
+      std::cout << "wrote " << a->out << " (" << fused.fused.size() << " points)"
+                << (a->mesh.empty() ? "" : ", " + a->mesh) << "\n";
+    }
+  });
+}
+
+FRINGE_REGISTER_COMMAND(80, AddFuseCommand);
+
+}  // namespace fringe::cli

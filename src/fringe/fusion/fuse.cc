@@ -1,0 +1,627 @@
+#include "fringe/fusion/fuse.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <limits>
+#include <nanoflann.hpp>
+
+#include "fringe/util/error.h"
+#include "fringe/util/timer.h"
+
+namespace fringe::fusion {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr int32_t kNone = -1;
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// All valid points of all views in the world frame, float to halve the memory (PLY output is
+// float anyway; 3e-5 mm resolution at 300 mm).
+struct Points {
+  std::vector<Eigen::Vector3f> pos, nrm;
+  std::vector<float> weight, spacing_mm, radius_mm, seed_radius_mm, intensity, quality;
+  std::vector<uint16_t> view;
+  std::vector<uint32_t> grid;   // slot in the view's grid
+  std::vector<uint8_t> usable;  // finite normal: takes part in the fusion
+  size_t size() const { return pos.size(); }
+};
+
+// A subset of a point array (by index list) as a nanoflann dataset.
+struct SubsetAdaptor {
+  const std::vector<Eigen::Vector3f>* pos;
+  const std::vector<uint32_t>* idx;
+  size_t kdtree_get_point_count() const { return idx->size(); }
+  float kdtree_get_pt(size_t i, size_t d) const { return (*pos)[(*idx)[i]][static_cast<int>(d)]; }
+  template <class Box>
+  bool kdtree_get_bbox(Box&) const {
+    return false;
+  }
+};
+using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<float, SubsetAdaptor>,
+                                                 SubsetAdaptor, 3, uint32_t>;
+using Neighbours = std::vector<std::pair<uint32_t, float>>;
+
+// Cubic tiles over the bounding box; each tile lists its own points (core) and those within
+// `margin` of it (halo), so a radius query of a core point inside the tile's tree is exact.
+struct Tiles {
+  Eigen::Vector3d origin;
+  double size = 1;
+  Eigen::Vector3i count;
+  std::vector<std::vector<uint32_t>> core, halo;
+
+  Eigen::Vector3i Cell(const Eigen::Vector3d& p) const {
+    Eigen::Vector3i c;
+    for (int k = 0; k < 3; ++k) {
+      c[k] = std::clamp(static_cast<int>(std::floor((p[k] - origin[k]) / size)), 0, count[k] - 1);
+    }
+    return c;
+  }
+  size_t Index(const Eigen::Vector3i& c) const {
+    return (static_cast<size_t>(c.z()) * count.y() + c.y()) * count.x() + c.x();
+  }
+};
+
+Tiles MakeTiles(const std::vector<Eigen::Vector3f>& pos, double tile_mm) {
+  Tiles t;
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+  Eigen::Vector3d hi = -lo;
+  for (const auto& p : pos) {
+    lo = lo.cwiseMin(p.cast<double>());
+    hi = hi.cwiseMax(p.cast<double>());
+  }
+  t.origin = lo;
+  t.size = tile_mm;
+  // Keep the tile count bounded for huge or degenerate extents.
+  for (;;) {
+    for (int k = 0; k < 3; ++k) {
+      t.count[k] = std::max(1, static_cast<int>(std::ceil((hi[k] - lo[k]) / t.size)));
+    }
+    if (static_cast<double>(t.count.x()) * t.count.y() * t.count.z() <= 1e5) break;
+    t.size *= 2;
+  }
+  const size_t n = static_cast<size_t>(t.count.x()) * t.count.y() * t.count.z();
+  t.core.assign(n, {});
+  t.halo.assign(n, {});
+  return t;
+}
+
+// Fills core and halo lists (ascending point index: deterministic) for the points with
+// include[i] != 0.
+void FillTiles(Tiles* t, const std::vector<Eigen::Vector3f>& pos,
+               const std::vector<uint8_t>& include, double margin_mm) {
+  for (auto& v : t->core) v.clear();
+  for (auto& v : t->halo) v.clear();
+  for (size_t i = 0; i < pos.size(); ++i) {
+    if (!include.empty() && !include[i]) continue;
+    const Eigen::Vector3d p = pos[i].cast<double>();
+    t->core[t->Index(t->Cell(p))].push_back(static_cast<uint32_t>(i));
+    const Eigen::Vector3i a = t->Cell(p - Eigen::Vector3d::Constant(margin_mm));
+    const Eigen::Vector3i b = t->Cell(p + Eigen::Vector3d::Constant(margin_mm));
+    for (int z = a.z(); z <= b.z(); ++z) {
+      for (int y = a.y(); y <= b.y(); ++y) {
+        for (int x = a.x(); x <= b.x(); ++x) {
+          t->halo[t->Index({x, y, z})].push_back(static_cast<uint32_t>(i));
+        }
+      }
+    }
+  }
+}
+
+// Local point spacing of each valid grid point: the mean of the shorter horizontal and the
+// shorter vertical neighbour distance (the shorter side stays on the point's own surface at a
+// depth jump). NaN for isolated points.
+std::vector<float> GridSpacing(const OrganizedPointCloud& g) {
+  std::vector<float> s(g.valid.size(), std::numeric_limits<float>::quiet_NaN());
+  tbb::parallel_for(0, g.height, [&](int r) {
+    for (int c = 0; c < g.width; ++c) {
+      const size_t i = g.index(c, r);
+      if (!g.valid[i]) continue;
+      const Eigen::Vector3d& p = g.cloud.points[i];
+      auto nearest = [&](int dc, int dr) {
+        double best = std::numeric_limits<double>::infinity();
+        for (int sgn : {-1, 1}) {
+          const int cc = c + sgn * dc, rr = r + sgn * dr;
+          if (cc < 0 || rr < 0 || cc >= g.width || rr >= g.height) continue;
+          const size_t j = g.index(cc, rr);
+          if (g.valid[j]) best = std::min(best, (g.cloud.points[j] - p).norm());
+        }
+        return best;
+      };
+      const double h = nearest(1, 0), v = nearest(0, 1);
+      double sum = 0;
+      int n = 0;
+      for (double d : {h, v}) {
+        if (std::isfinite(d)) sum += d, ++n;
+      }
+      if (n > 0) s[i] = static_cast<float>(sum / n);
+    }
+  });
+  return s;
+}
+
+double Median(std::vector<float> v) {
+  v.erase(std::remove_if(v.begin(), v.end(), [](float x) { return !std::isfinite(x); }), v.end());
+  if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  return v[v.size() / 2];
+}
+
+// True when point a outranks point b as a cluster centre.
+bool Outranks(const Points& pts, uint32_t a, uint32_t b) {
+  if (pts.weight[a] != pts.weight[b]) return pts.weight[a] > pts.weight[b];
+  if (pts.view[a] != pts.view[b]) return pts.view[a] < pts.view[b];
+  return a < b;
+}
+
+FusionResult Fail(FusionResult r, FusionStatus status, std::string message) {
+  r.summary.status = status;
+  r.summary.message = std::move(message);
+  return r;
+}
+
+}  // namespace
+
+void FusionOptions::Check() const {
+  constexpr const char* kName = "FusionOptions";
+  util::CheckOption(spacing_factor > 0 && spacing_factor <= 20, kName, "spacing_factor",
+                    spacing_factor, "must be in (0, 20]");
+  util::CheckOption(seed_factor > 0 && seed_factor <= 20, kName, "seed_factor", seed_factor,
+                    "must be in (0, 20]");
+  util::CheckOption(registration_rms_mm >= 0 && std::isfinite(registration_rms_mm), kName,
+                    "registration_rms_mm", registration_rms_mm, "must be finite and >= 0");
+  util::CheckOption(registration_factor >= 0 && std::isfinite(registration_factor), kName,
+                    "registration_factor", registration_factor, "must be finite and >= 0");
+  util::CheckOption(max_normal_angle_deg > 0 && max_normal_angle_deg < 90, kName,
+                    "max_normal_angle_deg", max_normal_angle_deg, "must be in (0, 90)");
+  util::CheckOption(lateral_sigma > 0 && lateral_sigma <= 10, kName, "lateral_sigma", lateral_sigma,
+                    "must be in (0, 10]");
+  util::CheckOption(max_disagreement > 1, kName, "max_disagreement", max_disagreement,
+                    "must be > 1");
+  util::CheckOption(max_iterations >= 1 && max_iterations <= 100, kName, "max_iterations",
+                    max_iterations, "must be in [1, 100]");
+  util::CheckOption(convergence_mm > 0, kName, "convergence_mm", convergence_mm, "must be > 0");
+  util::CheckOption(modulation_half_dn > 0, kName, "modulation_half_dn", modulation_half_dn,
+                    "must be > 0");
+  util::CheckOption(residual_half_px > 0, kName, "residual_half_px", residual_half_px,
+                    "must be > 0");
+  util::CheckOption(min_cos_view > 0 && min_cos_view <= 1, kName, "min_cos_view", min_cos_view,
+                    "must be in (0, 1]");
+  util::CheckOption(tile_mm > 0 && tile_mm <= 1e4, kName, "tile_mm", tile_mm,
+                    "must be in (0, 1e4]");
+  util::CheckOption(max_spacing_ratio > 1, kName, "max_spacing_ratio", max_spacing_ratio,
+                    "must be > 1");
+}
+
+const char* ToString(FusionStatus s) {
+  switch (s) {
+    case FusionStatus::kOk:
+      return "ok";
+    case FusionStatus::kNoOverlap:
+      return "no overlap";
+    case FusionStatus::kEmptyInput:
+      return "empty input";
+    case FusionStatus::kMissingNormals:
+      return "missing normals";
+    case FusionStatus::kUnitsMismatch:
+      return "units mismatch";
+    case FusionStatus::kBadView:
+      return "bad view";
+  }
+  return "?";
+}
+
+std::string FusionSummary::BriefReport() const {
+  std::string s = util::StrCat(
+      "fusion: ", ToString(status), ", ", views, " views, ", input_points, " points -> ",
+      fused_points, " (", overlap_points, " in overlaps -> ", clusters, " clusters, ",
+      passed_through, " passed through, ", unassigned, " unassigned, ", disagreeing_clusters,
+      " kept their best view), ", iterations, " iterations (last max shift ", last_max_shift_mm,
+      " mm), spacing ", median_spacing_mm, " mm, ", time_s, " s");
+  if (!message.empty()) s += ": " + message;
+  return s;
+}
+
+FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions& options) {
+  options.Check();
+  util::Timer timer;
+  FusionResult result;
+  FusionSummary& s = result.summary;
+  s.views = static_cast<int>(views.size());
+  if (views.empty()) return Fail(std::move(result), FusionStatus::kEmptyInput, "no views");
+  if (views.size() > 65535) {
+    return Fail(std::move(result), FusionStatus::kBadView, "more than 65535 views");
+  }
+
+  // Validate the views and find their spacing; the units check compares median spacings.
+  std::vector<std::vector<float>> spacing(views.size());
+  std::vector<double> median_spacing(views.size(), 0);
+  int64_t total = 0;
+  for (size_t v = 0; v < views.size(); ++v) {
+    const FusionView& fv = views[v];
+    const OrganizedPointCloud& g = fv.cloud;
+    const size_t n = static_cast<size_t>(std::max(g.width, 0)) * std::max(g.height, 0);
+    const PointCloud& c = g.cloud;
+    auto sized = [n](const auto& a) { return a.empty() || a.size() == n; };
+    if (g.cloud.size() != n || g.valid.size() != n || !sized(c.normals) || !sized(c.intensity) ||
+        !sized(c.quality) || !sized(c.residual_px) || !sized(c.colors)) {
+      return Fail(std::move(result), FusionStatus::kBadView,
+                  util::StrCat("view '", fv.name, "': grid ", g.width, "x", g.height,
+                               " disagrees with its attribute sizes"));
+    }
+    const Eigen::Matrix<double, 3, 4> m = fv.world_from_sensor.ToMatrix3x4();
+    if (!m.allFinite()) {
+      return Fail(std::move(result), FusionStatus::kBadView,
+                  util::StrCat("view '", fv.name, "': non-finite pose"));
+    }
+    const size_t valid = g.NumValid();
+    if (valid > 0 && !c.has_normals()) {
+      return Fail(std::move(result), FusionStatus::kMissingNormals,
+                  util::StrCat("view '", fv.name,
+                               "' has no normals (reconstruct with normals, or estimate them)"));
+    }
+    total += static_cast<int64_t>(valid);
+    spacing[v] = GridSpacing(g);
+    median_spacing[v] = Median(spacing[v]);
+  }
+  s.input_points = total;
+  if (total == 0) {
+    return Fail(std::move(result), FusionStatus::kEmptyInput, "no valid point in any view");
+  }
+  {
+    size_t lo = views.size(), hi = views.size();
+    for (size_t v = 0; v < views.size(); ++v) {
+      if (!std::isfinite(median_spacing[v])) continue;
+      if (lo == views.size() || median_spacing[v] < median_spacing[lo]) lo = v;
+      if (hi == views.size() || median_spacing[v] > median_spacing[hi]) hi = v;
+    }
+    if (lo != views.size() && median_spacing[hi] > options.max_spacing_ratio * median_spacing[lo]) {
+      return Fail(
+          std::move(result), FusionStatus::kUnitsMismatch,
+          util::StrCat("view '", views[hi].name, "' has a point spacing of ", median_spacing[hi],
+                       " and view '", views[lo].name, "' of ", median_spacing[lo],
+                       " (different units? all clouds must be in millimetres)"));
+    }
+  }
+
+  // Gather the points in the world frame with weight and adaptive radius.
+  Points pts;
+  pts.pos.resize(total);
+  pts.nrm.resize(total);
+  pts.weight.resize(total);
+  pts.radius_mm.resize(total);
+  pts.spacing_mm.resize(total);
+  pts.seed_radius_mm.resize(total);
+  pts.intensity.resize(total);
+  pts.quality.resize(total);
+  pts.view.resize(total);
+  pts.grid.resize(total);
+  pts.usable.resize(total);
+  std::vector<float> all_spacing;
+  {
+    size_t k = 0;
+    for (size_t v = 0; v < views.size(); ++v) {
+      const OrganizedPointCloud& g = views[v].cloud;
+      for (size_t i = 0; i < g.valid.size(); ++i) {
+        if (!g.valid[i]) continue;
+        pts.view[k] = static_cast<uint16_t>(v);
+        pts.grid[k] = static_cast<uint32_t>(i);
+        ++k;
+      }
+    }
+    all_spacing.reserve(total);
+    for (size_t v = 0; v < views.size(); ++v) {
+      for (float x : spacing[v]) {
+        if (std::isfinite(x)) all_spacing.push_back(x);
+      }
+    }
+    s.median_spacing_mm = Median(std::move(all_spacing));
+  }
+  const double reg_term = options.registration_factor * options.registration_rms_mm;
+  std::atomic<bool> nonfinite{false};
+  tbb::parallel_for(
+      tbb::blocked_range<size_t>(0, static_cast<size_t>(total)),
+      [&](const tbb::blocked_range<size_t>& range) {
+        for (size_t k = range.begin(); k != range.end(); ++k) {
+          const FusionView& fv = views[pts.view[k]];
+          const PointCloud& c = fv.cloud.cloud;
+          const uint32_t i = pts.grid[k];
+          const Eigen::Vector3d& p_in_sensor = c.points[i];
+          const Eigen::Vector3d& n_in_sensor = c.normals[i];
+          if (!p_in_sensor.allFinite()) nonfinite = true;
+          pts.pos[k] = (fv.world_from_sensor * p_in_sensor).cast<float>();
+          pts.usable[k] = n_in_sensor.allFinite() && std::abs(n_in_sensor.norm() - 1) < 1e-3;
+          pts.nrm[k] = fv.world_from_sensor.RotateDirection(n_in_sensor).cast<float>();
+          const double cos_view = std::max(
+              options.min_cos_view, std::abs(n_in_sensor.dot(p_in_sensor)) / p_in_sensor.norm());
+          double w = cos_view * cos_view;
+          if (c.has_quality()) {
+            const double b2 = static_cast<double>(c.quality[i]) * c.quality[i];
+            w *= b2 / (b2 + options.modulation_half_dn * options.modulation_half_dn);
+          }
+          if (c.has_residual() && std::isfinite(c.residual_px[i])) {
+            const double q = c.residual_px[i] / options.residual_half_px;
+            w *= 1 / (1 + q * q);
+          }
+          pts.weight[k] = static_cast<float>(std::isfinite(w) ? w : 0);
+          // Isolated points take the view's median spacing; grazing ones at most 4 times it
+          // (the largest radius sets every tile's halo).
+          const float median = static_cast<float>(median_spacing[pts.view[k]]);
+          float sp = spacing[pts.view[k]][i];
+          sp = std::isfinite(sp) ? std::min(sp, 4 * median) : median;
+          pts.spacing_mm[k] = sp;
+          pts.radius_mm[k] = static_cast<float>(options.spacing_factor * sp + reg_term);
+          pts.seed_radius_mm[k] = static_cast<float>(options.seed_factor * sp + reg_term);
+          pts.intensity[k] = c.has_intensity() ? c.intensity[i] : 0.f;
+          pts.quality[k] = c.has_quality() ? c.quality[i] : 0.f;
+        }
+      });
+  if (nonfinite) {
+    return Fail(std::move(result), FusionStatus::kBadView,
+                "a valid point has a non-finite position");
+  }
+  double margin_mm = 0;
+  for (size_t k = 0; k < pts.size(); ++k) {
+    if (pts.usable[k] && std::isfinite(pts.radius_mm[k])) {
+      margin_mm = std::max(margin_mm, static_cast<double>(pts.radius_mm[k]));
+    } else {
+      pts.usable[k] = 0;
+    }
+  }
+
+  // 1 + 2: overlap and initial centres, tile by tile.
+  const float cos_max = static_cast<float>(std::cos(options.max_normal_angle_deg * kPi / 180));
+  Tiles tiles = MakeTiles(pts.pos, std::max(options.tile_mm, 2 * margin_mm));
+  FillTiles(&tiles, pts.pos, pts.usable, margin_mm);
+  constexpr uint8_t kOverlap = 1, kSeed = 2;
+  std::vector<uint8_t> flags(pts.size(), 0);
+  const nanoflann::SearchParams unsorted(32, 0, false);
+  tbb::parallel_for(size_t{0}, tiles.core.size(), [&](size_t t) {
+    if (tiles.core[t].empty()) return;
+    const SubsetAdaptor adaptor{&pts.pos, &tiles.halo[t]};
+    Tree tree(3, adaptor, nanoflann::KDTreeSingleIndexAdaptorParams(16));
+    tree.buildIndex();
+    Neighbours nb;
+    for (uint32_t i : tiles.core[t]) {
+      const float r = pts.radius_mm[i];
+      const float rho = pts.seed_radius_mm[i];
+      tree.radiusSearch(pts.pos[i].data(), r * r, nb, unsorted);
+      bool overlap = false, seed = true;
+      for (const auto& [local, dist_sq] : nb) {
+        const uint32_t j = tiles.halo[t][local];
+        if (pts.view[j] == pts.view[i] || pts.nrm[i].dot(pts.nrm[j]) < cos_max) continue;
+        overlap = true;
+        if (dist_sq <= rho * rho && Outranks(pts, j, i)) seed = false;
+      }
+      if (overlap) flags[i] = seed ? (kOverlap | kSeed) : kOverlap;
+    }
+  });
+
+  std::vector<uint32_t> seeds;
+  std::vector<uint8_t> in_overlap(pts.size(), 0);
+  for (size_t k = 0; k < pts.size(); ++k) {
+    in_overlap[k] = (flags[k] & kOverlap) != 0;
+    s.overlap_points += in_overlap[k];
+    if (flags[k] & kSeed) seeds.push_back(static_cast<uint32_t>(k));
+  }
+  result.overlap.resize(views.size());
+  for (size_t v = 0; v < views.size(); ++v)
+    result.overlap[v].assign(views[v].cloud.valid.size(), 0);
+  for (size_t k = 0; k < pts.size(); ++k) result.overlap[pts.view[k]][pts.grid[k]] = in_overlap[k];
+
+  // 3: clustering. Centres start at the seeds and move along their normals only.
+  const size_t nc = seeds.size();
+  std::vector<Eigen::Vector3f> centre(nc), centre_n(nc);
+  std::vector<float> centre_spacing(nc);
+  for (size_t c = 0; c < nc; ++c) {
+    centre[c] = pts.pos[seeds[c]];
+    centre_n[c] = pts.nrm[seeds[c]];
+    centre_spacing[c] = pts.spacing_mm[seeds[c]];
+  }
+  std::vector<int32_t> assign(pts.size(), kNone);
+  std::vector<uint8_t> keep_own(nc, 0);
+  std::vector<uint32_t> member_start(nc + 1, 0), members;
+  Tiles centre_tiles;  // the same tiles, listing centres
+  centre_tiles.origin = tiles.origin;
+  centre_tiles.size = tiles.size;
+  centre_tiles.count = tiles.count;
+  centre_tiles.core.resize(tiles.core.size());
+  centre_tiles.halo.resize(tiles.halo.size());
+  // Centres move by a fraction of a spacing; a larger halo keeps the queries exact.
+  const double centre_margin_mm = 2 * margin_mm;
+  for (int it = 0; it < options.max_iterations && nc > 0; ++it) {
+    FillTiles(&centre_tiles, centre, {}, centre_margin_mm);
+    tbb::parallel_for(size_t{0}, tiles.core.size(), [&](size_t t) {
+      if (tiles.core[t].empty()) return;
+      const std::vector<uint32_t>& local_centres = centre_tiles.halo[t];
+      if (local_centres.empty()) {
+        for (uint32_t i : tiles.core[t]) assign[i] = kNone;
+        return;
+      }
+      const SubsetAdaptor adaptor{&centre, &local_centres};
+      Tree tree(3, adaptor, nanoflann::KDTreeSingleIndexAdaptorParams(16));
+      tree.buildIndex();
+      Neighbours nb;
+      for (uint32_t i : tiles.core[t]) {
+        if (!in_overlap[i]) continue;
+        const float r = pts.radius_mm[i];
+        tree.radiusSearch(pts.pos[i].data(), r * r, nb, unsorted);
+        int32_t best = kNone;
+        float best_d = std::numeric_limits<float>::infinity();
+        for (const auto& [local, dist_sq] : nb) {
+          const uint32_t c = local_centres[local];
+          if (pts.nrm[i].dot(centre_n[c]) < cos_max) continue;
+          if (dist_sq < best_d || (dist_sq == best_d && static_cast<int32_t>(c) < best)) {
+            best = static_cast<int32_t>(c);
+            best_d = dist_sq;
+          }
+        }
+        assign[i] = best;
+      }
+    });
+    // Members per centre in ascending point order (counting sort): fixed summation order.
+    std::fill(member_start.begin(), member_start.end(), 0);
+    for (size_t k = 0; k < pts.size(); ++k) {
+      if (assign[k] != kNone) ++member_start[assign[k] + 1];
+    }
+    for (size_t c = 0; c < nc; ++c) member_start[c + 1] += member_start[c];
+    members.resize(member_start[nc]);
+    {
+      std::vector<uint32_t> fill(member_start.begin(), member_start.end() - 1);
+      for (size_t k = 0; k < pts.size(); ++k) {
+        if (assign[k] != kNone) members[fill[assign[k]]++] = static_cast<uint32_t>(k);
+      }
+    }
+    std::vector<float> shift(nc, 0.f);
+    // Per centre: the combined step along the normal, the step by the seed's own view alone,
+    // the spread of the views' steps (NaN with one view) and the combined normal.
+    std::vector<double> step(nc, 0), own_step(nc, 0), disagreement(nc, kNaN);
+    std::vector<Eigen::Vector3f> new_normal(centre_n);
+    tbb::parallel_for(size_t{0}, nc, [&](size_t c) {
+      // Each view's surface is evaluated on the centre's normal line: every member gives the
+      // point where its tangent plane crosses that line (exact for a member on the same plane
+      // however far it lies sideways); within a view, members close beside the line count
+      // most (curvature and normal errors near edges grow with the sideways distance). Views
+      // then combine by their points' weights, however many members each has, so that a view
+      // with two members does not pull twice as hard.
+      struct PerView {
+        uint16_t view;
+        double lw = 0, lw_along = 0, lateral = 0;
+      };
+      PerView per_view[8];
+      int n_views = 0;
+      Eigen::Vector3d sn = Eigen::Vector3d::Zero();
+      const Eigen::Vector3d n = centre_n[c].cast<double>();
+      const double lateral_sigma = options.lateral_sigma * centre_spacing[c];
+      for (uint32_t m = member_start[c]; m < member_start[c + 1]; ++m) {
+        const uint32_t i = members[m];
+        const Eigen::Vector3d d = (pts.pos[i] - centre[c]).cast<double>();
+        const Eigen::Vector3d ni = pts.nrm[i].cast<double>();
+        const double along = ni.dot(d) / std::max(ni.dot(n), 0.7);
+        const double lateral_sq = (d - n.dot(d) * n).squaredNorm();
+        const double lat = std::exp(-0.5 * lateral_sq / (lateral_sigma * lateral_sigma));
+        const double lw = std::max(pts.weight[i], 1e-12f) * lat;
+        int k = 0;
+        while (k < n_views && per_view[k].view != pts.view[i]) ++k;
+        if (k == n_views) {
+          if (n_views == 8) continue;  // more than 8 views in one cluster: the rest add nothing
+          per_view[n_views++] = PerView{pts.view[i]};
+        }
+        per_view[k].lw += lw;
+        per_view[k].lw_along += lw * along;
+        per_view[k].lateral += lat;
+        sn += lw * ni;
+      }
+      double sw = 0, sd = 0;
+      double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+      int used = 0;
+      for (int k = 0; k < n_views; ++k) {
+        if (per_view[k].lw <= 0) continue;
+        const double view_weight = per_view[k].lw / per_view[k].lateral;  // mean point weight
+        const double e = per_view[k].lw_along / per_view[k].lw;
+        sw += view_weight;
+        sd += view_weight * e;
+        lo = std::min(lo, e);
+        hi = std::max(hi, e);
+        ++used;
+        if (per_view[k].view == pts.view[seeds[c]]) own_step[c] = e;
+      }
+      if (sw <= 0) return;
+      step[c] = sd / sw;
+      if (used >= 2) disagreement[c] = hi - lo;
+      if (sn.norm() > 0) new_normal[c] = sn.normalized().cast<float>();
+    });
+    // Views that disagree far more than views usually do (robust scale of all clusters'
+    // disagreements: noise + registration) do not see the same smooth surface there — an edge
+    // or fine detail their normals blur. Such a centre keeps its seed view's measurement.
+    double limit = std::numeric_limits<double>::infinity();
+    {
+      std::vector<double> d;
+      for (double x : disagreement) {
+        if (std::isfinite(x)) d.push_back(x);
+      }
+      if (!d.empty()) {
+        std::nth_element(d.begin(), d.begin() + static_cast<std::ptrdiff_t>(d.size() / 2), d.end());
+        limit = options.max_disagreement * d[d.size() / 2];
+      }
+    }
+    // Once disagreeing, a centre stays with its seed view (the iteration then converges).
+    int64_t rejected = 0;
+    for (size_t c = 0; c < nc; ++c) {
+      if (disagreement[c] > limit) keep_own[c] = 1;
+      rejected += keep_own[c];
+    }
+    s.disagreeing_clusters = rejected;
+    tbb::parallel_for(size_t{0}, nc, [&](size_t c) {
+      const bool disagree = keep_own[c] != 0;
+      const double d = disagree ? own_step[c] : step[c];
+      centre[c] = (centre[c].cast<double>() + d * centre_n[c].cast<double>()).cast<float>();
+      if (!disagree) centre_n[c] = new_normal[c];
+      shift[c] = static_cast<float>(std::abs(d));
+    });
+    s.iterations = it + 1;
+    s.last_max_shift_mm = nc > 0 ? *std::max_element(shift.begin(), shift.end()) : 0;
+    if (s.last_max_shift_mm < options.convergence_mm) break;
+  }
+  // The last update moved the centres; the membership of that update defines the clusters.
+
+  // Output: centres with members, then the passed-through points.
+  PointCloud& out = result.fused;
+  for (size_t c = 0; c < nc; ++c) {
+    if (member_start[c + 1] == member_start[c]) continue;
+    double sw = 0, si = 0, sq = 0;
+    uint64_t view_bits[4] = {0, 0, 0, 0};  // distinct views among the first 256
+    int distinct = 0;
+    for (uint32_t m = member_start[c]; m < member_start[c + 1]; ++m) {
+      const uint32_t i = members[m];
+      const double w = std::max(pts.weight[i], 1e-12f);
+      sw += w;
+      si += w * pts.intensity[i];
+      sq += w * pts.quality[i];
+      const uint16_t v = std::min<uint16_t>(pts.view[i], 255);
+      if (!(view_bits[v / 64] >> (v % 64) & 1)) {
+        view_bits[v / 64] |= uint64_t{1} << (v % 64);
+        ++distinct;
+      }
+    }
+    out.points.push_back(centre[c].cast<double>());
+    out.normals.push_back(centre_n[c].cast<double>());
+    out.intensity.push_back(static_cast<float>(si / sw));
+    out.quality.push_back(static_cast<float>(sq / sw));
+    result.support.push_back(static_cast<uint16_t>(distinct));
+    ++s.clusters;
+  }
+  for (size_t k = 0; k < pts.size(); ++k) {
+    if (in_overlap[k] && assign[k] != kNone) continue;
+    if (in_overlap[k])
+      ++s.unassigned;
+    else
+      ++s.passed_through;
+    const FusionView& fv = views[pts.view[k]];
+    const PointCloud& c = fv.cloud.cloud;
+    const uint32_t i = pts.grid[k];
+    out.points.push_back(fv.world_from_sensor * c.points[i]);
+    out.normals.push_back(fv.world_from_sensor.RotateDirection(c.normals[i]));
+    out.intensity.push_back(pts.intensity[k]);
+    out.quality.push_back(pts.quality[k]);
+    result.support.push_back(1);
+  }
+  out.colors.resize(out.size());
+  for (size_t i = 0; i < out.size(); ++i) {
+    const auto g = static_cast<uint8_t>(std::clamp(std::lround(out.intensity[i]), 0L, 255L));
+    out.colors[i] = {g, g, g};
+  }
+  s.fused_points = static_cast<int64_t>(out.size());
+  if (s.overlap_points == 0) {
+    s.status = FusionStatus::kNoOverlap;
+    s.message = views.size() > 1 ? "no view overlaps another; all points passed through"
+                                 : "one view; all points passed through";
+  }
+  s.time_s = timer.ElapsedSeconds();
+  return result;
+}
+
+}  // namespace fringe::fusion

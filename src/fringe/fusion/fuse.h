@@ -1,0 +1,130 @@
+// Multi-view fusion: registered view clouds into one single-layer surface (thesis capability 5).
+//
+// The thesis' adaptive-neighbourhood mean-clustering fusion, after Zhou & Liu, "Accurate
+// integration of multi-view range images using k-means clustering", Pattern Recognition 41
+// (2008):
+//   1. Overlap: a point is in an overlap when a point of ANOTHER view lies within its adaptive
+//      radius r = spacing_factor * local spacing + registration_factor * registration residual
+//      and the two normals agree within max_normal_angle_deg (so the two faces of a sharp edge,
+//      or a thin wall's front and back, never merge).
+//   2. Initial centres: an overlap point is a centre when it outranks every compatible point of
+//      the other views within its seed radius (seed_factor * spacing + the registration term;
+//      rank = weight, then view index, then point order), so each overlap region is seeded by
+//      the locally best view at that view's own sampling (about one centre per spacing).
+//   3. Iteration: every overlap point joins the nearest compatible centre within its radius;
+//      each centre moves to the quality-weighted mean of its members ALONG ITS NORMAL (the
+//      centre keeps the best view's tangential position: no lateral smearing of ribs,
+//      engravings or edges, while the layers of all views collapse onto one), its normal
+//      becomes the weighted mean normal; until no centre moves more than
+//      convergence_mm or max_iterations. Each view's surface is evaluated on the centre's normal
+//      line (member tangent planes, members beside the line weighted by a Gaussian), and views
+//      combine by weight however many members each has. Where the views disagree far more than
+//      they do elsewhere (max_disagreement times the median, i.e. beyond noise and registration
+//      error: an edge or a detail the normals blur), the centre keeps its seed view's
+//      measurement instead of an average that would round the edge.
+//   Points outside overlaps pass through unchanged; overlap points no centre reaches pass through
+//   as well (nothing is lost). Weight of a point: cos^2 of its viewing angle (normal vs the
+//   direction to its sensor) * B^2 / (B^2 + B0^2) with B its fringe modulation (quality) *
+//   1 / (1 + (residual / residual0)^2) with its reprojection residual.
+//
+// Neighbour search: nanoflann k-d trees built per spatial tile (tile + margin of the largest
+// radius), so that memory stays bounded by the tile and the work runs in parallel over tiles.
+//
+// Frames and units: each view's cloud is in its sensor frame, world_from_sensor places it; the
+// output is in the world frame; millimetres.
+// Determinism: every per-point decision depends only on the input, sums are taken in a fixed
+// order: results do not depend on the number of threads (TBB inside).
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "fringe/geometry/point_cloud.h"
+#include "fringe/geometry/rigid3.h"
+
+namespace fringe::fusion {
+
+// One view: an organized cloud (grid of the left camera, sensor frame, with normals; quality =
+// modulation, intensity = texture and residual_px are used when present) and its pose.
+struct FusionView {
+  std::string name;
+  OrganizedPointCloud cloud;
+  Rigid3d world_from_sensor;
+};
+
+struct FusionOptions {
+  // Overlap radius = spacing_factor * local spacing + registration_factor * registration_rms_mm.
+  double spacing_factor = 2.0;  // (0, 20]
+  // Seed radius = seed_factor * local spacing + the registration term: the best point within
+  // it becomes a centre. 1 covers the farthest place from a grid point (0.71 spacing), (0, 20].
+  double seed_factor = 1.0;
+  double registration_rms_mm = 0.02;  // registration residual (e.g. ICP RMS), mm, >= 0
+  double registration_factor = 3.0;   // >= 0
+  double max_normal_angle_deg = 30;   // normal compatibility, (0, 90)
+  // Members of a cluster weigh by exp(-l^2 / (2 (lateral_sigma * spacing)^2)) with l their
+  // distance beside the centre's normal line, (0, 10].
+  double lateral_sigma = 0.5;
+  // A cluster whose views' surfaces differ by more than max_disagreement times the median
+  // difference over all clusters keeps its seed view's point (edges, fine detail), > 1.
+  double max_disagreement = 4;
+  int max_iterations = 10;         // clustering iterations, [1, 100]
+  double convergence_mm = 1e-3;    // stop when no centre moves more, > 0
+  double modulation_half_dn = 10;  // B0 of the modulation weight, DN, > 0
+  double residual_half_px = 0.5;   // residual0 of the residual weight, px, > 0
+  double min_cos_view = 0.1;       // viewing-angle cosine floor of the weight, (0, 1]
+  double tile_mm = 40;             // tile edge of the neighbour search, (0, 1e4]
+  // Views whose median point spacings differ by more than this factor are taken to be in
+  // different units (metres vs millimetres) and refused, > 1.
+  double max_spacing_ratio = 20;
+
+  void Check() const;
+};
+
+enum class FusionStatus {
+  kOk = 0,
+  kNoOverlap,       // no view overlaps another: every point passed through (output valid)
+  kEmptyInput,      // no views, or no valid point in any view
+  kMissingNormals,  // a view without normals (fusion needs them for compatibility and weights)
+  kUnitsMismatch,   // views' point spacings differ as metres and millimetres would
+  kBadView,         // grid and attribute sizes disagree, or a non-finite pose
+};
+const char* ToString(FusionStatus s);
+
+struct FusionSummary {
+  FusionStatus status = FusionStatus::kOk;
+  std::string message;
+  int views = 0;
+  int64_t input_points = 0;
+  int64_t overlap_points = 0;        // points with a compatible neighbour from another view
+  int64_t clusters = 0;              // centres (fused points replacing the overlap points)
+  int64_t passed_through = 0;        // non-overlap points, unchanged
+  int64_t unassigned = 0;            // overlap points no centre reached (passed through)
+  int64_t disagreeing_clusters = 0;  // kept their seed view's point (last iteration)
+  int64_t fused_points = 0;          // output size
+  int iterations = 0;
+  double last_max_shift_mm = 0;  // largest centre move of the last iteration
+  double median_spacing_mm = 0;  // over all views
+  double time_s = 0;
+  // True when `fused` holds the result (kOk or kNoOverlap).
+  bool has_output() const {
+    return status == FusionStatus::kOk || status == FusionStatus::kNoOverlap;
+  }
+  std::string BriefReport() const;
+};
+
+struct FusionResult {
+  // World frame, mm: normals, intensity (texture) also as grey colours, quality (weighted mean
+  // modulation). Centres first (in the order of their seed points), then the passed-through
+  // points in view and grid order.
+  PointCloud fused;
+  std::vector<uint16_t> support;  // per fused point: the number of views in its cluster (1 = one)
+  // Per view, per grid slot: 1 where the point was in an overlap (for evaluation).
+  std::vector<std::vector<uint8_t>> overlap;
+  FusionSummary summary;
+};
+
+// Fuses the views. Bad options throw fringe::Error; bad data come back as a status.
+FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions& options = {});
+
+}  // namespace fringe::fusion

@@ -1,0 +1,202 @@
+#include "fringe/fusion/mesh.h"
+
+#include <tbb/parallel_for.h>
+
+#include <open3d/geometry/KDTreeFlann.h>
+#include <open3d/geometry/PointCloud.h>
+#include <open3d/geometry/TriangleMesh.h>
+#include <open3d/io/TriangleMeshIO.h>
+#include <algorithm>
+#include <cmath>
+
+#include "fringe/eval/deviation.h"
+#include "fringe/io/ply.h"
+#include "fringe/util/error.h"
+#include "fringe/util/files.h"
+#include "fringe/util/timer.h"
+
+namespace fringe::fusion {
+namespace {
+
+double Quantile(std::vector<double> v, double q) {
+  if (v.empty()) return 0;
+  const size_t k = std::min(v.size() - 1, static_cast<size_t>(q * static_cast<double>(v.size())));
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k), v.end());
+  return v[k];
+}
+
+std::vector<std::array<int32_t, 3>> Triangles(const open3d::geometry::TriangleMesh& m) {
+  std::vector<std::array<int32_t, 3>> t(m.triangles_.size());
+  for (size_t i = 0; i < t.size(); ++i) {
+    t[i] = {m.triangles_[i](0), m.triangles_[i](1), m.triangles_[i](2)};
+  }
+  return t;
+}
+
+MeshResult Fail(MeshResult r, MeshStatus status, std::string message) {
+  r.summary.status = status;
+  r.summary.message = std::move(message);
+  return r;
+}
+
+}  // namespace
+
+void MeshOptions::Check() const {
+  constexpr const char* kName = "MeshOptions";
+  util::CheckOption(poisson_depth >= 5 && poisson_depth <= 14, kName, "poisson_depth",
+                    poisson_depth, "must be in [5, 14]");
+  util::CheckOption(trim_density_quantile >= 0 && trim_density_quantile < 1, kName,
+                    "trim_density_quantile", trim_density_quantile, "must be in [0, 1)");
+  util::CheckOption(trim_distance_factor > 0, kName, "trim_distance_factor", trim_distance_factor,
+                    "must be > 0");
+  util::CheckOption(max_triangles == 0 || max_triangles >= 4, kName, "max_triangles", max_triangles,
+                    "must be 0 (no decimation) or >= 4");
+  util::CheckOption(threads >= 0, kName, "threads", threads, "must be >= 0");
+}
+
+const char* ToString(MeshStatus s) {
+  switch (s) {
+    case MeshStatus::kOk:
+      return "ok";
+    case MeshStatus::kTooFewPoints:
+      return "too few points";
+    case MeshStatus::kMissingNormals:
+      return "missing normals";
+    case MeshStatus::kFailed:
+      return "failed";
+  }
+  return "?";
+}
+
+std::string MeshSummary::BriefReport() const {
+  std::string s =
+      util::StrCat("mesh: ", ToString(status), ", ", input_points, " points -> ", poisson_triangles,
+                   " Poisson triangles, ", trimmed_vertices, " vertices trimmed -> ", vertices,
+                   " vertices, ", triangles, " triangles, ", watertight ? "watertight" : "open");
+  if (decimated) {
+    s += util::StrCat(", decimation deviation RMS ", decimation_rms_mm, " mm (max ",
+                      decimation_max_mm, " mm)");
+  }
+  s += util::StrCat(", Poisson ", poisson_s, " s, total ", total_s, " s");
+  if (!message.empty()) s += ": " + message;
+  return s;
+}
+
+MeshResult MeshPoisson(const PointCloud& cloud, const MeshOptions& options) {
+  options.Check();
+  cloud.CheckConsistent();
+  util::Timer total;
+  MeshResult result;
+  MeshSummary& s = result.summary;
+  if (!cloud.has_normals() && !cloud.empty()) {
+    return Fail(std::move(result), MeshStatus::kMissingNormals,
+                "the cloud has no normals (Poisson needs oriented normals)");
+  }
+  open3d::geometry::PointCloud pcd;
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    if (!cloud.points[i].allFinite() || !cloud.normals[i].allFinite()) continue;
+    pcd.points_.push_back(cloud.points[i]);
+    pcd.normals_.push_back(cloud.normals[i]);
+  }
+  s.input_points = static_cast<int64_t>(pcd.points_.size());
+  if (pcd.points_.size() < 10) {
+    return Fail(std::move(result), MeshStatus::kTooFewPoints,
+                util::StrCat(pcd.points_.size(), " points with position and normal"));
+  }
+
+  util::Timer timer;
+  auto [mesh, densities] = open3d::geometry::TriangleMesh::CreateFromPointCloudPoisson(
+      pcd, static_cast<size_t>(options.poisson_depth), 0.0f, 1.1f, false,
+      options.threads == 0 ? -1 : options.threads);
+  s.poisson_s = timer.ElapsedSeconds();
+  s.poisson_triangles = static_cast<int64_t>(mesh->triangles_.size());
+  if (mesh->triangles_.empty()) {
+    return Fail(std::move(result), MeshStatus::kFailed, "Poisson reconstruction gave no triangles");
+  }
+
+  if (!options.watertight) {
+    // Low support: low Poisson density, or far from every measured point.
+    const std::vector<double> nn = pcd.ComputeNearestNeighborDistance();
+    const double spacing_mm = Quantile(nn, 0.5);
+    const double max_dist_mm = options.trim_distance_factor * spacing_mm;
+    const double min_density = options.trim_density_quantile > 0
+                                   ? Quantile(densities, options.trim_density_quantile)
+                                   : -std::numeric_limits<double>::infinity();
+    const open3d::geometry::KDTreeFlann tree(pcd);
+    std::vector<uint8_t> remove(mesh->vertices_.size(), 0);
+    tbb::parallel_for(size_t{0}, mesh->vertices_.size(), [&](size_t v) {
+      std::vector<int> idx(1);
+      std::vector<double> d2(1);
+      const bool far =
+          tree.SearchKNN(mesh->vertices_[v], 1, idx, d2) < 1 || d2[0] > max_dist_mm * max_dist_mm;
+      remove[v] = far || densities[v] < min_density;
+    });
+    std::vector<bool> mask(remove.begin(), remove.end());
+    s.trimmed_vertices = std::count(remove.begin(), remove.end(), 1);
+    mesh->RemoveVerticesByMask(mask);
+    mesh->RemoveUnreferencedVertices();
+  }
+
+  if (options.max_triangles > 0 &&
+      static_cast<int64_t>(mesh->triangles_.size()) > options.max_triangles) {
+    auto decimated = mesh->SimplifyQuadricDecimation(
+        static_cast<int>(std::min<int64_t>(options.max_triangles, 2000000000)),
+        std::numeric_limits<double>::infinity(), 1.0);
+    decimated->RemoveUnreferencedVertices();
+    if (!decimated->triangles_.empty()) {
+      const eval::MeshDistance surface(decimated->vertices_, Triangles(*decimated));
+      std::vector<double> d(mesh->vertices_.size());
+      tbb::parallel_for(size_t{0}, d.size(), [&](size_t v) {
+        d[v] = std::abs(surface.SignedDistance(mesh->vertices_[v]));
+      });
+      double sum_sq = 0, max_d = 0;
+      for (double x : d) sum_sq += x * x, max_d = std::max(max_d, x);
+      s.decimated = true;
+      s.decimation_rms_mm = std::sqrt(sum_sq / std::max<size_t>(d.size(), 1));
+      s.decimation_max_mm = max_d;
+      mesh = decimated;
+    }
+  }
+  mesh->ComputeVertexNormals();
+  // Closed and manifold (Open3D's IsWatertight adds a self-intersection test that is
+  // quadratic in the triangle count).
+  s.watertight = mesh->IsEdgeManifold(/*allow_boundary_edges=*/false) && mesh->IsVertexManifold();
+  result.vertices.points = mesh->vertices_;
+  result.vertices.normals = mesh->vertex_normals_;
+  result.triangles = Triangles(*mesh);
+  s.vertices = static_cast<int64_t>(result.vertices.size());
+  s.triangles = static_cast<int64_t>(result.triangles.size());
+  if (result.triangles.empty()) {
+    return Fail(std::move(result), MeshStatus::kFailed, "no triangle left after trimming");
+  }
+  s.total_s = total.ElapsedSeconds();
+  return result;
+}
+
+void WriteMeshFile(const std::filesystem::path& path, const MeshResult& mesh) {
+  std::string ext = path.extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return std::tolower(c); });
+  if (ext == ".ply") {
+    io::WritePly(path, mesh.vertices, mesh.triangles, io::PlyFormat::kBinaryLittleEndian,
+                 {"fringe fuse: screened Poisson mesh, vertex normals"});
+    return;
+  }
+  if (ext != ".stl") {
+    throw Error(
+        util::StrCat(path.string(), ": unknown mesh format '", ext, "' (expected .ply or .stl)"));
+  }
+  open3d::geometry::TriangleMesh m;
+  m.vertices_ = mesh.vertices.points;
+  m.triangles_.reserve(mesh.triangles.size());
+  for (const auto& t : mesh.triangles) m.triangles_.emplace_back(t[0], t[1], t[2]);
+  m.ComputeTriangleNormals();
+  util::WriteAtomically(path, [&](const std::filesystem::path& tmp) {
+    if (!open3d::io::WriteTriangleMesh(tmp.string(), m, /*write_ascii=*/false, false,
+                                       /*write_vertex_normals=*/false, false, false, false)) {
+      throw Error(util::StrCat(path.string(), ": STL write failed"));
+    }
+  });
+}
+
+}  // namespace fringe::fusion

@@ -1,0 +1,81 @@
+// A triangle mesh of a fused cloud: screened Poisson surface reconstruction (Kazhdan & Hoppe,
+// "Screened Poisson surface reconstruction", ACM TOG 2013) as implemented in Open3D
+// (open3d::geometry::TriangleMesh::CreateFromPointCloudPoisson, Debian libopen3d-dev 0.16),
+// not hand-written. Open3D was chosen over CGAL's Poisson after measuring both on the same
+// fused cloud (docs/benchmarks.md, "Fusion").
+//
+// By default the mesh keeps only the measured surface: Poisson closes the surface everywhere,
+// and vertices the data do not support are trimmed — those with a Poisson sampling density
+// below the trim_density_quantile of all densities, or farther than trim_distance_factor *
+// median point spacing from the nearest input point (the "bubbles" that close unscanned
+// regions). `watertight` keeps the closed surface. `max_triangles` decimates by quadric error
+// (Garland & Heckbert, Open3D's SimplifyQuadricDecimation) and reports the deviation the
+// decimation adds (distances of the undecimated vertices to the decimated surface).
+//
+// Frames and units: those of the cloud (the world frame of a fused cloud), millimetres. The
+// cloud needs normals (oriented outward, toward the sensors that measured it).
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "fringe/geometry/point_cloud.h"
+
+namespace fringe::fusion {
+
+struct MeshOptions {
+  int poisson_depth = 10;               // octree depth, [5, 14]; 10: ~0.3 mm cells on 300 mm
+  bool watertight = false;              // true: keep the closed Poisson surface, no trimming
+  double trim_density_quantile = 0.02;  // [0, 1)
+  double trim_distance_factor = 4;      // times the median point spacing, > 0
+  int64_t max_triangles = 0;            // 0: no decimation; else >= 4
+  // Poisson threads (OpenMP inside Open3D), 0: all, >= 0. 1 by default: OpenMP's spinning
+  // threads slow down badly on a loaded machine and one thread is deterministic.
+  int threads = 1;
+
+  void Check() const;
+};
+
+enum class MeshStatus {
+  kOk = 0,
+  kTooFewPoints,    // fewer than 10 points with finite positions and normals
+  kMissingNormals,  // the cloud has no normals
+  kFailed,          // the reconstruction produced no triangles
+};
+const char* ToString(MeshStatus s);
+
+struct MeshSummary {
+  MeshStatus status = MeshStatus::kOk;
+  std::string message;
+  int64_t input_points = 0;
+  int64_t poisson_triangles = 0;  // before trimming and decimation
+  int64_t trimmed_vertices = 0;
+  int64_t vertices = 0;
+  int64_t triangles = 0;
+  bool watertight = false;  // every edge shared by exactly two triangles
+  bool decimated = false;
+  double decimation_rms_mm = 0;  // undecimated vertices to the decimated surface
+  double decimation_max_mm = 0;
+  double poisson_s = 0, total_s = 0;
+  bool ok() const { return status == MeshStatus::kOk; }
+  std::string BriefReport() const;
+};
+
+struct MeshResult {
+  PointCloud vertices;                            // positions and unit vertex normals
+  std::vector<std::array<int32_t, 3>> triangles;  // counter-clockwise seen from outside
+  MeshSummary summary;
+};
+
+// Bad options throw fringe::Error; bad data come back as a status.
+MeshResult MeshPoisson(const PointCloud& cloud, const MeshOptions& options = {});
+
+// Writes the mesh by extension: .ply (binary little-endian, with vertex normals) or .stl
+// (binary). Atomic (temporary name, then rename). Throws fringe::Error for another extension
+// or a failed write.
+void WriteMeshFile(const std::filesystem::path& path, const MeshResult& mesh);
+
+}  // namespace fringe::fusion

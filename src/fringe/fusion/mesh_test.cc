@@ -1,0 +1,149 @@
+#include "fringe/fusion/mesh.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "fringe/fusion/fuse.h"
+#include "fringe/fusion/test_views.h"
+#include "fringe/io/ply.h"
+#include "fringe/sim/poses.h"
+#include "fringe/sim/scene.h"
+#include "fringe/util/error.h"
+#include "fringe_test.h"
+
+namespace fringe::fusion {
+namespace {
+
+constexpr double kRadiusMm = 30;
+
+// Six noisy views all around a floating sphere (centre at the origin), fused.
+const FusionResult& FusedSphere() {
+  static const FusionResult fused = [] {
+    const StereoRig rig = sim::ScaledRig(StereoRig::Reference(), 0.25);
+    const sim::Renderer renderer(sim::MakeSphereScene(kRadiusMm, false), rig);
+    const std::vector<Eigen::Vector3d> dirs = {{1, 0, 0.3},   {0, 1, -0.3},  {-1, 0, 0.3},
+                                               {0, -1, -0.3}, {0.2, 0.1, 1}, {-0.1, 0.2, -1}};
+    std::vector<FusionView> views;
+    for (size_t v = 0; v < dirs.size(); ++v) {
+      const Rigid3d pose =
+          sim::SensorPoseLookingAt(rig, Eigen::Vector3d::Zero(), dirs[v].normalized());
+      views.push_back(testing::TruthView(renderer, std::to_string(v), pose, pose, 0.02, v + 1));
+    }
+    return FuseViews(views);
+  }();
+  return fused;
+}
+
+Eigen::Vector2d RadialErrorRmsMax(const PointCloud& vertices) {
+  double sum_sq = 0, max_abs = 0;
+  for (const auto& p : vertices.points) {
+    const double e = p.norm() - kRadiusMm;
+    sum_sq += e * e;
+    max_abs = std::max(max_abs, std::abs(e));
+  }
+  return {std::sqrt(sum_sq / vertices.size()), max_abs};
+}
+
+TEST(Mesh, DefaultOptionsPassCheck) {
+  EXPECT_NO_THROW(MeshOptions().Check());
+  MeshOptions o;
+  o.poisson_depth = 30;
+  EXPECT_THROW(o.Check(), Error);
+}
+
+TEST(Mesh, FusedSphereIsWatertightAndWithinToleranceOfTheSphere) {
+  // Poisson on 0.8 mm sampling with octree cells of ~0.5 mm: a smooth surface within 0.05 mm
+  // RMS (0.2 mm at worst) of the true sphere.
+  constexpr double kRmsTolMm = 0.05;
+  constexpr double kMaxTolMm = 0.2;
+  const FusionResult& fused = FusedSphere();
+  ASSERT_EQ(fused.summary.status, FusionStatus::kOk) << fused.summary.BriefReport();
+  MeshOptions options;
+  options.poisson_depth = 7;
+  options.watertight = true;
+  const MeshResult m = MeshPoisson(fused.fused, options);
+  SCOPED_TRACE(m.summary.BriefReport());
+  ASSERT_TRUE(m.summary.ok());
+  EXPECT_TRUE(m.summary.watertight);
+  EXPECT_EQ(m.summary.trimmed_vertices, 0);
+  const Eigen::Vector2d err = RadialErrorRmsMax(m.vertices);
+  EXPECT_LT(err[0], kRmsTolMm);
+  EXPECT_LT(err[1], kMaxTolMm);
+  // Outward normals: the vertex normal points away from the centre.
+  int inward = 0;
+  for (size_t i = 0; i < m.vertices.size(); ++i) {
+    inward += m.vertices.normals[i].dot(m.vertices.points[i]) < 0;
+  }
+  EXPECT_EQ(inward, 0);
+}
+
+TEST(Mesh, TrimmingKeepsOnlyTheMeasuredPart) {
+  // Half a sphere measured: the closing bubble over the other half must go.
+  constexpr double kMaxFromDataMm = 4 * 0.9;  // trim_distance_factor * ~spacing
+  const FusionResult& fused = FusedSphere();
+  PointCloud half;
+  for (size_t i = 0; i < fused.fused.size(); ++i) {
+    if (fused.fused.points[i].z() > 0) half.PushBackFrom(fused.fused, i);
+  }
+  MeshOptions options;
+  options.poisson_depth = 7;
+  const MeshResult trimmed = MeshPoisson(half, options);
+  SCOPED_TRACE(trimmed.summary.BriefReport());
+  ASSERT_TRUE(trimmed.summary.ok());
+  EXPECT_FALSE(trimmed.summary.watertight);
+  EXPECT_GT(trimmed.summary.trimmed_vertices, 0);
+  double min_z = 1e9;
+  for (const auto& p : trimmed.vertices.points) min_z = std::min(min_z, p.z());
+  EXPECT_GT(min_z, -kMaxFromDataMm);
+  // Away from the open rim (where Poisson is unconstrained on one side) the surface is as
+  // close to the sphere as the closed mesh.
+  PointCloud inner;
+  for (size_t i = 0; i < trimmed.vertices.size(); ++i) {
+    if (trimmed.vertices.points[i].z() > 5) inner.PushBackFrom(trimmed.vertices, i);
+  }
+  ASSERT_GT(inner.size(), trimmed.vertices.size() / 2);
+  EXPECT_LT(RadialErrorRmsMax(inner)[0], 0.05);
+}
+
+TEST(Mesh, DecimationReportsItsDeviationAndFilesAreWritten) {
+  const FusionResult& fused = FusedSphere();
+  MeshOptions options;
+  options.poisson_depth = 7;
+  options.watertight = true;
+  options.max_triangles = 2000;
+  const MeshResult m = MeshPoisson(fused.fused, options);
+  SCOPED_TRACE(m.summary.BriefReport());
+  ASSERT_TRUE(m.summary.ok());
+  EXPECT_TRUE(m.summary.decimated);
+  EXPECT_LE(m.summary.triangles, 2000);
+  // A 2000-triangle sphere of radius 30 deviates by ~0.1 mm from the fine one: reported, > 0.
+  EXPECT_GT(m.summary.decimation_rms_mm, 0.005);
+  EXPECT_LT(m.summary.decimation_max_mm, 1.0);
+  EXPECT_GE(m.summary.decimation_max_mm, m.summary.decimation_rms_mm);
+
+  test::TempDir dir;
+  WriteMeshFile(dir / "m.ply", m);
+  const io::PlyData d = io::ReadPly(dir / "m.ply");
+  EXPECT_EQ(d.triangles.size(), m.triangles.size());
+  EXPECT_TRUE(d.cloud.has_normals());
+  WriteMeshFile(dir / "m.stl", m);
+  const sim::TriangleMesh stl = sim::ReadMesh(dir / "m.stl");
+  EXPECT_EQ(stl.triangles.size(), m.triangles.size());
+  EXPECT_THROW(WriteMeshFile(dir / "m.obj", m), Error);
+  EXPECT_FALSE(std::filesystem::exists(dir / "m.obj"));
+}
+
+TEST(Mesh, BadInputsGiveTheirStatus) {
+  PointCloud no_normals;
+  for (int i = 0; i < 100; ++i) no_normals.points.emplace_back(i, 0, 0);
+  EXPECT_EQ(MeshPoisson(no_normals).summary.status, MeshStatus::kMissingNormals);
+  PointCloud few;
+  few.points = {{0, 0, 0}, {1, 0, 0}};
+  few.normals = {{0, 0, 1}, {0, 0, 1}};
+  EXPECT_EQ(MeshPoisson(few).summary.status, MeshStatus::kTooFewPoints);
+  EXPECT_EQ(MeshPoisson(PointCloud()).summary.status, MeshStatus::kTooFewPoints);
+}
+
+}  // namespace
+}  // namespace fringe::fusion

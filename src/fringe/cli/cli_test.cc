@@ -134,13 +134,14 @@ TEST(CliBadInput, DecodeOutIntoItsOwnStackIsRefusedAndKeepsTheImages) {
             1);
   EXPECT_NE(err.find(stack.string() + ": is also an input"), std::string::npos) << err;
   EXPECT_EQ(Listing(stack), before);
-  // And it works into a fresh folder, which a second run may replace (it holds the marker).
+  // And it works into a fresh folder, which a second run may replace (it holds the marker). The
+  // projector's own images reach 255: a full scale above that keeps them unsaturated.
   EXPECT_EQ(RunCli({"decode", stack.string(), "--scheme", (stack / "manifest.json").string(),
-                    "--out", (dir / "dec").string()}),
+                    "--out", (dir / "dec").string(), "--full-scale", "1000"}),
             0);
   EXPECT_TRUE(fs::exists(dir / "dec" / "absolute_phase.tiff"));
   EXPECT_EQ(RunCli({"decode", stack.string(), "--scheme", (stack / "manifest.json").string(),
-                    "--out", (dir / "dec").string()}),
+                    "--out", (dir / "dec").string(), "--full-scale", "1000"}),
             0);
 }
 

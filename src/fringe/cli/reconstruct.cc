@@ -3,6 +3,7 @@
 #include <filesystem>
 #include <iostream>
 #include <memory>
+#include <optional>
 
 #include "fringe/cli/cli.h"
 #include "fringe/cli/scheme_flags.h"
@@ -145,6 +146,11 @@ void AddReconstructCommand(CLI::App& app) {
       util::CheckOutputFile(a->residuals, inputs);
       util::CheckDistinctOutputs({a->out, a->residuals});
     }
+    const fs::path markers_path = registration::MarkersPathForCloud(a->out);
+    if (!a->no_markers) {
+      util::CheckOutputFile(markers_path, inputs);
+      util::CheckDistinctOutputs({a->out, a->residuals, markers_path});
+    }
     const phase::PatternScheme scheme = phase::SchemeFromArgument(scheme_arg, a->parameters);
     const auto left = phase::ReadStack(left_dir, scheme);
     const auto right = phase::ReadStack(right_dir, scheme);
@@ -173,7 +179,7 @@ void AddReconstructCommand(CLI::App& app) {
       throw Error(util::StrCat("reconstruct: ", view.string(), ": ",
                                stereo::ToString(rec.summary.status), ": ", rec.summary.message));
     }
-    // The cloud and the residual image are committed together or not at all.
+    // The cloud, the residual image and the markers are committed together or not at all.
     util::OutputTransaction outputs;
     io::WritePly(outputs.Stage(a->out), rec.cloud,
                  a->ascii ? io::PlyFormat::kAscii : io::PlyFormat::kBinaryLittleEndian,
@@ -181,14 +187,16 @@ void AddReconstructCommand(CLI::App& app) {
     if (!a->residuals.empty()) {
       io::WriteImage(outputs.Stage(a->residuals), rec.reprojection_error_px);
     }
+    std::optional<registration::ViewMarkers> markers;
+    if (!a->no_markers) {
+      markers =
+          registration::DetectViewMarkers(rig, rec.texture_left, rec.texture_right, rec.cloud);
+      registration::WriteViewMarkers(outputs.Stage(markers_path), markers->markers);
+    }
     outputs.Commit();
     std::cout << "wrote " << a->out << " (" << rec.summary.points << " points)\n";
-    if (!a->no_markers) {
-      const registration::ViewMarkers markers =
-          registration::DetectViewMarkers(rig, rec.texture_left, rec.texture_right, rec.cloud);
-      const fs::path markers_path = registration::MarkersPathForCloud(a->out);
-      registration::WriteViewMarkers(markers_path, markers.markers);
-      std::cout << markers.summary.BriefReport() << "\nwrote " << markers_path.string() << "\n";
+    if (markers) {
+      std::cout << markers->summary.BriefReport() << "\nwrote " << markers_path.string() << "\n";
     }
   });
 }

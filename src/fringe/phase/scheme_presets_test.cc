@@ -47,10 +47,11 @@ TEST(SchemePresets, SlsdkIsAnAliasOfGray4WithItsValues) {
 TEST(SchemePresets, HeterodyneCountsOverTheSpan) {
   SchemeParameters p;
   p.projector_width = 1280;
-  p.counts = {70, 64, 59};
+  // Beats of 6 and 5.5 fringes, beat of beats 0.5 fringe: its period (2560 px) covers the span.
+  p.counts = {60, 54, 48.5};
   const PatternScheme s = MakePresetScheme("heterodyne-4x3", p);
-  EXPECT_DOUBLE_EQ(s.phase_sets[0].period_px, 1280.0 / 70);
-  EXPECT_DOUBLE_EQ(s.phase_sets[2].period_px, 1280.0 / 59);
+  EXPECT_DOUBLE_EQ(s.phase_sets[0].period_px, 1280.0 / 60);
+  EXPECT_DOUBLE_EQ(s.phase_sets[2].period_px, 1280.0 / 48.5);
   p.counts = {70, 64};
   EXPECT_THROW(MakePresetScheme("heterodyne-4x3", p), Error);
 }

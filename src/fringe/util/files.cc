@@ -360,7 +360,8 @@ void CheckOutputFolder(const fs::path& dir, const OutputFolderOptions& options) 
 void CheckDistinctOutputs(const std::vector<fs::path>& outputs) {
   for (size_t i = 0; i < outputs.size(); ++i) {
     for (size_t k = i + 1; k < outputs.size(); ++k) {
-      if (!outputs[i].empty() && Canonical(outputs[i]) == Canonical(outputs[k])) {
+      if (!outputs[i].empty() && !outputs[k].empty() &&
+          Canonical(outputs[i]) == Canonical(outputs[k])) {
         throw Error(StrCat(outputs[k].string(), ": given for two outputs of this command"));
       }
     }

@@ -1,8 +1,12 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "fringe/cli/cli.h"
@@ -88,6 +92,260 @@ TEST(Cli, ScanKeepGoingExitsWith3AndFailureExitsWith1) {
   EXPECT_NE(stdout_text.find("\"status\": \"partial\""), std::string::npos) << stdout_text;
   EXPECT_TRUE(std::filesystem::exists(dir / "out" / "views" / "000.ply"));
   EXPECT_EQ(RunCli({"--threads", "-1", "scan", scan, "--out", out}), 2);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Hostile and broken inputs (issue 15): each class asserts the exit code, a message naming the
+// user's file and the problem, and that nothing was written, deleted or overwritten.
+
+namespace fs = std::filesystem;
+
+// Every regular file below `dir` (relative names), to compare before and after a command.
+std::vector<std::string> Listing(const fs::path& dir) {
+  std::vector<std::string> names;
+  for (const auto& e : fs::recursive_directory_iterator(dir)) {
+    names.push_back(fs::relative(e.path(), dir).string());
+  }
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+void WriteText(const fs::path& path, const std::string& text) {
+  std::ofstream(path, std::ios::binary) << text;
+}
+
+// A small pattern folder (the projector's own images serve as a decodable camera stack).
+fs::path SmallStack(const test::TempDir& dir) {
+  const fs::path stack = dir / "stack";
+  EXPECT_EQ(RunCli({"patterns", "--scheme", "gray+4", "--width", "64", "--height", "16", "--out",
+                    stack.string()}),
+            0);
+  return stack;
+}
+
+TEST(CliBadInput, DecodeOutIntoItsOwnStackIsRefusedAndKeepsTheImages) {
+  test::TempDir dir;
+  const fs::path stack = SmallStack(dir);
+  const auto before = Listing(stack);
+  std::string err;
+  EXPECT_EQ(RunCli({"decode", stack.string(), "--scheme", (stack / "manifest.json").string(),
+                    "--out", stack.string()},
+                   nullptr, &err),
+            1);
+  EXPECT_NE(err.find(stack.string() + ": is also an input"), std::string::npos) << err;
+  EXPECT_EQ(Listing(stack), before);
+  // And it works into a fresh folder, which a second run may replace (it holds the marker). The
+  // projector's own images reach 255: a full scale above that keeps them unsaturated.
+  EXPECT_EQ(RunCli({"decode", stack.string(), "--scheme", (stack / "manifest.json").string(),
+                    "--out", (dir / "dec").string(), "--full-scale", "1000"}),
+            0);
+  EXPECT_TRUE(fs::exists(dir / "dec" / "absolute_phase.tiff"));
+  EXPECT_EQ(RunCli({"decode", stack.string(), "--scheme", (stack / "manifest.json").string(),
+                    "--out", (dir / "dec").string(), "--full-scale", "1000"}),
+            0);
+}
+
+TEST(CliBadInput, PatternsNeverDeleteAForeignFolder) {
+  test::TempDir dir;
+  fs::create_directories(dir / "mine");
+  WriteText(dir / "mine" / "thesis.pdf", "precious");
+  std::string err;
+  EXPECT_EQ(
+      RunCli({"patterns", "--scheme", "gray+4", "--out", (dir / "mine").string()}, nullptr, &err),
+      1);
+  EXPECT_NE(err.find("was not written by fringe"), std::string::npos) << err;
+  EXPECT_EQ(util::ReadTextFile(dir / "mine" / "thesis.pdf"), "precious");
+}
+
+TEST(CliBadInput, CalibrateAndReconstructNeverOverwriteTheirInputs) {
+  test::TempDir dir;
+  fs::create_directories(dir / "imgs");
+  WriteText(dir / "t.json", "{}");
+  std::string err;
+  EXPECT_EQ(RunCli({"calibrate", (dir / "imgs").string(), "--target", (dir / "t.json").string(),
+                    "--out", (dir / "t.json").string()},
+                   nullptr, &err),
+            1);
+  EXPECT_NE(err.find("is also an input"), std::string::npos) << err;
+  EXPECT_EQ(util::ReadTextFile(dir / "t.json"), "{}");
+  const fs::path stack = SmallStack(dir);
+  fs::create_directories(dir / "view");
+  fs::copy(stack, dir / "view" / "left");
+  fs::copy(stack, dir / "view" / "right");
+  WriteText(dir / "rig.json", "{}");
+  EXPECT_EQ(
+      RunCli({"reconstruct", (dir / "view").string(), "--calib", (dir / "rig.json").string(),
+              "--scheme", (stack / "manifest.json").string(), "--out", (dir / "rig.json").string()},
+             nullptr, &err),
+      1);
+  EXPECT_NE(err.find("is also an input"), std::string::npos) << err;
+  EXPECT_EQ(util::ReadTextFile(dir / "rig.json"), "{}");
+  // Residuals: a format that cannot hold floats, or a missing folder, fail before any work and
+  // leave no cloud behind.
+  for (const std::string res : {(dir / "r.png").string(), (dir / "nodir" / "r.tiff").string()}) {
+    EXPECT_EQ(RunCli({"reconstruct", (dir / "view").string(), "--calib",
+                      (dir / "rig.json").string(), "--scheme", (stack / "manifest.json").string(),
+                      "--out", (dir / "r.ply").string(), "--residuals", res},
+                     nullptr, &err),
+              1);
+    EXPECT_NE(err.find(res), std::string::npos) << err;
+    EXPECT_FALSE(fs::exists(dir / "r.ply"));
+  }
+}
+
+TEST(CliBadInput, ManifestImageNamesCannotEscapeTheirFolder) {
+  test::TempDir dir;
+  const fs::path stack = SmallStack(dir);
+  nlohmann::json m = nlohmann::json::parse(util::ReadTextFile(stack / "manifest.json"));
+  m["images"][0] = "../../escaped.png";
+  fs::create_directories(dir / "evil");
+  WriteText(dir / "evil" / "m.json", m.dump());
+  std::string err;
+  EXPECT_EQ(RunCli({"patterns", "--scheme", (dir / "evil" / "m.json").string(), "--out",
+                    (dir / "evil" / "out").string()},
+                   nullptr, &err),
+            1);
+  EXPECT_NE(err.find("m.json.images: image name '../../escaped.png': '..'"), std::string::npos)
+      << err;
+  EXPECT_EQ(RunCli({"decode", stack.string(), "--scheme", (dir / "evil" / "m.json").string(),
+                    "--out", (dir / "d").string()},
+                   nullptr, &err),
+            1);
+  EXPECT_FALSE(fs::exists(dir.path().parent_path() / "escaped.png"));
+  EXPECT_FALSE(fs::exists(dir / "d"));
+  m["images"][0] = "/tmp/abs.png";
+  WriteText(dir / "evil" / "m.json", m.dump());
+  EXPECT_EQ(RunCli({"patterns", "--scheme", (dir / "evil" / "m.json").string(), "--out",
+                    (dir / "evil" / "out").string()},
+                   nullptr, &err),
+            1);
+  EXPECT_NE(err.find("absolute path"), std::string::npos) << err;
+  m["images"][0] = m["images"][1];
+  WriteText(dir / "evil" / "m.json", m.dump());
+  EXPECT_EQ(RunCli({"patterns", "--scheme", (dir / "evil" / "m.json").string(), "--out",
+                    (dir / "evil" / "out").string()},
+                   nullptr, &err),
+            1);
+  EXPECT_NE(err.find("appears twice"), std::string::npos) << err;
+  EXPECT_FALSE(fs::exists(dir / "evil" / "out"));
+}
+
+TEST(CliBadInput, DeepOrHugeValuesInSmallFilesFailCleanly) {
+  test::TempDir dir;
+  std::string err;
+  // A scheme whose "format" is 40 000 levels deep.
+  WriteText(dir / "deep.json",
+            "{\"format\": " + std::string(40000, '[') + std::string(40000, ']') + "}");
+  EXPECT_EQ(
+      RunCli({"patterns", "--scheme", (dir / "deep.json").string(), "--out", (dir / "o").string()},
+             nullptr, &err),
+      1);
+  EXPECT_NE(err.find("deep.json: JSON nested deeper than"), std::string::npos) << err;
+  // 40 000 nested YAML sequences.
+  std::string yaml = "%YAML:1.0\n---\nM1: ";
+  for (int i = 0; i < 40000; ++i) yaml += "- ";
+  WriteText(dir / "deep.yml", yaml + "1\n");
+  EXPECT_EQ(RunCli({"info", (dir / "deep.yml").string()}, nullptr, &err), 1);
+  EXPECT_NE(err.find("deep.yml: line 3"), std::string::npos) << err;
+  // An OpenCV matrix declaring 300000 rows in a few bytes.
+  WriteText(dir / "rows.yml",
+            "%YAML:1.0\n---\nM1: !!opencv-matrix\n   rows: 300000\n   cols: 3\n   dt: d\n   "
+            "data: [ 1. ]\n");
+  EXPECT_EQ(RunCli({"info", (dir / "rows.yml").string()}, nullptr, &err), 1);
+  EXPECT_NE(err.find("rows.yml: line 4: matrix rows = 300000"), std::string::npos) << err;
+  // A PLY of a few hundred bytes declaring 10^8 rich vertices.
+  WriteText(dir / "huge.ply",
+            "ply\nformat binary_little_endian 1.0\nelement vertex 100000000\nproperty float x\n"
+            "property float y\nproperty float z\nproperty float nx\nproperty float ny\n"
+            "property float nz\nproperty uchar red\nproperty uchar green\nproperty uchar blue\n"
+            "end_header\n" +
+                std::string(64, '\0'));
+  EXPECT_EQ(RunCli({"info", (dir / "huge.ply").string()}, nullptr, &err), 1);
+  EXPECT_NE(err.find("huge.ply: truncated or inconsistent: header declares 100000000 vertex items"),
+            std::string::npos)
+      << err;
+  // An organized PLY whose grid comment claims 15000 x 15000 pixels.
+  WriteText(dir / "grid.ply",
+            "ply\nformat ascii 1.0\ncomment fringe_grid 15000 15000\nelement vertex 1\n"
+            "property float x\nproperty float y\nproperty float z\nproperty uint grid_index\n"
+            "end_header\n1 2 3 0\n");
+  EXPECT_EQ(RunCli({"info", (dir / "grid.ply").string()}, nullptr, &err), 1);
+  EXPECT_NE(err.find("grid.ply: header line 3: malformed 'comment fringe_grid"), std::string::npos)
+      << err;
+  WriteText(dir / "abc.ply",
+            "ply\nformat ascii 1.0\nelement vertex abc\nproperty float x\nproperty float y\n"
+            "property float z\nend_header\n");
+  EXPECT_EQ(RunCli({"info", (dir / "abc.ply").string()}, nullptr, &err), 1);
+  EXPECT_NE(err.find("abc.ply: header line 3: bad element declaration"), std::string::npos) << err;
+}
+
+TEST(CliBadInput, OutOfRangeNumbersAreRejectedNotWrapped) {
+  test::TempDir dir;
+  const fs::path stack = SmallStack(dir);
+  const nlohmann::json good = nlohmann::json::parse(util::ReadTextFile(stack / "manifest.json"));
+  std::string err;
+  for (const auto& [pointer, value, expected] :
+       std::vector<std::tuple<std::string, nlohmann::json, std::string>>{
+           {"/projector/width", 4294967936ULL, "projector.width = 4294967936: must be in"},
+           {"/phase_sets/0/steps", 4294967300ULL, "steps = 4294967300: must be in"},
+           {"/phase_sets/0/steps", 4.5, "steps: expected an integer"},
+           {"/phase_sets/0/steps", 1000000, "steps = 1000000: must be in [3, 64]"},
+           {"/phase_sets/0/period_px", "20", "period_px: expected a number"}}) {
+    nlohmann::json m = good;
+    m[nlohmann::json::json_pointer(pointer)] = value;
+    WriteText(dir / "m.json", m.dump());
+    EXPECT_EQ(
+        RunCli({"patterns", "--scheme", (dir / "m.json").string(), "--out", (dir / "o").string()},
+               nullptr, &err),
+        1)
+        << pointer;
+    EXPECT_NE(err.find("m.json"), std::string::npos) << err;
+    EXPECT_NE(err.find(expected), std::string::npos) << err;
+  }
+  WriteText(dir / "m.json", "{\"format\": \"fringe-patterns\", \"projector\": {\"width\": 1e999}}");
+  EXPECT_EQ(
+      RunCli({"patterns", "--scheme", (dir / "m.json").string(), "--out", (dir / "o").string()},
+             nullptr, &err),
+      1);
+  EXPECT_NE(err.find("m.json: invalid JSON"), std::string::npos) << err;
+  EXPECT_EQ(RunCli({"patterns", "--scheme", "gray+4", "--width", "2147483647", "--out",
+                    (dir / "o").string()},
+                   nullptr, &err),
+            2);
+  EXPECT_FALSE(fs::exists(dir / "o"));
+}
+
+TEST(CliBadInput, FailuresWithoutAResultExit1) {
+  test::TempDir dir;
+  const fs::path stack = SmallStack(dir);
+  // An all-black stack: nothing decodes, nothing is written.
+  fs::create_directories(dir / "black");
+  const auto names = nlohmann::json::parse(util::ReadTextFile(stack / "manifest.json"))["images"];
+  for (const auto& n : names) {
+    fs::copy_file(stack / n.get<std::string>(), dir / "black" / n.get<std::string>());
+    cv::Mat img(16, 64, CV_8UC1, cv::Scalar(0));
+    cv::imwrite((dir / "black" / n.get<std::string>()).string(), img);
+  }
+  std::string out, err;
+  EXPECT_EQ(RunCli({"decode", (dir / "black").string(), "--scheme",
+                    (stack / "manifest.json").string(), "--out", (dir / "dec").string()},
+                   &out, &err),
+            1);
+  EXPECT_NE(err.find("black: decoding failed"), std::string::npos) << err;
+  EXPECT_FALSE(fs::exists(dir / "dec"));
+  // An empty cloud.
+  WriteText(dir / "empty.ply",
+            "ply\nformat ascii 1.0\nelement vertex 0\nproperty float x\nproperty float y\n"
+            "property float z\nend_header\n");
+  EXPECT_EQ(RunCli({"evaluate", (dir / "empty.ply").string(), "--artefact", "plane"}, &out, &err),
+            1);
+  EXPECT_NE(err.find("empty.ply: evaluation failed"), std::string::npos) << err;
+  // A missing manifest file is a missing file, not an unknown preset.
+  EXPECT_EQ(RunCli({"decode", stack.string(), "--scheme", (dir / "nope.json").string(), "--out",
+                    (dir / "dec").string()},
+                   nullptr, &err),
+            1);
+  EXPECT_NE(err.find("nope.json: scheme manifest: no such file"), std::string::npos) << err;
 }
 
 }  // namespace

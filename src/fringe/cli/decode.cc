@@ -1,13 +1,17 @@
 // fringe decode: one camera's fringe image stack -> absolute phase, modulation, mask.
 #include <CLI/CLI.hpp>
+#include <filesystem>
 #include <iostream>
 #include <memory>
 
 #include "fringe/cli/cli.h"
+#include "fringe/cli/scheme_flags.h"
 #include "fringe/phase/decode.h"
 #include "fringe/phase/gamma.h"
 #include "fringe/phase/pattern_scheme.h"
 #include "fringe/phase/stack_io.h"
+#include "fringe/util/error.h"
+#include "fringe/util/files.h"
 
 namespace fringe::cli {
 
@@ -18,6 +22,7 @@ void AddDecodeCommand(CLI::App& app) {
     std::string out;
     phase::DecodeOptions options;
     bool estimate_gamma = false;
+    phase::SchemeParameters parameters;
   };
   auto a = std::make_shared<Args>();
   CLI::App* sub = app.add_subcommand(
@@ -25,8 +30,10 @@ void AddDecodeCommand(CLI::App& app) {
       "Decode one camera's fringe images to absolute phase (projector pixels), modulation and "
       "mask (32-bit float TIFF + PNG previews + summary.json)");
   sub->add_option("stack", a->stack, "Folder with the images named in the manifest")->required();
-  sub->add_option("--scheme", a->scheme, "Scheme manifest (manifest.json) or preset name")
+  sub->add_option("--scheme", a->scheme,
+                  "Scheme manifest (manifest.json) or preset name (with the scheme flags below)")
       ->required();
+  AddSchemeFlags(sub, &a->parameters);
   sub->add_option("--out", a->out, "Output folder (replaced atomically)")->required();
   sub->add_option("--noise-sigma", a->options.noise_sigma_dn,
                   "Camera noise in DN (sets the automatic modulation threshold); 0 estimates it "
@@ -46,11 +53,22 @@ void AddDecodeCommand(CLI::App& app) {
                 "Also estimate the projector gamma (stack of a smooth surface, patterns not "
                 "pre-compensated) and print it");
   sub->callback([a] {
-    const phase::PatternScheme scheme = phase::SchemeFromNameOrFile(a->scheme);
+    // The output folder must not hold the stack or the manifest (replacing it would delete
+    // them); checked before the work, as is everything about the output location.
+    util::OutputFolderOptions output;
+    output.inputs = {a->stack};
+    if (std::filesystem::exists(a->scheme)) output.inputs.push_back(a->scheme);
+    util::CheckOutputFolder(a->out, output);
+    const phase::PatternScheme scheme = phase::SchemeFromArgument(a->scheme, a->parameters);
     const auto images = phase::ReadStack(a->stack, scheme);
     const phase::DecodeResult result = phase::Decode(scheme, images, a->options);
-    phase::WriteDecodeFolder(a->out, result);
     std::cout << result.summary.BriefReport() << "\n";
+    WarnIfSchemeMismatch(result.summary, scheme.name, a->stack);
+    if (result.summary.status != phase::DecodeStatus::kSuccess) {
+      throw Error(util::StrCat(a->stack, ": decoding failed: ", result.summary.message,
+                               " (nothing written)"));
+    }
+    phase::WriteDecodeFolder(a->out, result);
     if (a->estimate_gamma) std::cout << phase::EstimateGamma(scheme, images).BriefReport() << "\n";
   });
 }

@@ -12,6 +12,7 @@
 #include "fringe/io/image_io.h"
 #include "fringe/io/ply.h"
 #include "fringe/util/error.h"
+#include "fringe/util/files.h"
 
 namespace fringe::cli {
 namespace {
@@ -89,15 +90,26 @@ void AddEvaluateCommand(CLI::App& app) {
     if (a->artefact.empty() == a->truth.empty()) {
       throw CLI::ValidationError("evaluate", "give exactly one of --artefact and --truth");
     }
+    if (!a->map.empty()) {
+      util::CheckOutputFile(a->map, {a->cloud, a->truth, a->pose});
+      if (a->truth.empty()) throw CLI::ValidationError("evaluate", "--map needs --truth");
+    }
     const io::PlyData ply = io::ReadPly(a->cloud);
     const PointCloud& cloud = ply.cloud;
     nlohmann::json j = {{"cloud", a->cloud}, {"points", cloud.size()}};
     std::string text;
+    bool ok = true;  // a stage that produces no figure exits 1 after printing why
     if (!a->truth.empty()) {
       const fs::path mesh_path = TruthMesh(a->truth);
       io::PlyData mesh = io::ReadPly(mesh_path);
       if (mesh.triangles.empty()) {
-        throw Error(util::StrCat("evaluate: ", mesh_path.string(), " has no triangles"));
+        throw Error(util::StrCat(mesh_path.string(), ": reference mesh has no triangles"));
+      }
+      for (size_t i = 0; i < mesh.cloud.size(); ++i) {
+        if (!mesh.cloud.points[i].allFinite()) {
+          throw Error(util::StrCat(mesh_path.string(), ": vertex ", i,
+                                   " is not finite (NaN or infinite coordinates)"));
+        }
       }
       // Move the mesh into the cloud's frame (keeps the cloud's grid for the colour map).
       if (!a->pose.empty()) {
@@ -111,7 +123,8 @@ void AddEvaluateCommand(CLI::App& app) {
       j["deviation"] = {{"points", s.points}, {"unmatched", s.unmatched}, {"mean_mm", s.mean_mm},
                         {"rms_mm", s.rms_mm}, {"p95_mm", s.p95_mm},       {"max_mm", s.max_mm}};
       text = s.BriefReport();
-      if (!a->map.empty()) {
+      ok = s.points > 0;
+      if (ok && !a->map.empty()) {
         cv::Mat img;
         if (ply.header.grid_width > 0 && ply.grid_index.size() == cloud.size()) {
           std::vector<double> grid(
@@ -129,6 +142,7 @@ void AddEvaluateCommand(CLI::App& app) {
       const eval::SphereResult r = eval::EvaluateSphere(cloud, a->diameter_mm, a->vdi);
       j["sphere"] = SphereJson(r);
       text = r.BriefReport();
+      ok = r.ok();
     } else if (a->artefact == "ballbar") {
       const eval::BallBarResult r =
           eval::EvaluateBallBar(cloud, a->diameter_mm, a->distance_mm, a->vdi);
@@ -141,6 +155,7 @@ void AddEvaluateCommand(CLI::App& app) {
         j["ballbar"]["distance_mm"] = r.distance_mm;
       }
       text = r.BriefReport();
+      ok = r.ok();
     } else {
       const eval::PlaneResult r = eval::EvaluatePlane(cloud, a->vdi);
       j["plane"] = {{"status", eval::ToString(r.status)}, {"message", r.message}};
@@ -151,12 +166,14 @@ void AddEvaluateCommand(CLI::App& app) {
                            {"discarded", r.discarded}});
       }
       text = r.BriefReport();
+      ok = r.ok();
     }
     if (a->json) {
-      std::cout << j.dump(2) << "\n";
+      std::cout << j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) << "\n";
     } else {
       std::cout << text << "\n";
     }
+    if (!ok) throw Error(util::StrCat(a->cloud, ": evaluation failed (see above)"));
   });
 }
 

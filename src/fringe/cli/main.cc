@@ -3,8 +3,10 @@
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <cstdio>
+#include <filesystem>
 #include <iostream>
 #include <memory>
+#include <new>
 #include <utility>
 #include <vector>
 
@@ -54,7 +56,9 @@ int Main(int argc, char** argv) {
   std::unique_ptr<tbb::global_control> thread_limit;
   app.footer(
       "Run 'fringe <command> --help' for the options of a command.\n"
-      "Exit codes: 0 success, 1 error, 2 usage error, 3 partial success (e.g. scan --keep-going).");
+      "Exit codes: 0 success, 1 error or no result (the message names the file and the problem),
+      "
+      "2 usage error, 3 partial success (e.g. scan --keep-going).");
 
   auto commands = Registry();
   std::stable_sort(commands.begin(), commands.end(),
@@ -93,6 +97,14 @@ int Main(int argc, char** argv) {
     return e.code();
   } catch (const fringe::Error& e) {
     std::fprintf(stderr, "fringe: error: %s\n", e.what());
+    return 1;
+  } catch (const std::bad_alloc&) {
+    std::fprintf(stderr, "fringe: error: out of memory\n");
+    return 1;
+  } catch (const std::filesystem::filesystem_error& e) {
+    // Name the user's path (the library's own message already does).
+    std::fprintf(stderr, "fringe: error: %s: %s\n", e.path1().string().c_str(),
+                 e.code().message().c_str());
     return 1;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "fringe: internal error: %s\n", e.what());

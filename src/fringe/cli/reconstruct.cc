@@ -9,14 +9,18 @@
 #include <optional>
 
 #include "fringe/cli/cli.h"
+#include "fringe/cli/scheme_flags.h"
 #include "fringe/io/calibration_io.h"
 #include "fringe/io/image_io.h"
+#include "fringe/io/opencv_calibration.h"
 #include "fringe/io/ply.h"
 #include "fringe/phase/pattern_scheme.h"
 #include "fringe/phase/stack_io.h"
 #include "fringe/registration/markers.h"
 #include "fringe/stereo/reconstruct_view.h"
 #include "fringe/util/error.h"
+#include "fringe/util/files.h"
+#include "fringe/util/log.h"
 
 namespace fringe::cli {
 namespace {
@@ -68,12 +72,14 @@ void AddReconstructCommand(CLI::App& app) {
     std::string out;
     std::string residuals;
     std::string cv_intrinsics, cv_extrinsics;
+    std::vector<std::string> opencv;
     bool ascii = false;
     bool no_normals = false;
     bool keep_outliers = false;
     bool no_markers = false;
     int bit_depth = 0;
     stereo::ReconstructionOptions options;
+    phase::SchemeParameters parameters;
   };
   auto a = std::make_shared<Args>();
   CLI::App* sub = app.add_subcommand(
@@ -84,6 +90,9 @@ void AddReconstructCommand(CLI::App& app) {
       ->required();
   sub->add_option("--calib", a->calib,
                   "Rig calibration (rig JSON); default VIEW/rig.json or VIEW/../rig.json");
+  sub->add_option("--opencv", a->opencv,
+                  "Instead of --calib: OpenCV calibration YAML/XML (one file with cameras and "
+                  "extrinsics in any usual spelling; may be repeated when split over files)");
   sub->add_option("--opencv-intrinsics", a->cv_intrinsics,
                   "Instead of --calib: OpenCV stereo intrinsics (M1 D1 M2 D2, YAML/XML)");
   sub->add_option("--opencv-extrinsics", a->cv_extrinsics,
@@ -92,6 +101,7 @@ void AddReconstructCommand(CLI::App& app) {
                   "Scheme manifest or preset name; default VIEW/manifest.json, "
                   "VIEW/left/manifest.json, VIEW/../manifest.json or, in a scan folder, "
                   "VIEW/../../scheme.json");
+  AddSchemeFlags(sub, &a->parameters);
   sub->add_option("--out", a->out, "Output PLY (organized: keeps the left camera grid)")
       ->required();
   sub->add_option("--residuals", a->residuals,
@@ -142,21 +152,52 @@ void AddReconstructCommand(CLI::App& app) {
                                           "scheme manifest", "--scheme")
                                 .string()
                           : a->scheme;
-    const phase::PatternScheme scheme = phase::SchemeFromNameOrFile(scheme_arg);
-    const auto left = phase::ReadStack(left_dir, scheme);
-    const auto right = phase::ReadStack(right_dir, scheme);
-    StereoRig rig;
+    std::vector<fs::path> opencv_files(a->opencv.begin(), a->opencv.end());
     if (!a->cv_intrinsics.empty() || !a->cv_extrinsics.empty()) {
       if (a->cv_intrinsics.empty() || a->cv_extrinsics.empty()) {
         throw Error("reconstruct: --opencv-intrinsics and --opencv-extrinsics go together");
       }
-      rig = io::ImportOpenCvStereo(a->cv_intrinsics, a->cv_extrinsics, left.at(0).cols,
-                                   left.at(0).rows);
+      opencv_files.push_back(a->cv_intrinsics);
+      opencv_files.push_back(a->cv_extrinsics);
+    }
+    const bool opencv = !opencv_files.empty();
+    if (opencv && !a->calib.empty()) {
+      throw Error("reconstruct: give the calibration either with --calib or as OpenCV files");
+    }
+    const fs::path calib_path =
+        opencv || !a->calib.empty()
+            ? fs::path(a->calib)
+            : FirstExisting({view / "rig.json", view.parent_path() / "rig.json"}, "calibration",
+                            "--calib");
+    // Output locations first (before minutes of work), never onto an input.
+    if (!a->residuals.empty() && !util::HasExtension(a->residuals, {".tif", ".tiff"})) {
+      throw Error(util::StrCat(a->residuals,
+                               ": --residuals writes 32-bit float values; use a .tif or .tiff "
+                               "name (other formats would truncate them)"));
+    }
+    std::vector<fs::path> inputs = {view, calib_path, scheme_arg};
+    inputs.insert(inputs.end(), opencv_files.begin(), opencv_files.end());
+    util::CheckOutputFile(a->out, inputs);
+    if (!a->residuals.empty()) {
+      util::CheckOutputFile(a->residuals, inputs);
+      util::CheckDistinctOutputs({a->out, a->residuals});
+    }
+    const fs::path markers_path = registration::MarkersPathForCloud(a->out);
+    if (!a->no_markers) {
+      util::CheckOutputFile(markers_path, inputs);
+      util::CheckDistinctOutputs({a->out, a->residuals, markers_path});
+    }
+    const phase::PatternScheme scheme = phase::SchemeFromArgument(scheme_arg, a->parameters);
+    const auto left = phase::ReadStack(left_dir, scheme);
+    const auto right = phase::ReadStack(right_dir, scheme);
+    StereoRig rig;
+    if (opencv) {
+      const io::OpenCvCalibration cv =
+          io::ReadOpenCvCalibration(opencv_files, left.at(0).cols, left.at(0).rows);
+      util::LogInfo("OpenCV calibration:\n" + cv.Describe());
+      rig = cv.ToRig(opencv_files[0].string());
     } else {
-      rig = io::ReadRig(a->calib.empty()
-                            ? FirstExisting({view / "rig.json", view.parent_path() / "rig.json"},
-                                            "calibration", "--calib")
-                            : fs::path(a->calib));
+      rig = io::ReadRig(calib_path);
     }
     if (a->bit_depth == 0) a->bit_depth = ScanBitDepth(view).value_or(0);
     if (a->bit_depth > 0) a->options.decode.full_scale_dn = std::ldexp(1.0, a->bit_depth) - 1;
@@ -167,6 +208,8 @@ void AddReconstructCommand(CLI::App& app) {
     std::cout << rec.summary.decode_left.BriefReport() << " (left)\n"
               << rec.summary.decode_right.BriefReport() << " (right)\n"
               << rec.summary.matching.BriefReport() << "\n";
+    WarnIfSchemeMismatch(rec.summary.decode_left, scheme.name, left_dir.string());
+    WarnIfSchemeMismatch(rec.summary.decode_right, scheme.name, right_dir.string());
     if (a->options.remove_outliers) std::cout << rec.summary.outliers.BriefReport() << "\n";
     if (a->options.compute_normals) std::cout << rec.summary.normals.BriefReport() << "\n";
     std::cout << rec.summary.BriefReport() << "\n";
@@ -174,18 +217,25 @@ void AddReconstructCommand(CLI::App& app) {
       throw Error(util::StrCat("reconstruct: ", view.string(), ": ",
                                stereo::ToString(rec.summary.status), ": ", rec.summary.message));
     }
-    io::WritePly(a->out, rec.cloud,
+    // The cloud, the residual image and the markers are committed together or not at all.
+    util::OutputTransaction outputs;
+    io::WritePly(outputs.Stage(a->out), rec.cloud,
                  a->ascii ? io::PlyFormat::kAscii : io::PlyFormat::kBinaryLittleEndian,
                  {"fringe reconstruct: left camera frame, mm; quality = fringe modulation (DN), "
                   "intensity = texture, residual_px = reprojection residual (px)"});
-    if (!a->residuals.empty()) io::WriteImage(a->residuals, rec.reprojection_error_px);
-    std::cout << "wrote " << a->out << " (" << rec.summary.points << " points)\n";
+    if (!a->residuals.empty()) {
+      io::WriteImage(outputs.Stage(a->residuals), rec.reprojection_error_px);
+    }
+    std::optional<registration::ViewMarkers> markers;
     if (!a->no_markers) {
-      const registration::ViewMarkers markers =
+      markers =
           registration::DetectViewMarkers(rig, rec.texture_left, rec.texture_right, rec.cloud);
-      const fs::path markers_path = registration::MarkersPathForCloud(a->out);
-      registration::WriteViewMarkers(markers_path, markers.markers);
-      std::cout << markers.summary.BriefReport() << "\nwrote " << markers_path.string() << "\n";
+      registration::WriteViewMarkers(outputs.Stage(markers_path), markers->markers);
+    }
+    outputs.Commit();
+    std::cout << "wrote " << a->out << " (" << rec.summary.points << " points)\n";
+    if (markers) {
+      std::cout << markers->summary.BriefReport() << "\nwrote " << markers_path.string() << "\n";
     }
   });
 }

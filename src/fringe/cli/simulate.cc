@@ -1,12 +1,15 @@
 // fringe simulate SCENE --out DIR: a simulated scan folder (fringe images of every view,
 // calibration board images, ground truth) from the virtual scanner (docs/scan-folder.md).
 #include <CLI/CLI.hpp>
+#include <filesystem>
 #include <iostream>
 #include <memory>
 
 #include "fringe/cli/cli.h"
 #include "fringe/io/calibration_io.h"
 #include "fringe/sim/scan.h"
+#include "fringe/util/error.h"
+#include "fringe/util/files.h"
 
 namespace fringe::cli {
 
@@ -64,8 +67,25 @@ void AddSimulateCommand(CLI::App& app) {
   sub->add_flag("!--no-truth-maps", a->options.truth_maps,
                 "Skip the per-view truth maps (they take ~30 MB per view and camera)");
   sub->callback([a] {
+    util::OutputFolderOptions output;
+    output.inputs = {a->rig};
+    if (std::filesystem::exists(a->options.scheme)) output.inputs.push_back(a->options.scheme);
+    if (a->scene.rfind("mesh:", 0) == 0) output.inputs.push_back(a->scene.substr(5));
+    util::CheckOutputFolder(a->out, output);
     StereoRig rig = a->rig.empty() ? StereoRig::Reference() : io::ReadRig(a->rig);
-    if (a->rig_scale != 1.0) rig = sim::ScaledRig(rig, a->rig_scale);
+    if (a->rig_scale != 1.0) {
+      // The scaled images are allocated per view: bound them before rendering anything.
+      for (const CameraModel* c : {&rig.left, &rig.right}) {
+        const double w = c->width * a->rig_scale, h = c->height * a->rig_scale;
+        if (w > util::kMaxImageSidePx || h > util::kMaxImageSidePx ||
+            w * h > static_cast<double>(util::kMaxImagePixels) || w < 8 || h < 8) {
+          throw Error(util::StrCat("--rig-scale ", a->rig_scale, ": camera images of ", w, " x ", h,
+                                   " pixels (sides must be in [8, ", util::kMaxImageSidePx,
+                                   "], at most ", util::kMaxImagePixels, " pixels)"));
+        }
+      }
+      rig = sim::ScaledRig(rig, a->rig_scale);
+    }
     sim::ScanOptions options = a->options;
     options.scene = a->scene;
     if (a->no_noise) {

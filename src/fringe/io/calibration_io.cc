@@ -1,8 +1,10 @@
 #include "fringe/io/calibration_io.h"
 
+#include <algorithm>
+#include <cmath>
 #include <fstream>
-#include <opencv2/core.hpp>
 
+#include "fringe/io/opencv_calibration.h"
 #include "fringe/util/error.h"
 #include "fringe/util/files.h"
 
@@ -13,18 +15,39 @@ using nlohmann::json;
 using util::StrCat;
 
 double Number(const json& j, const char* key, const std::string& context) {
-  if (!j.contains(key)) throw Error(StrCat(context, ": missing field '", key, "'"));
-  if (!j[key].is_number()) throw Error(StrCat(context, ".", key, ": expected a number"));
-  return j[key].get<double>();
+  return GetNumber(j, key, context);
 }
 
 int Integer(const json& j, const char* key, const std::string& context) {
-  if (!j.contains(key)) throw Error(StrCat(context, ": missing field '", key, "'"));
-  if (!j[key].is_number_integer()) throw Error(StrCat(context, ".", key, ": expected an integer"));
-  return j[key].get<int>();
+  return static_cast<int>(GetInteger(j, key, 1, util::kMaxImageSidePx, context));
 }
 
 }  // namespace
+
+void CheckPlausibleCamera(const CameraModel& c, const std::string& context) {
+  // Finite but absurd values (fx = 1e300) overflow later arithmetic; no real lens comes near.
+  const double side = std::max(c.width, c.height);
+  if (!(c.fx <= 1e3 * side && c.fy <= 1e3 * side)) {
+    throw Error(StrCat(context, ": focal length (", c.fx, ", ", c.fy, ") px is implausible for a ",
+                       c.width, "x", c.height, " image"));
+  }
+  if (!(std::abs(c.cx) <= 1e2 * side && std::abs(c.cy) <= 1e2 * side)) {
+    throw Error(StrCat(context, ": principal point (", c.cx, ", ", c.cy,
+                       ") px is implausible for a ", c.width, "x", c.height, " image"));
+  }
+  for (double k : c.Distortion()) {
+    if (!(std::abs(k) <= 1e4)) {
+      throw Error(StrCat(context, ": distortion coefficient ", k, " is implausible"));
+    }
+  }
+}
+
+void CheckRotationMatrix(const Eigen::Matrix3d& m, const std::string& context) {
+  if (!m.allFinite() || !((m * m.transpose() - Eigen::Matrix3d::Identity()).norm() < 1e-6) ||
+      !(m.determinant() > 0)) {
+    throw Error(StrCat(context, ": not a rotation matrix (R R^T != I or det <= 0)"));
+  }
+}
 
 json CameraToJson(const CameraModel& c) {
   return json{{"width", c.width},
@@ -39,6 +62,12 @@ json CameraToJson(const CameraModel& c) {
 
 CameraModel CameraFromJson(const json& j, const std::string& context) {
   if (!j.is_object()) throw Error(StrCat(context, ": expected an object"));
+  CheckKnownKeys(j, {"width", "height", "fx", "fy", "cx", "cy", "distortion", "distortion_model"},
+                 context);
+  if (j.contains("distortion_model") && j["distortion_model"] != "opencv_k1k2p1p2k3") {
+    throw Error(StrCat(context, ".distortion_model: ", Brief(j["distortion_model"]),
+                       ": only \"opencv_k1k2p1p2k3\" is supported"));
+  }
   CameraModel c;
   c.width = Integer(j, "width", context);
   c.height = Integer(j, "height", context);
@@ -54,9 +83,7 @@ CameraModel CameraFromJson(const json& j, const std::string& context) {
     }
     std::array<double, 5> v{0, 0, 0, 0, 0};
     for (size_t i = 0; i < d.size(); ++i) {
-      if (!d[i].is_number())
-        throw Error(StrCat(context, ".distortion[", i, "]: expected a number"));
-      v[i] = d[i].get<double>();
+      v[i] = AsNumber(d[i], StrCat(context, ".distortion[", i, "]"));
     }
     c.SetDistortion(v);
   }
@@ -65,6 +92,7 @@ CameraModel CameraFromJson(const json& j, const std::string& context) {
   } catch (const Error& e) {
     throw Error(StrCat(context, ": ", e.what()));
   }
+  CheckPlausibleCamera(c, context);
   return c;
 }
 
@@ -78,16 +106,14 @@ json RigidToJson(const Rigid3d& t) {
 
 Rigid3d RigidFromJson(const json& j, const std::string& context) {
   if (!j.is_object()) throw Error(StrCat(context, ": expected an object"));
+  CheckKnownKeys(j, {"rotation", "translation_mm", "quaternion_wxyz"}, context);
   if (!j.contains("translation_mm") || !j["translation_mm"].is_array() ||
       j["translation_mm"].size() != 3) {
     throw Error(StrCat(context, ".translation_mm: expected [tx, ty, tz]"));
   }
   Eigen::Vector3d t;
   for (int i = 0; i < 3; ++i) {
-    if (!j["translation_mm"][i].is_number()) {
-      throw Error(StrCat(context, ".translation_mm[", i, "]: expected a number"));
-    }
-    t[i] = j["translation_mm"][i].get<double>();
+    t[i] = AsNumber(j["translation_mm"][i], StrCat(context, ".translation_mm[", i, "]"));
   }
   if (j.contains("rotation")) {
     const json& r = j["rotation"];
@@ -98,14 +124,10 @@ Rigid3d RigidFromJson(const json& j, const std::string& context) {
         throw Error(StrCat(context, ".rotation[", i, "]: expected 3 numbers"));
       }
       for (int k = 0; k < 3; ++k) {
-        if (!r[i][k].is_number()) throw Error(StrCat(context, ".rotation: expected numbers"));
-        m(i, k) = r[i][k].get<double>();
+        m(i, k) = AsNumber(r[i][k], StrCat(context, ".rotation[", i, "][", k, "]"));
       }
     }
-    if (!((m * m.transpose() - Eigen::Matrix3d::Identity()).norm() < 1e-6) ||
-        !(m.determinant() > 0)) {
-      throw Error(StrCat(context, ".rotation: not a rotation matrix (R R^T != I or det <= 0)"));
-    }
+    CheckRotationMatrix(m, context + ".rotation");
     return Rigid3d(m, t);
   }
   if (j.contains("quaternion_wxyz")) {
@@ -113,10 +135,12 @@ Rigid3d RigidFromJson(const json& j, const std::string& context) {
     if (!q.is_array() || q.size() != 4) {
       throw Error(StrCat(context, ".quaternion_wxyz: expected [w, x, y, z]"));
     }
-    Eigen::Quaterniond quat(q[0].get<double>(), q[1].get<double>(), q[2].get<double>(),
-                            q[3].get<double>());
-    if (!(quat.norm() > 0.5))
-      throw Error(StrCat(context, ".quaternion_wxyz: not a unit quaternion"));
+    const std::string qc = context + ".quaternion_wxyz";
+    Eigen::Quaterniond quat(AsNumber(q[0], qc), AsNumber(q[1], qc), AsNumber(q[2], qc),
+                            AsNumber(q[3], qc));
+    if (!(std::abs(quat.norm() - 1.0) < 1e-3)) {
+      throw Error(StrCat(qc, ": not a unit quaternion (norm ", quat.norm(), ")"));
+    }
     return Rigid3d(quat.normalized(), t);
   }
   throw Error(StrCat(context, ": missing 'rotation' (or 'quaternion_wxyz')"));
@@ -137,13 +161,31 @@ json RigToJson(const StereoRig& rig) {
 
 StereoRig RigFromJson(const json& j, const std::string& context) {
   if (!j.is_object()) throw Error(StrCat(context, ": expected a JSON object"));
-  if (j.value("format", std::string()) != "fringe-rig") {
-    throw Error(StrCat(context, ": not a fringe rig file (\"format\": \"fringe-rig\" missing)"));
+  if (!j.contains("format") || j["format"] != "fringe-rig") {
+    throw Error(StrCat(context,
+                       ": not a fringe rig file (\"format\": \"fringe-rig\" missing); give the "
+                       "calibration with --calib RIG.json, or an OpenCV file with --opencv "
+                       "(docs/formats.md)"));
+  }
+  // "calibration" carries the residuals and standard deviations fringe calibrate writes.
+  CheckKnownKeys(j,
+                 {"format", "version", "units", "cameras", "camera", "right_from_left",
+                  "projector_from_left", "calibration"},
+                 context);
+  OptionalInteger(j, "version", 1, 1, 1, context);
+  if (OptionalString(j, "units", "mm", context) != "mm") {
+    throw Error(StrCat(context, ".units: ", Brief(j["units"]), ": only \"mm\" is supported"));
+  }
+  if (!j.contains("cameras") && j.contains("camera")) {
+    throw Error(StrCat(context,
+                       ": a single-camera calibration (\"camera\"), not a stereo rig "
+                       "(\"cameras\" with left and right)"));
   }
   if (!j.contains("cameras") || !j["cameras"].is_object()) {
     throw Error(StrCat(context, ": missing 'cameras'"));
   }
   const json& cams = j["cameras"];
+  CheckKnownKeys(cams, {"left", "right", "projector"}, context + ".cameras");
   StereoRig rig;
   if (!cams.contains("left")) throw Error(StrCat(context, ".cameras: missing 'left'"));
   rig.left = CameraFromJson(cams["left"], context + ": cameras.left");
@@ -167,24 +209,6 @@ StereoRig RigFromJson(const json& j, const std::string& context) {
   return rig;
 }
 
-json ReadJson(const std::filesystem::path& path) {
-  const std::string text = util::ReadTextFile(path);
-  try {
-    return json::parse(text);
-  } catch (const json::parse_error& e) {
-    throw Error(StrCat(path.string(), ": invalid JSON: ", e.what()));
-  }
-}
-
-void WriteJson(const std::filesystem::path& path, const json& j) {
-  util::WriteAtomically(path, [&](const std::filesystem::path& tmp) {
-    std::ofstream out(tmp);
-    out << j.dump(2) << "\n";
-    out.close();
-    if (!out) throw Error(StrCat(path.string(), ": write failed"));
-  });
-}
-
 StereoRig ReadRig(const std::filesystem::path& path) {
   return RigFromJson(ReadJson(path), path.string());
 }
@@ -196,41 +220,78 @@ void WriteRig(const std::filesystem::path& path, const StereoRig& rig, const jso
 }
 
 json TargetToJson(const CalibrationTarget& t) {
-  json distinct = json::array();
-  for (const auto& [r, c] : t.distinct_features) distinct.push_back({r, c});
-  return json{{"format", "fringe-target"},
-              {"type", TargetTypeName(t.type)},
-              {"rows", t.rows},
-              {"cols", t.cols},
-              {"spacing_mm", t.spacing_mm},
-              {"outer_radius_mm", t.outer_radius_mm},
-              {"inner_radius_mm", t.inner_radius_mm},
-              {"dot_radius_mm", t.dot_radius_mm},
-              {"distinct_features", distinct},
-              {"margin_mm", t.margin_mm}};
+  json j{{"format", "fringe-target"},
+         {"type", TargetTypeName(t.type)},
+         {"rows", t.rows},
+         {"cols", t.cols},
+         {"spacing_mm", t.spacing_mm}};
+  // Only the fields the type uses, so that the file reads back under the strict reader.
+  if (t.type != TargetType::kChessboard) j["outer_radius_mm"] = t.outer_radius_mm;
+  if (t.type == TargetType::kConcentricRings) {
+    json distinct = json::array();
+    for (const auto& [r, c] : t.distinct_features) distinct.push_back({r, c});
+    j["inner_radius_mm"] = t.inner_radius_mm;
+    j["distinct_features"] = distinct;
+    if (!t.distinct_features.empty()) j["dot_radius_mm"] = t.dot_radius_mm;
+  }
+  j["margin_mm"] = t.margin_mm;
+  return j;
 }
 
 CalibrationTarget TargetFromJson(const json& j, const std::string& context) {
-  if (!j.is_object()) throw Error(StrCat(context, ": expected a JSON object"));
+  RequireObject(j, context);
   return WithJsonContext(context, [&] {
+    if (j.contains("format") && j["format"] != "fringe-target") {
+      throw Error(StrCat(context, ": not a fringe calibration target (\"format\" is ",
+                         Brief(j["format"]), ", expected \"fringe-target\")"));
+    }
+    CheckKnownKeys(j,
+                   {"format", "version", "type", "rows", "cols", "spacing_mm", "outer_radius_mm",
+                    "inner_radius_mm", "dot_radius_mm", "distinct_features", "margin_mm"},
+                   context);
+    OptionalInteger(j, "version", 1, 1, 1, context);
+    // The geometry is required: a default silently standing in for a misspelt field (a
+    // "radius_mm" typo used to give the reference board's 8 mm) biases the calibration.
     CalibrationTarget t;
-    if (j.contains("type")) t.type = TargetTypeFromName(j["type"].get<std::string>());
-    if (j.contains("rows")) t.rows = Integer(j, "rows", context);
-    if (j.contains("cols")) t.cols = Integer(j, "cols", context);
-    if (j.contains("spacing_mm")) t.spacing_mm = Number(j, "spacing_mm", context);
-    if (j.contains("outer_radius_mm")) t.outer_radius_mm = Number(j, "outer_radius_mm", context);
-    if (j.contains("inner_radius_mm")) t.inner_radius_mm = Number(j, "inner_radius_mm", context);
-    if (j.contains("dot_radius_mm")) t.dot_radius_mm = Number(j, "dot_radius_mm", context);
-    if (j.contains("margin_mm")) t.margin_mm = Number(j, "margin_mm", context);
-    if (j.contains("distinct_features")) {
-      t.distinct_features.clear();
-      for (const json& f : j["distinct_features"]) {
-        if (!f.is_array() || f.size() != 2) {
-          throw Error(StrCat(context, ".distinct_features: expected [[row, col], ...]"));
+    t.type = TargetTypeFromName(GetString(j, "type", context));
+    t.rows = static_cast<int>(GetInteger(j, "rows", 2, 1000, context));
+    t.cols = static_cast<int>(GetInteger(j, "cols", 2, 1000, context));
+    t.spacing_mm = GetNumber(j, "spacing_mm", context);
+    const bool rings = t.type == TargetType::kConcentricRings;
+    const bool chessboard = t.type == TargetType::kChessboard;
+    if (!chessboard) t.outer_radius_mm = GetNumber(j, "outer_radius_mm", context);
+    t.distinct_features.clear();
+    if (rings) {
+      t.inner_radius_mm = GetNumber(j, "inner_radius_mm", context);
+      if (!j.contains("distinct_features")) {
+        throw Error(StrCat(context,
+                           ": missing field 'distinct_features' (the [row, col] of the rings "
+                           "with a centre dot; [] when no ring is marked)"));
+      }
+      const json& list = j["distinct_features"];
+      if (!list.is_array()) {
+        throw Error(StrCat(context, ".distinct_features: expected [[row, col], ...]"));
+      }
+      for (size_t i = 0; i < list.size(); ++i) {
+        const json& f = list[i];
+        const std::string where = StrCat(context, ".distinct_features[", i, "]");
+        if (!f.is_array() || f.size() != 2) throw Error(StrCat(where, ": expected [row, col]"));
+        t.distinct_features.emplace_back(static_cast<int>(AsInteger(f[0], 0, t.rows - 1, where)),
+                                         static_cast<int>(AsInteger(f[1], 0, t.cols - 1, where)));
+      }
+      if (!t.distinct_features.empty()) t.dot_radius_mm = GetNumber(j, "dot_radius_mm", context);
+    } else {
+      for (const char* key : {"inner_radius_mm", "dot_radius_mm", "distinct_features"}) {
+        if (j.contains(key)) {
+          throw Error(StrCat(context, ": '", key, "' applies to ring boards only (type is ",
+                             TargetTypeName(t.type), ")"));
         }
-        t.distinct_features.emplace_back(f[0].get<int>(), f[1].get<int>());
       }
     }
+    if (chessboard && j.contains("outer_radius_mm")) {
+      throw Error(StrCat(context, ": 'outer_radius_mm' does not apply to a chessboard"));
+    }
+    t.margin_mm = OptionalNumber(j, "margin_mm", t.margin_mm, context);
     t.Check();
     return t;
   });
@@ -242,55 +303,8 @@ CalibrationTarget ReadTarget(const std::filesystem::path& path) {
 
 StereoRig ImportOpenCvStereo(const std::filesystem::path& intrinsics,
                              const std::filesystem::path& extrinsics, int width, int height) {
-  util::RequireFile(intrinsics, "OpenCV intrinsics");
-  util::RequireFile(extrinsics, "OpenCV extrinsics");
-  auto read_mat = [](cv::FileStorage& fs, const char* name, const std::filesystem::path& file,
-                     int rows, int min_cols) {
-    cv::Mat m;
-    fs[name] >> m;
-    if (m.empty()) throw Error(StrCat(file.string(), ": missing matrix ", name));
-    m.convertTo(m, CV_64F);
-    if (static_cast<int>(m.total()) < rows * min_cols) {
-      throw Error(StrCat(file.string(), ": matrix ", name, " has ", m.total(), " entries"));
-    }
-    return m.reshape(1, 1);
-  };
-  cv::FileStorage fi, fe;
-  try {
-    fi.open(intrinsics.string(), cv::FileStorage::READ);
-    fe.open(extrinsics.string(), cv::FileStorage::READ);
-  } catch (const cv::Exception& e) {
-    throw Error(StrCat("cannot parse OpenCV calibration: ", e.what()));
-  }
-  if (!fi.isOpened()) throw Error(StrCat(intrinsics.string(), ": cannot parse as OpenCV YAML/XML"));
-  if (!fe.isOpened()) throw Error(StrCat(extrinsics.string(), ": cannot parse as OpenCV YAML/XML"));
-  auto camera = [&](const char* mname, const char* dname) {
-    const cv::Mat k = read_mat(fi, mname, intrinsics, 3, 3);
-    const cv::Mat d = read_mat(fi, dname, intrinsics, 1, 4);
-    CameraModel c;
-    c.width = width;
-    c.height = height;
-    c.fx = k.at<double>(0);
-    c.cx = k.at<double>(2);
-    c.fy = k.at<double>(4);
-    c.cy = k.at<double>(5);
-    std::array<double, 5> dist{0, 0, 0, 0, 0};
-    for (int i = 0; i < std::min<int>(5, static_cast<int>(d.total())); ++i)
-      dist[i] = d.at<double>(i);
-    c.SetDistortion(dist);
-    c.Check();
-    return c;
-  };
-  StereoRig rig;
-  rig.left = camera("M1", "D1");
-  rig.right = camera("M2", "D2");
-  const cv::Mat r = read_mat(fe, "R", extrinsics, 3, 3);
-  const cv::Mat t = read_mat(fe, "T", extrinsics, 3, 1);
-  Eigen::Matrix3d rm;
-  for (int i = 0; i < 9; ++i) rm(i / 3, i % 3) = r.at<double>(i);
-  rig.right_from_left =
-      Rigid3d(rm, Eigen::Vector3d(t.at<double>(0), t.at<double>(1), t.at<double>(2)));
-  return rig;
+  return ReadOpenCvCalibration({intrinsics, extrinsics}, width, height)
+      .ToRig(StrCat(intrinsics.string(), " + ", extrinsics.string()));
 }
 
 }  // namespace fringe::io

@@ -10,9 +10,16 @@
 #include "fringe/geometry/camera.h"
 #include "fringe/geometry/rigid3.h"
 #include "fringe/geometry/stereo_rig.h"
+#include "fringe/io/json.h"
 #include "fringe/util/error.h"
 
 namespace fringe::io {
+
+// Checks shared by every calibration reader (rig JSON, OpenCV import): a finite camera whose
+// focal length, principal point and distortion are within physical bounds, and a proper
+// rotation (R R^T = I, det R = +1). Throw fringe::Error("<context>: ...").
+void CheckPlausibleCamera(const CameraModel& camera, const std::string& context);
+void CheckRotationMatrix(const Eigen::Matrix3d& rotation, const std::string& context);
 
 nlohmann::json CameraToJson(const CameraModel& camera);
 // `context` names where the object came from ("rig.json: cameras.left") for error messages.
@@ -31,26 +38,6 @@ StereoRig ReadRig(const std::filesystem::path& path);
 void WriteRig(const std::filesystem::path& path, const StereoRig& rig,
               const nlohmann::json& extra = nlohmann::json::object());
 
-// Runs parse() and rethrows nlohmann::json exceptions, and fringe::Errors that do not already
-// start with `context`, as fringe::Error("<context>: <what>"), so every JSON reader names the
-// file and field the same way.
-template <typename Parse>
-auto WithJsonContext(const std::string& context, Parse&& parse) -> decltype(parse()) {
-  try {
-    return parse();
-  } catch (const nlohmann::json::exception& e) {
-    throw Error(context + ": " + e.what());
-  } catch (const Error& e) {
-    const std::string msg = e.what();
-    if (msg.rfind(context, 0) == 0) throw;
-    throw Error(context + ": " + msg);
-  }
-}
-
-// Reads JSON from a file with errors naming the file; writes JSON atomically, pretty printed.
-nlohmann::json ReadJson(const std::filesystem::path& path);
-void WriteJson(const std::filesystem::path& path, const nlohmann::json& j);
-
 // Calibration target description (docs/formats.md, "Calibration target"):
 // {"format": "fringe-target", "type": "rings", "rows": 7, "cols": 9, "spacing_mm": 24, ...}.
 // Missing fields take CalibrationTarget's defaults; the result is Check()ed.
@@ -58,9 +45,9 @@ nlohmann::json TargetToJson(const CalibrationTarget& target);
 CalibrationTarget TargetFromJson(const nlohmann::json& j, const std::string& context);
 CalibrationTarget ReadTarget(const std::filesystem::path& path);
 
-// OpenCV stereo calibration (cv::FileStorage YAML/XML): intrinsics with M1 D1 M2 D2, extrinsics
-// with R T (T in the file's length unit, assumed millimetres). Image size must be given
-// (OpenCV's files do not store it).
+// OpenCV stereo calibration split over two files as stereo_calib writes it (M1 D1 M2 D2 in the
+// intrinsics, R T in the extrinsics; any spelling io/opencv_calibration.h accepts). Image size
+// from the files or, when they do not store it, width x height.
 StereoRig ImportOpenCvStereo(const std::filesystem::path& intrinsics,
                              const std::filesystem::path& extrinsics, int width, int height);
 

@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "fringe/io/calibration_io.h"
+#include "fringe/io/opencv_calibration.h"
 #include "fringe/io/ply.h"
 #include "fringe/util/error.h"
 
@@ -57,6 +58,12 @@ std::string DescribeJson(const fs::path& path) {
   const nlohmann::json j = ReadJson(path);
   std::ostringstream os;
   const std::string format = j.is_object() ? j.value("format", std::string()) : std::string();
+  if (format == "fringe-rig" && j.contains("camera") && !j.contains("cameras")) {
+    os << path.string() << ": single-camera calibration\n";
+    os << "  camera:    " << DescribeCamera(CameraFromJson(j["camera"], path.string() + ": camera"))
+       << "\n";
+    return os.str();
+  }
   if (format == "fringe-rig") {
     const StereoRig rig = RigFromJson(j, path.string());
     os << path.string() << ": rig calibration\n";
@@ -127,7 +134,12 @@ std::string DescribePath(const fs::path& path) {
   for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   if (ext == ".ply") return DescribePly(path);
   if (ext == ".json") return DescribeJson(path);
-  throw Error(StrCat(path.string(), ": unknown kind of file (expected .ply, .json or a folder)"));
+  if (ext == ".yml" || ext == ".yaml" || ext == ".xml") {
+    const OpenCvCalibration cv = ReadOpenCvCalibration({path}, -1, -1);
+    return StrCat(path.string(), ": OpenCV calibration\n", cv.Describe());
+  }
+  throw Error(StrCat(path.string(),
+                     ": unknown kind of file (expected .ply, .json, .yml/.yaml/.xml or a folder)"));
 }
 
 }  // namespace fringe::io

@@ -89,13 +89,26 @@ PlyHeader ParseHeader(const std::string& data, const std::string& file, size_t* 
       std::istringstream cs(rest);
       std::string tag;
       cs >> tag;
-      if (tag == "fringe_grid") cs >> h.grid_width >> h.grid_height;
+      if (tag == "fringe_grid") {
+        // Bounded before anything is sized from it: readers allocate width x height cells.
+        long long w = 0, ht = 0;
+        if (!(cs >> w >> ht) || w < 1 || ht < 1 || w > util::kMaxImageSidePx ||
+            ht > util::kMaxImageSidePx || w * ht > util::kMaxImagePixels) {
+          throw Error(StrCat(file, ": header line ", line_no,
+                             ": malformed 'comment fringe_grid <width> <height>' (sides in [1, ",
+                             util::kMaxImageSidePx, "], at most ", util::kMaxImagePixels,
+                             " pixels)"));
+        }
+        h.grid_width = static_cast<int>(w);
+        h.grid_height = static_cast<int>(ht);
+      }
     } else if (key == "element") {
       PlyElement e;
       long long count = -1;
-      ls >> e.name >> count;
-      if (e.name.empty() || count < 0) {
-        throw Error(StrCat(file, ": header line ", line_no, ": bad element declaration"));
+      std::string rest;
+      if (!(ls >> e.name >> count) || e.name.empty() || count < 0 || (ls >> rest)) {
+        throw Error(StrCat(file, ": header line ", line_no,
+                           ": bad element declaration (expected 'element <name> <count>')"));
       }
       e.count = static_cast<size_t>(count);
       h.elements.push_back(e);
@@ -269,6 +282,28 @@ VertexSlots FindVertexSlots(const PlyElement& e) {
   return s;
 }
 
+// Every declared item takes at least a known number of bytes (binary: its fixed-size properties
+// and list counts; ASCII: one character per value), so the counts in a header of a few hundred
+// bytes are checked against the data actually present before anything is allocated from them.
+void CheckCountsAgainstFileSize(const PlyHeader& h, size_t body_bytes, const std::string& file) {
+  const bool ascii = h.format == "ascii";
+  long double needed = 0;
+  for (const PlyElement& e : h.elements) {
+    size_t item_bytes = 0;
+    for (const PlyProperty& p : e.properties) {
+      Type t = Type::kUInt8;  // the header parser has already checked every type name
+      ParseType(p.list_count_type.empty() ? p.type : p.list_count_type, &t);
+      item_bytes += ascii ? 1 : TypeSize(t);
+    }
+    needed += static_cast<long double>(e.count) * item_bytes;
+    if (needed > body_bytes) {
+      throw Error(StrCat(file, ": truncated or inconsistent: header declares ", e.count, " ",
+                         e.name, " items needing at least ", static_cast<double>(needed),
+                         " bytes, the file holds ", body_bytes, " bytes of data"));
+    }
+  }
+}
+
 }  // namespace
 
 PlyHeader ReadPlyHeader(const std::filesystem::path& path) {
@@ -284,10 +319,12 @@ PlyHeader ReadPlyHeader(const std::filesystem::path& path) {
 
 PlyData ReadPly(const std::filesystem::path& path) {
   const std::string file = path.string();
-  const std::string data = util::ReadTextFile(path);
+  // Clouds can be large; the whole file is held in memory once, so its real size is the bound.
+  const std::string data = util::ReadTextFile(path, std::numeric_limits<std::uintmax_t>::max());
   size_t offset = 0;
   PlyData out;
   out.header = ParseHeader(data, file, &offset);
+  CheckCountsAgainstFileSize(out.header, data.size() - offset, file);
   BodyReader reader(data, offset, out.header.format, file);
   bool have_vertices = false;
   for (const PlyElement& e : out.header.elements) {
@@ -322,6 +359,9 @@ PlyData ReadPly(const std::filesystem::path& path) {
             v[p] = reader.Read(types[p], ename, item, e.properties[p].name);
           } else {
             const double n = reader.Read(count_types[p], ename, item, e.properties[p].name);
+            if (!(n >= 0 && n <= 1e6)) {
+              throw Error(StrCat(file, ": ", ename, " ", item, ": bad list length ", n));
+            }
             for (int k = 0; k < static_cast<int>(n); ++k) {
               reader.Read(types[p], ename, item, e.properties[p].name);
             }
@@ -339,7 +379,13 @@ PlyData ReadPly(const std::filesystem::path& path) {
         if (s.intensity >= 0) c.intensity[item] = static_cast<float>(v[s.intensity]);
         if (s.quality >= 0) c.quality[item] = static_cast<float>(v[s.quality]);
         if (s.residual >= 0) c.residual_px[item] = static_cast<float>(v[s.residual]);
-        if (s.grid >= 0) out.grid_index[item] = static_cast<uint32_t>(v[s.grid]);
+        if (s.grid >= 0) {
+          const double g = v[s.grid];
+          if (!(g >= 0 && g < 4294967296.0)) {
+            throw Error(StrCat(file, ": vertex ", item, ": bad grid_index ", g));
+          }
+          out.grid_index[item] = static_cast<uint32_t>(g);
+        }
       }
     } else {
       int face_list = -1;
@@ -360,7 +406,7 @@ PlyData ReadPly(const std::filesystem::path& path) {
             continue;
           }
           const double n = reader.Read(count_types[p], ename, item, e.properties[p].name);
-          if (n < 0 || n > 1e6) {
+          if (!(n >= 0 && n <= 1e6)) {
             throw Error(StrCat(file, ": ", ename, " ", item, ": bad list length ", n));
           }
           poly.clear();

@@ -96,12 +96,15 @@ void PatternScheme::Check() const {
   CheckOption(projector_height > 0, o, "projector_height", projector_height, "must be > 0");
   CheckOption(!phase_sets.empty(), o, "phase_sets", phase_sets.size(),
               "need at least one phase-shift set");
+  CheckOption(phase_sets.size() <= kMaxPhaseSets, o, "phase_sets", phase_sets.size(),
+              StrCat("at most ", kMaxPhaseSets, " sets").c_str());
   for (size_t i = 0; i < phase_sets.size(); ++i) {
     const auto& s = phase_sets[i];
     const std::string f = StrCat("phase_sets[", i, "]");
     CheckOption(std::isfinite(s.period_px) && s.period_px > 2.0, o, (f + ".period_px").c_str(),
                 s.period_px, "must be > 2 projector pixels");
-    CheckOption(s.steps >= 3, o, (f + ".steps").c_str(), s.steps, "must be >= 3");
+    CheckOption(s.steps >= 3 && s.steps <= kMaxSteps, o, (f + ".steps").c_str(), s.steps,
+                StrCat("must be in [3, ", kMaxSteps, "]").c_str());
     CheckOption(s.shifts_rad.empty() || static_cast<int>(s.shifts_rad.size()) == s.steps, o,
                 (f + ".shifts_rad").c_str(), s.shifts_rad.size(),
                 "must be empty or have one shift per step");
@@ -120,6 +123,18 @@ void PatternScheme::Check() const {
               "must be in (0, intensity_mean] with mean + amplitude <= 1");
   CheckOption(gamma_precompensation > 0 && std::isfinite(gamma_precompensation), o,
               "gamma_precompensation", gamma_precompensation, "must be > 0");
+  CheckOption(projector_width <= util::kMaxImageSidePx, o, "projector_width", projector_width,
+              StrCat("must be <= ", util::kMaxImageSidePx).c_str());
+  CheckOption(projector_height <= util::kMaxImageSidePx, o, "projector_height", projector_height,
+              StrCat("must be <= ", util::kMaxImageSidePx).c_str());
+  CheckOption(static_cast<long long>(projector_width) * projector_height <= util::kMaxImagePixels,
+              o, "projector_width x projector_height",
+              static_cast<long long>(projector_width) * projector_height,
+              StrCat("must be <= ", util::kMaxImagePixels, " pixels").c_str());
+  if (!image_names.empty()) {
+    util::CheckRelativeNames(image_names, StrCat(o, ".image_names"), util::ImageExtensions(),
+                             "image name");
+  }
   CheckOption(image_names.empty() || static_cast<int>(image_names.size()) == NumImages(), o,
               "image_names", image_names.size(),
               StrCat("must be empty or name all ", NumImages(), " images").c_str());
@@ -242,50 +257,101 @@ json SchemeToJson(const PatternScheme& scheme) {
 }
 
 PatternScheme SchemeFromJson(const json& j, const std::string& context) {
-  if (!j.is_object()) throw Error(StrCat(context, ": expected a JSON object"));
+  io::RequireObject(j, context);
   return io::WithJsonContext(context, [&] {
     PatternScheme s;
+    // A manifest of another tool (or another kind of fringe file) is named as such, with the
+    // way out, instead of a complaint about its first unknown key.
+    const auto foreign = [&](const std::string& why) {
+      return Error(StrCat(context, ": not a fringe pattern manifest (", why,
+                          "); give the scheme with --scheme (a preset such as gray+N with "
+                          "--width/--height/--period, or a fringe manifest, docs/formats.md)"));
+    };
     if (j.contains("format") && j["format"] != "fringe-patterns") {
-      throw Error(
-          StrCat(context, ": format is ", j["format"].dump(), ", expected \"fringe-patterns\""));
+      throw foreign(
+          StrCat("\"format\" is ", io::Brief(j["format"]), ", expected \"fringe-patterns\""));
     }
-    if (j.contains("name")) s.name = j["name"].get<std::string>();
+    if (!j.contains("format") && !j.contains("phase_sets")) {
+      throw foreign("no \"format\": \"fringe-patterns\" and no \"phase_sets\"");
+    }
+    io::CheckKnownKeys(
+        j,
+        {"format", "version", "name", "projector", "direction", "intensity",
+         "gamma_precompensation", "phase_sets", "gray_code", "white_frame", "dark_frame", "images"},
+        context);
+    io::OptionalInteger(j, "version", 1, 1, 1, context);
+    s.name = io::OptionalString(j, "name", s.name, context);
     if (!j.contains("projector")) throw Error(StrCat(context, ": missing \"projector\""));
-    s.projector_width = j["projector"].at("width").get<int>();
-    s.projector_height = j["projector"].at("height").get<int>();
-    if (j.contains("direction")) {
-      const auto d = j["direction"].get<std::string>();
-      if (d == "vertical") {
-        s.direction = FringeDirection::kVertical;
-      } else if (d == "horizontal") {
-        s.direction = FringeDirection::kHorizontal;
-      } else {
-        throw Error(StrCat(context, ": direction \"", d, "\": expected vertical or horizontal"));
-      }
+    const std::string pc = context + ".projector";
+    io::CheckKnownKeys(j["projector"], {"width", "height"}, pc);
+    s.projector_width =
+        static_cast<int>(io::GetInteger(j["projector"], "width", 1, util::kMaxImageSidePx, pc));
+    s.projector_height =
+        static_cast<int>(io::GetInteger(j["projector"], "height", 1, util::kMaxImageSidePx, pc));
+    const std::string d = io::OptionalString(j, "direction", "vertical", context);
+    if (d == "vertical") {
+      s.direction = FringeDirection::kVertical;
+    } else if (d == "horizontal") {
+      s.direction = FringeDirection::kHorizontal;
+    } else {
+      throw Error(StrCat(context, ".direction: ", io::Brief(j["direction"]),
+                         ": expected \"vertical\" or \"horizontal\""));
     }
     if (j.contains("intensity")) {
-      s.intensity_mean = j["intensity"].value("mean", s.intensity_mean);
-      s.intensity_amplitude = j["intensity"].value("amplitude", s.intensity_amplitude);
+      const std::string ic = context + ".intensity";
+      io::CheckKnownKeys(j["intensity"], {"mean", "amplitude"}, ic);
+      s.intensity_mean = io::OptionalNumber(j["intensity"], "mean", s.intensity_mean, ic);
+      s.intensity_amplitude =
+          io::OptionalNumber(j["intensity"], "amplitude", s.intensity_amplitude, ic);
     }
-    s.gamma_precompensation = j.value("gamma_precompensation", 1.0);
-    if (!j.contains("phase_sets") || !j["phase_sets"].is_array()) {
+    s.gamma_precompensation = io::OptionalNumber(j, "gamma_precompensation", 1.0, context);
+    if (!j.contains("phase_sets") || !j["phase_sets"].is_array() || j["phase_sets"].empty()) {
       throw Error(StrCat(context, ": missing array \"phase_sets\""));
     }
-    for (const json& js : j["phase_sets"]) {
+    if (j["phase_sets"].size() > kMaxPhaseSets) {
+      throw Error(StrCat(context, ".phase_sets: ", j["phase_sets"].size(), " sets, more than the ",
+                         kMaxPhaseSets, " supported"));
+    }
+    for (size_t i = 0; i < j["phase_sets"].size(); ++i) {
+      const json& js = j["phase_sets"][i];
+      const std::string sc = StrCat(context, ".phase_sets[", i, "]");
+      io::CheckKnownKeys(js, {"period_px", "steps", "shifts_rad", "phase_offset_rad"}, sc);
       PhaseShiftSet set;
-      set.period_px = js.at("period_px").get<double>();
-      set.steps = js.at("steps").get<int>();
-      if (js.contains("shifts_rad")) set.shifts_rad = js["shifts_rad"].get<std::vector<double>>();
-      set.phase_offset_rad = js.value("phase_offset_rad", 0.0);
+      set.period_px = io::GetNumber(js, "period_px", sc);
+      set.steps = static_cast<int>(io::GetInteger(js, "steps", 3, kMaxSteps, sc));
+      if (js.contains("shifts_rad")) {
+        const json& sh = js["shifts_rad"];
+        if (!sh.is_array() || static_cast<int>(sh.size()) != set.steps) {
+          throw Error(StrCat(sc, ".shifts_rad: expected ", set.steps, " numbers (one per step)"));
+        }
+        for (size_t k = 0; k < sh.size(); ++k) {
+          set.shifts_rad.push_back(io::AsNumber(sh[k], StrCat(sc, ".shifts_rad[", k, "]")));
+        }
+      }
+      set.phase_offset_rad = io::OptionalNumber(js, "phase_offset_rad", 0.0, sc);
       s.phase_sets.push_back(set);
     }
     if (j.contains("gray_code")) {
-      s.gray_bits = j["gray_code"].value("bits", 0);
-      s.gray_complementary = j["gray_code"].value("complementary", false);
+      const std::string gc = context + ".gray_code";
+      io::CheckKnownKeys(j["gray_code"], {"bits", "complementary"}, gc);
+      s.gray_bits = static_cast<int>(io::OptionalInteger(j["gray_code"], "bits", 0, 0, 16, gc));
+      s.gray_complementary = io::OptionalBool(j["gray_code"], "complementary", false, gc);
     }
-    s.white_frame = j.value("white_frame", false);
-    s.dark_frame = j.value("dark_frame", false);
-    if (j.contains("images")) s.image_names = j["images"].get<std::vector<std::string>>();
+    s.white_frame = io::OptionalBool(j, "white_frame", false, context);
+    s.dark_frame = io::OptionalBool(j, "dark_frame", false, context);
+    if (j.contains("images")) {
+      const json& names = j["images"];
+      if (!names.is_array()) throw Error(StrCat(context, ".images: expected an array of names"));
+      if (static_cast<int>(names.size()) != s.NumImages()) {
+        throw Error(StrCat(context, ".images: ", names.size(), " names for the ", s.NumImages(),
+                           " images the scheme has"));
+      }
+      for (size_t k = 0; k < names.size(); ++k) {
+        s.image_names.push_back(io::AsString(names[k], StrCat(context, ".images[", k, "]")));
+      }
+      util::CheckRelativeNames(s.image_names, context + ".images", util::ImageExtensions(),
+                               "image name");
+    }
     s.Check();
     return s;
   });
@@ -307,6 +373,11 @@ PatternScheme SchemeFromNameOrFile(const std::string& name_or_path, int projecto
     return MakeScheme(name_or_path, projector_width, projector_height);
   }
   if (std::filesystem::exists(name_or_path)) return ReadScheme(name_or_path);
+  // A path-like argument that does not exist is a missing file, not an unknown preset.
+  const std::filesystem::path p(name_or_path);
+  if (p.has_parent_path() || p.has_extension()) {
+    throw Error(StrCat(name_or_path, ": scheme manifest: no such file"));
+  }
   return MakeScheme(name_or_path, projector_width, projector_height);  // throws, listing presets
 }
 
@@ -373,6 +444,7 @@ void WritePatternFolder(const std::filesystem::path& dir, const PatternScheme& s
   util::WriteFolderAtomically(dir, [&](const std::filesystem::path& tmp) {
     for (size_t i = 0; i < images.size(); ++i) {
       const auto path = tmp / scheme.image_names[i];
+      std::filesystem::create_directories(path.parent_path());
       if (!cv::imwrite(path.string(), images[i])) {
         throw Error(StrCat((dir / scheme.image_names[i]).string(), ": cannot write image"));
       }

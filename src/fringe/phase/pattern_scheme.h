@@ -51,6 +51,11 @@ struct PhaseShiftSet {
   std::vector<double> Shifts() const;
 };
 
+// Bounds on what a manifest may ask for (checked before anything is allocated): more sets or
+// steps than any real scheme uses only serve to exhaust memory.
+inline constexpr size_t kMaxPhaseSets = 16;
+inline constexpr int kMaxSteps = 64;
+
 struct PatternScheme {
   std::string name = "custom";
   int projector_width = 1280;  // projector pixels, > 0

@@ -16,11 +16,7 @@ namespace {
 using util::StrCat;
 
 bool IsImageFile(const std::filesystem::path& p) {
-  std::string ext = p.extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(),
-                 [](unsigned char c) { return std::tolower(c); });
-  return ext == ".png" || ext == ".tif" || ext == ".tiff" || ext == ".bmp" || ext == ".jpg" ||
-         ext == ".jpeg" || ext == ".pgm";
+  return util::HasExtension(p, util::ImageExtensions());
 }
 
 void Write(const std::filesystem::path& path, const cv::Mat& m) {
@@ -34,12 +30,15 @@ std::vector<cv::Mat> ReadStack(const std::filesystem::path& dir, const PatternSc
   const auto names = scheme.ImageNames();
   const std::set<std::string> expected(names.begin(), names.end());
   std::vector<std::string> extra;
-  for (const auto& entry : std::filesystem::directory_iterator(dir)) {
-    const auto name = entry.path().filename().string();
-    if (entry.is_regular_file() && IsImageFile(entry.path()) && !expected.count(name)) {
+  std::error_code ec;
+  for (std::filesystem::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+    const auto name = it->path().filename().string();
+    std::error_code fec;
+    if (it->is_regular_file(fec) && IsImageFile(it->path()) && !expected.count(name)) {
       extra.push_back(name);
     }
   }
+  if (ec) throw Error(StrCat(dir.string(), ": cannot list image stack: ", ec.message()));
   if (!extra.empty()) {
     std::sort(extra.begin(), extra.end());
     throw Error(
@@ -50,7 +49,8 @@ std::vector<cv::Mat> ReadStack(const std::filesystem::path& dir, const PatternSc
   std::vector<cv::Mat> images;
   for (const auto& n : names) {
     const auto path = dir / n;
-    if (!std::filesystem::exists(path)) {
+    std::error_code eec;
+    if (!std::filesystem::exists(std::filesystem::symlink_status(path, eec))) {
       throw Error(StrCat(path.string(), ": missing image ", images.size(), " of the ", names.size(),
                          " the scheme '", scheme.name, "' lists"));
     }

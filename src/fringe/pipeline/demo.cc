@@ -146,7 +146,14 @@ DemoSummary RunDemo(const DemoOptions& options, const fs::path& out_dir) {
   options.Check();
   DemoSummary s;
   const StereoRig true_rig = StereoRig::Reference();
-  util::WriteFolderAtomically(out_dir, [&](const fs::path& dir) {
+  // A demo folder written before output folders carried the marker is recognised by its layout,
+  // so that re-running the README's demo command replaces it.
+  util::OutputFolderOptions output;
+  output.legacy_layout = [](const fs::path& d) {
+    return fs::is_directory(d / "scan-demo") && fs::is_directory(d / "scan-vdi") &&
+           fs::exists(d / "calibration.json");
+  };
+  util::WriteFolderAtomically(out_dir, output, [&](const fs::path& dir) {
     // 1. Simulate.
     util::Timer timer;
     sim::ScanOptions scan;

@@ -38,5 +38,23 @@ void CheckOption(bool ok, const char* options, const char* field, const T& value
   }
 }
 
+// Sane upper bounds for sizes read from files and flags, checked before anything is allocated
+// (a few hundred bytes of header must not make fringe allocate gigabytes). Generous for real
+// sensors: cameras used for fringe projection stay below 50 Mpx and 16k pixels a side.
+inline constexpr long long kMaxImageSidePx = 1 << 15;    // width or height of an image
+inline constexpr long long kMaxImagePixels = 1LL << 26;  // 67 Mpx
+inline constexpr long long kMaxStackImages = 4096;       // images in one fringe stack
+inline constexpr int kMaxNestingDepth = 64;              // JSON / YAML / XML nesting
+
+// Throws fringe::Error("<context>: <field> = <value>: must be in [lo, hi]<why>") unless
+// lo <= value <= hi. For sizes and integers read from files and flags.
+inline void CheckRange(long long value, long long lo, long long hi, const std::string& context,
+                       const std::string& field, const std::string& why = "") {
+  if (value < lo || value > hi) {
+    throw Error(StrCat(context, ": ", field, " = ", value, ": must be in [", lo, ", ", hi, "]",
+                       why.empty() ? "" : " (", why, why.empty() ? "" : ")"));
+  }
+}
+
 }  // namespace util
 }  // namespace fringe

@@ -1,10 +1,20 @@
 #include "fringe/util/files.h"
 
+#include <dirent.h>
+#include <fcntl.h>
+#include <signal.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
+#include <cctype>
+#include <cerrno>
 #include <cstdlib>
+#include <cstring>
 #include <fstream>
+#include <memory>
+#include <mutex>
+#include <set>
 #include <sstream>
 
 #include "fringe/util/error.h"
@@ -12,17 +22,144 @@
 namespace fringe::util {
 namespace {
 
+// ---------------------------------------------------------------------------------------------
+// Temporaries removed on SIGINT / SIGTERM / SIGHUP. The handler may run at any point, so it only
+// reads fixed slots (no allocation, no locks) and removes them with raw system calls.
+
+constexpr int kMaxTemporaries = 64;
+constexpr size_t kMaxTemporaryPath = 4096;
+
+struct TemporarySlot {
+  std::atomic<bool> used{false};
+  char path[kMaxTemporaryPath];
+};
+
+TemporarySlot g_temporaries[kMaxTemporaries];
+std::mutex g_temporaries_mutex;
+
+// Removes `name` (relative to dirfd) and, for a folder, everything below it, using only
+// async-signal-safe calls (getdents64 instead of opendir, which allocates).
+void RemoveTreeAt(int dirfd, const char* name, int depth) {
+  if (::unlinkat(dirfd, name, 0) == 0 || errno == ENOENT) return;
+  if (depth > 16) return;  // fringe's temporaries are shallow; never chase a deep tree here
+  const int fd = ::openat(dirfd, name, O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC);
+  if (fd < 0) return;
+  char buf[2048];
+  // Removing entries while listing may skip some: list again until a pass finds nothing.
+  for (int pass = 0; pass < 64; ++pass) {
+    bool removed_any = false;
+    ::lseek(fd, 0, SEEK_SET);
+    for (;;) {
+      const ssize_t n = ::getdents64(fd, buf, sizeof(buf));
+      if (n <= 0) break;
+      for (ssize_t off = 0; off < n;) {
+        const auto* e = reinterpret_cast<const struct dirent64*>(buf + off);
+        off += e->d_reclen;
+        if (std::strcmp(e->d_name, ".") == 0 || std::strcmp(e->d_name, "..") == 0) continue;
+        RemoveTreeAt(fd, e->d_name, depth + 1);
+        removed_any = true;
+      }
+    }
+    if (!removed_any) break;
+  }
+  ::close(fd);
+  ::unlinkat(dirfd, name, AT_REMOVEDIR);
+}
+
+extern "C" void RemoveTemporariesOnSignal(int sig) {
+  for (auto& slot : g_temporaries) {
+    if (slot.used.load(std::memory_order_acquire)) RemoveTreeAt(AT_FDCWD, slot.path, 0);
+  }
+  ::signal(sig, SIG_DFL);
+  ::raise(sig);
+}
+
+// Installs the handler for signals whose disposition is still the default (a host program's own
+// handler, e.g. a debugger's or Python's, is left alone).
+void InstallSignalCleanup() {
+  static std::once_flag once;
+  std::call_once(once, [] {
+    for (int sig : {SIGINT, SIGTERM, SIGHUP}) {
+      struct sigaction old {};
+      if (::sigaction(sig, nullptr, &old) != 0 || old.sa_handler != SIG_DFL) continue;
+      struct sigaction sa {};
+      sa.sa_handler = RemoveTemporariesOnSignal;
+      sigemptyset(&sa.sa_mask);
+      ::sigaction(sig, &sa, nullptr);
+    }
+  });
+}
+
+// Registers a temporary path for removal on a signal while alive.
+class TemporaryRegistration {
+ public:
+  explicit TemporaryRegistration(const fs::path& path) {
+    std::error_code ec;
+    const std::string p = fs::absolute(path, ec).string();
+    if (ec || p.size() >= kMaxTemporaryPath) return;  // not registered: only signal cleanup lost
+    InstallSignalCleanup();
+    std::lock_guard<std::mutex> lock(g_temporaries_mutex);
+    for (int i = 0; i < kMaxTemporaries; ++i) {
+      if (!g_temporaries[i].used.load(std::memory_order_relaxed)) {
+        std::memcpy(g_temporaries[i].path, p.c_str(), p.size() + 1);
+        g_temporaries[i].used.store(true, std::memory_order_release);
+        slot_ = i;
+        return;
+      }
+    }
+  }
+  ~TemporaryRegistration() {
+    if (slot_ < 0) return;
+    std::lock_guard<std::mutex> lock(g_temporaries_mutex);
+    g_temporaries[slot_].used.store(false, std::memory_order_release);
+  }
+  TemporaryRegistration(const TemporaryRegistration&) = delete;
+  TemporaryRegistration& operator=(const TemporaryRegistration&) = delete;
+
+ private:
+  int slot_ = -1;
+};
+
+// ---------------------------------------------------------------------------------------------
+
+fs::path ParentOf(const fs::path& path) {
+  return path.parent_path().empty() ? fs::path(".") : path.parent_path();
+}
+
+// ".<stem>.tmp<pid>_<n><ext>": hidden, unique per process and call, keeps the extension.
+std::string TemporaryPrefix(const fs::path& path) {
+  return StrCat(".", path.stem().string(), ".tmp");
+}
+
 fs::path TemporarySibling(const fs::path& path) {
   static std::atomic<int> counter{0};
-  const fs::path parent = path.parent_path().empty() ? fs::path(".") : path.parent_path();
-  // ".<name>.tmp<pid>_<n><ext>": hidden, unique per process and call, keeps the extension.
-  std::string name = StrCat(".", path.stem().string(), ".tmp", ::getpid(), "_", counter++,
-                            path.extension().string());
-  return parent / name;
+  return ParentOf(path) /
+         StrCat(TemporaryPrefix(path), ::getpid(), "_", counter++, path.extension().string());
+}
+
+// Removes temporaries of `path` left by processes that no longer run (killed with SIGKILL, power
+// loss): names ".<stem>.tmp<pid>_..." whose pid does not exist. Only exact matches of fringe's
+// own naming are touched.
+void RemoveStaleTemporaries(const fs::path& path) {
+  const std::string prefix = TemporaryPrefix(path);
+  std::error_code ec;
+  fs::directory_iterator it(ParentOf(path), ec), end;
+  for (; !ec && it != end; it.increment(ec)) {
+    const std::string name = it->path().filename().string();
+    if (name.rfind(prefix, 0) != 0) continue;
+    size_t i = prefix.size(), j = i;
+    while (j < name.size() && std::isdigit(static_cast<unsigned char>(name[j]))) ++j;
+    if (j == i || j - i > 9 || j >= name.size() || name[j] != '_') continue;
+    const pid_t pid = static_cast<pid_t>(std::stol(name.substr(i, j - i)));
+    if (pid == ::getpid() || pid <= 0) continue;
+    if (::kill(pid, 0) == 0 || errno != ESRCH) continue;  // alive (or not ours to judge)
+    std::error_code ignored;
+    fs::remove_all(it->path(), ignored);
+  }
 }
 
 void RequireWritableParent(const fs::path& path) {
-  const fs::path parent = path.parent_path().empty() ? fs::path(".") : path.parent_path();
+  const fs::path parent = ParentOf(path);
   std::error_code ec;
   if (!fs::is_directory(parent, ec)) {
     throw Error(
@@ -34,16 +171,82 @@ void RequireWritableParent(const fs::path& path) {
   }
 }
 
+fs::path Canonical(const fs::path& p) {
+  std::error_code ec;
+  fs::path c = fs::weakly_canonical(fs::absolute(p, ec), ec);
+  return ec ? fs::absolute(p).lexically_normal() : c;
+}
+
+// True when `inner` is `outer` or lies below it (both canonical).
+bool IsWithin(const fs::path& inner, const fs::path& outer) {
+  auto i = inner.begin();
+  for (auto o = outer.begin(); o != outer.end(); ++o, ++i) {
+    if (o->empty()) continue;  // trailing separator
+    if (i == inner.end() || *i != *o) return false;
+  }
+  return true;
+}
+
+void CheckNotAnInput(const fs::path& output, const std::vector<fs::path>& inputs,
+                     bool output_is_folder) {
+  const fs::path out = Canonical(output);
+  for (const fs::path& input : inputs) {
+    if (input.empty()) continue;
+    const fs::path in = Canonical(input);
+    std::error_code ec;
+    const bool same = out == in || fs::equivalent(output, input, ec);
+    if (same) {
+      throw Error(StrCat(output.string(), ": is also an input of this command (", input.string(),
+                         "); an output never replaces an input"));
+    }
+    if (output_is_folder && IsWithin(in, out)) {
+      throw Error(StrCat(output.string(), ": contains the input ", input.string(),
+                         "; replacing the folder would delete it (choose another output folder)"));
+    }
+  }
+}
+
+std::string Lower(std::string s) {
+  for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return s;
+}
+
+// A name is printed in messages with non-printable bytes escaped, so that a hostile name cannot
+// garble the terminal.
+std::string Printable(const std::string& s) {
+  std::string out;
+  for (unsigned char c : s.substr(0, 200)) {
+    if (c < 0x20 || c == 0x7f) {
+      out += StrCat("\\x", "0123456789abcdef"[c >> 4], "0123456789abcdef"[c & 15]);
+    } else {
+      out += static_cast<char>(c);
+    }
+  }
+  if (s.size() > 200) out += "...";
+  return out;
+}
+
 }  // namespace
 
 void WriteAtomically(const fs::path& path, const std::function<void(const fs::path&)>& write) {
   RequireWritableParent(path);
+  std::error_code sec;
+  if (fs::is_directory(path, sec)) {
+    throw Error(StrCat(path.string(), ": cannot write: is a folder"));
+  }
+  RemoveStaleTemporaries(path);
   const fs::path tmp = TemporarySibling(path);
+  const TemporaryRegistration registration(tmp);
   try {
     write(tmp);
     std::error_code ec;
     fs::rename(tmp, path, ec);
     if (ec) throw Error(StrCat(path.string(), ": cannot write: ", ec.message()));
+  } catch (const fs::filesystem_error& e) {
+    // Name the user's path, not the hidden temporary (e.g. "No space left on device").
+    std::error_code ignored;
+    fs::remove(tmp, ignored);
+    throw Error(StrCat(path.string(), ": cannot write: ", e.code().message()));
   } catch (...) {
     std::error_code ignored;
     fs::remove(tmp, ignored);
@@ -51,16 +254,25 @@ void WriteAtomically(const fs::path& path, const std::function<void(const fs::pa
   }
 }
 
-void WriteFolderAtomically(const fs::path& dir, const std::function<void(const fs::path&)>& write) {
-  RequireWritableParent(dir);
+void WriteFolderAtomically(const fs::path& dir, const OutputFolderOptions& options,
+                           const std::function<void(const fs::path&)>& write) {
+  CheckOutputFolder(dir, options);
+  RemoveStaleTemporaries(dir);
   const fs::path tmp = TemporarySibling(dir);
+  const TemporaryRegistration registration(tmp);
   try {
     fs::create_directories(tmp);
+    {
+      std::ofstream marker(tmp / kOutputMarkerName);
+      marker << "written by fringe; a later fringe run may replace this folder\n";
+      if (!marker) throw Error(StrCat(dir.string(), ": cannot write"));
+    }
     write(tmp);
     std::error_code ec;
-    if (fs::exists(dir)) {
+    if (fs::exists(fs::symlink_status(dir))) {
       // Keep the old folder until the new one is in place.
       const fs::path old = TemporarySibling(dir);
+      const TemporaryRegistration old_registration(old);
       fs::rename(dir, old, ec);
       if (ec) throw Error(StrCat(dir.string(), ": cannot replace: ", ec.message()));
       fs::rename(tmp, dir, ec);
@@ -73,6 +285,10 @@ void WriteFolderAtomically(const fs::path& dir, const std::function<void(const f
       fs::rename(tmp, dir, ec);
       if (ec) throw Error(StrCat(dir.string(), ": cannot write: ", ec.message()));
     }
+  } catch (const fs::filesystem_error& e) {
+    std::error_code ignored;
+    fs::remove_all(tmp, ignored);
+    throw Error(StrCat(dir.string(), ": cannot write: ", e.code().message()));
   } catch (...) {
     std::error_code ignored;
     fs::remove_all(tmp, ignored);
@@ -80,9 +296,136 @@ void WriteFolderAtomically(const fs::path& dir, const std::function<void(const f
   }
 }
 
+OutputTransaction::~OutputTransaction() {
+  for (const Entry& e : entries_) {
+    std::error_code ignored;
+    fs::remove_all(e.tmp, ignored);
+  }
+}
+
+fs::path OutputTransaction::Stage(const fs::path& path) {
+  CheckOutputFile(path);
+  for (const Entry& e : entries_) {
+    if (Canonical(e.path) == Canonical(path)) {
+      throw Error(StrCat(path.string(), ": given for two outputs of this command"));
+    }
+  }
+  RemoveStaleTemporaries(path);
+  Entry e;
+  e.path = path;
+  e.tmp = TemporarySibling(path);
+  e.signal_cleanup = std::make_shared<TemporaryRegistration>(e.tmp);
+  entries_.push_back(std::move(e));
+  return entries_.back().tmp;
+}
+
+void OutputTransaction::Commit() {
+  for (const Entry& e : entries_) {
+    std::error_code ec;
+    if (!fs::exists(e.tmp, ec)) throw Error(StrCat(e.path.string(), ": was not written"));
+  }
+  for (const Entry& e : entries_) {
+    std::error_code ec;
+    fs::rename(e.tmp, e.path, ec);
+    if (ec) throw Error(StrCat(e.path.string(), ": cannot write: ", ec.message()));
+  }
+  entries_.clear();
+}
+
+void CheckOutputFile(const fs::path& path, const std::vector<fs::path>& inputs) {
+  if (path.empty()) throw Error("empty output path");
+  RequireWritableParent(path);
+  std::error_code ec;
+  if (fs::is_directory(path, ec)) throw Error(StrCat(path.string(), ": cannot write: is a folder"));
+  CheckNotAnInput(path, inputs, /*output_is_folder=*/false);
+}
+
+void CheckOutputFolder(const fs::path& dir, const OutputFolderOptions& options) {
+  if (dir.empty()) throw Error("empty output folder path");
+  RequireWritableParent(dir);
+  CheckNotAnInput(dir, options.inputs, /*output_is_folder=*/true);
+  std::error_code ec;
+  const fs::file_status st = fs::symlink_status(dir, ec);
+  if (!fs::exists(st)) return;
+  if (!fs::is_directory(fs::status(dir, ec))) {
+    throw Error(StrCat(dir.string(), ": exists and is not a folder; refusing to replace it"));
+  }
+  if (fs::is_empty(dir, ec) || fs::exists(dir / kOutputMarkerName, ec)) return;
+  if (options.legacy_layout && options.legacy_layout(dir)) return;
+  throw Error(StrCat(dir.string(), ": exists and was not written by fringe (no ", kOutputMarkerName,
+                     " marker); refusing to replace it: choose a new output folder or remove "
+                     "this one yourself"));
+}
+
+void CheckDistinctOutputs(const std::vector<fs::path>& outputs) {
+  for (size_t i = 0; i < outputs.size(); ++i) {
+    for (size_t k = i + 1; k < outputs.size(); ++k) {
+      if (!outputs[i].empty() && !outputs[k].empty() &&
+          Canonical(outputs[i]) == Canonical(outputs[k])) {
+        throw Error(StrCat(outputs[k].string(), ": given for two outputs of this command"));
+      }
+    }
+  }
+}
+
+void CheckRelativeName(const std::string& name, const std::string& context,
+                       const std::vector<std::string>& extensions, const std::string& what) {
+  auto fail = [&](const std::string& problem) {
+    throw Error(StrCat(context, ": ", what, " '", Printable(name), "': ", problem));
+  };
+  if (name.empty()) fail("empty name");
+  if (name.size() > 1024) fail("longer than 1024 characters");
+  for (unsigned char c : name) {
+    if (c < 0x20 || c == 0x7f) fail("contains a control character");
+    if (c == '\\') fail("contains a backslash (use '/' between folders)");
+  }
+  if (name.front() == '/') fail("absolute path (names must be relative to their folder)");
+  size_t start = 0;
+  while (start <= name.size()) {
+    const size_t end = std::min(name.find('/', start), name.size());
+    const std::string component = name.substr(start, end - start);
+    if (component.empty()) fail("empty path component");
+    if (component == ".") fail("'.' path component");
+    if (component == "..") fail("'..' path component (names must stay inside their folder)");
+    start = end + 1;
+  }
+  if (!extensions.empty() && !HasExtension(fs::path(name), extensions)) {
+    std::string list;
+    for (const auto& e : extensions) list += (list.empty() ? "" : " ") + e;
+    fail(StrCat("unknown extension (expected one of ", list, ")"));
+  }
+}
+
+void CheckRelativeNames(const std::vector<std::string>& names, const std::string& context,
+                        const std::vector<std::string>& extensions, const std::string& what) {
+  std::set<std::string> seen;
+  for (const std::string& name : names) {
+    CheckRelativeName(name, context, extensions, what);
+    if (!seen.insert(name).second) {
+      throw Error(StrCat(context, ": ", what, " '", Printable(name), "' appears twice"));
+    }
+  }
+}
+
+const std::vector<std::string>& ImageExtensions() {
+  static const std::vector<std::string> extensions = {".png",  ".tif", ".tiff", ".bmp", ".jpg",
+                                                      ".jpeg", ".pgm", ".ppm",  ".pnm"};
+  return extensions;
+}
+
+bool HasExtension(const fs::path& path, const std::vector<std::string>& extensions) {
+  const std::string ext = Lower(path.extension().string());
+  return std::find(extensions.begin(), extensions.end(), ext) != extensions.end();
+}
+
 void RequireFile(const fs::path& path, const std::string& what) {
   std::error_code ec;
-  if (!fs::exists(path, ec)) throw Error(StrCat(path.string(), ": ", what, ": no such file"));
+  if (!fs::exists(path, ec)) {
+    if (ec == std::errc::too_many_symbolic_link_levels) {
+      throw Error(StrCat(path.string(), ": ", what, ": symbolic link loop"));
+    }
+    throw Error(StrCat(path.string(), ": ", what, ": no such file"));
+  }
   if (!fs::is_regular_file(path, ec)) {
     throw Error(StrCat(path.string(), ": ", what, ": not a regular file"));
   }
@@ -95,12 +438,25 @@ void RequireDirectory(const fs::path& path, const std::string& what) {
   }
 }
 
-std::string ReadTextFile(const fs::path& path) {
+std::uintmax_t FileSizeBytes(const fs::path& path) {
+  std::error_code ec;
+  const std::uintmax_t size = fs::file_size(path, ec);
+  if (ec) throw Error(StrCat(path.string(), ": cannot read: ", ec.message()));
+  return size;
+}
+
+std::string ReadTextFile(const fs::path& path, std::uintmax_t max_bytes) {
   RequireFile(path);
+  const std::uintmax_t size = FileSizeBytes(path);
+  if (size > max_bytes) {
+    throw Error(StrCat(path.string(), ": ", size, " bytes, larger than the limit of ", max_bytes,
+                       " bytes for this kind of file"));
+  }
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error(StrCat(path.string(), ": cannot open for reading"));
   std::ostringstream ss;
   ss << in.rdbuf();
+  if (in.bad()) throw Error(StrCat(path.string(), ": read error"));
   return ss.str();
 }
 

@@ -1,33 +1,119 @@
-// File-system helpers. Outputs are written under a temporary name next to the target and renamed
-// at the end, so a failure never leaves a half-written file (or folder) behind.
+// File-system helpers shared by every reader and writer. Inputs are untrusted (docs/formats.md,
+// "Untrusted inputs"): names read from data files are checked before use, outputs are written
+// under a temporary name and renamed at the end (a failure never leaves a half-written file or
+// folder behind), and an output never replaces an input of the same command nor a folder that
+// fringe did not write.
+//
+// Thread safety: the functions may be called from several threads; the temporary-path registry
+// behind signal cleanup is internally synchronised.
 #pragma once
 
+#include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <memory>
 #include <string>
+#include <vector>
 
 namespace fringe::util {
 
 namespace fs = std::filesystem;
 
+// Name of the marker file fringe puts into every output folder it writes. A folder output only
+// replaces an existing folder that holds this marker (or is empty, or matches a legacy layout
+// the caller recognises), so `--out` can never delete a user's own folder.
+inline constexpr const char* kOutputMarkerName = ".fringe-output";
+
+struct OutputFolderOptions {
+  // Files and folders the command reads. The output folder must not be one of them nor contain
+  // one (replacing it would delete the input); checked before anything is written.
+  std::vector<fs::path> inputs;
+  // Recognises a folder fringe wrote before the marker existed (e.g. an old `fringe demo`
+  // output) by its layout, so that such a folder may still be replaced. Null: none.
+  std::function<bool(const fs::path& dir)> legacy_layout;
+};
+
 // Calls write(tmp_path) with a temporary path in the same directory (same extension, so
 // extension-driven writers such as cv::imwrite work), then renames it to `path`. On any
-// exception the temporary is removed and the exception propagates. Throws fringe::Error when
-// the directory does not exist or is not writable.
+// exception the temporary is removed and the exception propagates; errors name `path`, never
+// the temporary. Throws fringe::Error when the directory does not exist or is not writable.
+// Temporaries left by killed runs for the same `path` are removed first; a SIGINT/SIGTERM/SIGHUP
+// during write() removes the temporary before the process ends.
 void WriteAtomically(const fs::path& path, const std::function<void(const fs::path& tmp)>& write);
 
-// Same for a whole output folder: write(tmp_dir) fills a fresh temporary folder which then
-// replaces `dir` (an existing `dir` is removed only after the new one is complete).
-void WriteFolderAtomically(const fs::path& dir,
+// Same for a whole output folder: write(tmp_dir) fills a fresh temporary folder (which gets the
+// marker file) that then replaces `dir`. An existing `dir` is replaced only when
+// CheckOutputFolder() allows it, and removed only after the new one is complete.
+void WriteFolderAtomically(const fs::path& dir, const OutputFolderOptions& options,
                            const std::function<void(const fs::path& tmp_dir)>& write);
+inline void WriteFolderAtomically(const fs::path& dir,
+                                  const std::function<void(const fs::path& tmp_dir)>& write) {
+  WriteFolderAtomically(dir, OutputFolderOptions{}, write);
+}
+
+// Several output files of one command committed together: Stage() checks the location and
+// returns a temporary path beside each output (same extension, so extension-driven writers
+// work); the caller writes every output to its temporary, then Commit() renames them all into
+// place. A failure before Commit() (an exception, a signal) leaves no output and no temporary:
+// the destructor removes uncommitted temporaries.
+class OutputTransaction {
+ public:
+  OutputTransaction() = default;
+  ~OutputTransaction();
+  OutputTransaction(const OutputTransaction&) = delete;
+  OutputTransaction& operator=(const OutputTransaction&) = delete;
+
+  fs::path Stage(const fs::path& path);
+  void Commit();
+
+ private:
+  struct Entry {
+    fs::path path, tmp;
+    std::shared_ptr<void> signal_cleanup;  // keeps `tmp` registered for removal on a signal
+  };
+  std::vector<Entry> entries_;
+};
+
+// Early checks for a command's outputs, to run before any computation (docs/formats.md):
+// CheckOutputFile: the parent folder exists and is writable, `path` is not a folder and is not
+// one of `inputs` (same file, also through links). CheckOutputFolder: the parent exists and is
+// writable, `dir` is not an input and contains no input, and an existing `dir` is empty, holds
+// kOutputMarkerName or matches options.legacy_layout. Both throw fringe::Error naming the path.
+void CheckOutputFile(const fs::path& path, const std::vector<fs::path>& inputs = {});
+void CheckOutputFolder(const fs::path& dir, const OutputFolderOptions& options = {});
+// Several output files of one command must be distinct (two flags naming one file would make
+// the second overwrite the first).
+void CheckDistinctOutputs(const std::vector<fs::path>& outputs);
+
+// Names read from data files (image names in a manifest, files named by a scan folder): a
+// relative path inside its folder, subfolders allowed ("calibration/target.json"), with no
+// empty, "." or ".." component, no absolute path, no backslash or control character, and, when
+// `extensions` is not empty, one of those extensions (lower case with the dot, compared case
+// insensitively). Throws fringe::Error("<context>: <what> '<name>': <problem>").
+void CheckRelativeName(const std::string& name, const std::string& context,
+                       const std::vector<std::string>& extensions = {},
+                       const std::string& what = "file name");
+// The same for a list, plus: no name twice.
+void CheckRelativeNames(const std::vector<std::string>& names, const std::string& context,
+                        const std::vector<std::string>& extensions = {},
+                        const std::string& what = "file name");
+// Image extensions fringe reads and writes (".png", ".tif", ".tiff", ".bmp", ".jpg", ".jpeg",
+// ".pgm", ".ppm", ".pnm").
+const std::vector<std::string>& ImageExtensions();
+// True when `path`'s extension is one of `extensions` (case insensitive).
+bool HasExtension(const fs::path& path, const std::vector<std::string>& extensions);
 
 // Throws fringe::Error("<path>: <what>: no such file") when `path` is not a regular file.
 void RequireFile(const fs::path& path, const std::string& what = "file");
 // Throws fringe::Error when `path` is not a directory.
 void RequireDirectory(const fs::path& path, const std::string& what = "folder");
 
-// Reads a whole text file; throws fringe::Error naming the file on failure.
-std::string ReadTextFile(const fs::path& path);
+// Size of a regular file in bytes; throws fringe::Error naming the file when it cannot be read.
+std::uintmax_t FileSizeBytes(const fs::path& path);
+
+// Reads a whole text file; throws fringe::Error naming the file on failure, and when the file
+// is larger than max_bytes (default 256 MiB: no text input of fringe comes near it).
+std::string ReadTextFile(const fs::path& path, std::uintmax_t max_bytes = std::uintmax_t{1} << 28);
 
 // Environment variable as a flag: set to something other than "", "0", "false".
 bool EnvFlag(const char* name);

@@ -61,6 +61,132 @@ TEST(WriteFolderAtomically, ReplacesExistingFolderOnlyOnSuccess) {
   EXPECT_EQ(ReadTextFile(out / "y"), "3");
 }
 
+TEST(WriteFolderAtomically, RefusesToReplaceAFolderFringeDidNotWrite) {
+  test::TempDir dir;
+  const fs::path out = dir / "photos";
+  fs::create_directories(out);
+  std::ofstream(out / "holiday.jpg") << "precious";
+  try {
+    WriteFolderAtomically(out, [](const fs::path& tmp) { std::ofstream(tmp / "x") << "1"; });
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("was not written by fringe"), std::string::npos)
+        << e.what();
+  }
+  EXPECT_EQ(ReadTextFile(out / "holiday.jpg"), "precious");
+  // A legacy layout the caller recognises may be replaced.
+  OutputFolderOptions legacy;
+  legacy.legacy_layout = [](const fs::path& d) { return fs::exists(d / "holiday.jpg"); };
+  WriteFolderAtomically(out, legacy, [](const fs::path& tmp) { std::ofstream(tmp / "x") << "1"; });
+  EXPECT_TRUE(fs::exists(out / kOutputMarkerName));
+  EXPECT_FALSE(fs::exists(out / "holiday.jpg"));
+}
+
+TEST(WriteFolderAtomically, NeverReplacesAFolderHoldingAnInput) {
+  test::TempDir dir;
+  const fs::path stack = dir / "stack";
+  WriteFolderAtomically(stack, [](const fs::path& tmp) { std::ofstream(tmp / "00.png") << "i"; });
+  OutputFolderOptions options;
+  options.inputs = {stack / "00.png"};
+  EXPECT_THROW(WriteFolderAtomically(stack, options, [](const fs::path&) {}), Error);
+  options.inputs = {dir / "stack/../stack"};
+  try {
+    WriteFolderAtomically(stack, options, [](const fs::path&) {});
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("is also an input"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(ReadTextFile(stack / "00.png"), "i");
+}
+
+TEST(WriteFolderAtomically, RemovesTemporariesOfDeadRuns) {
+  test::TempDir dir;
+  // pid 2^22 + 1 is above Linux's pid_max default ceiling, so no process has it.
+  const fs::path stale = dir / ".scan.tmp4194305_0";
+  fs::create_directories(stale / "views");
+  std::ofstream(stale / "views" / "big.tiff") << "x";
+  const fs::path unrelated = dir / ".scan.tmpnotapid";
+  std::ofstream(unrelated) << "keep";
+  WriteFolderAtomically(dir / "scan", [](const fs::path& tmp) { std::ofstream(tmp / "a") << 1; });
+  EXPECT_FALSE(fs::exists(stale));
+  EXPECT_TRUE(fs::exists(unrelated));
+}
+
+TEST(CheckOutputFile, RefusesAnInputAndAMissingFolder) {
+  test::TempDir dir;
+  std::ofstream(dir / "rig.json") << "{}";
+  EXPECT_THROW(CheckOutputFile(dir / "rig.json", {dir / "rig.json"}), Error);
+  fs::create_hard_link(dir / "rig.json", dir / "link.json");
+  EXPECT_THROW(CheckOutputFile(dir / "link.json", {dir / "rig.json"}), Error);
+  EXPECT_THROW(CheckOutputFile(dir / "nodir" / "r.tiff"), Error);
+  EXPECT_NO_THROW(CheckOutputFile(dir / "out.ply", {dir / "rig.json"}));
+  EXPECT_THROW(CheckDistinctOutputs({dir / "a.ply", dir / "./a.ply"}), Error);
+}
+
+TEST(CheckRelativeName, RejectsEscapesAndOddNames) {
+  const auto& img = ImageExtensions();
+  EXPECT_NO_THROW(CheckRelativeName("00.png", "m.json", img));
+  EXPECT_NO_THROW(CheckRelativeName("left/e0/00.PNG", "m.json", img));
+  EXPECT_NO_THROW(CheckRelativeName("calibration/target.json", "scan.json"));
+  for (const std::string& bad :
+       std::vector<std::string>{"", ".", "../x.png", "a/../../x.png", "/etc/passwd.png", "a//b.png",
+                                "./a.png", "a\\b.png", std::string("a\nb.png"), "x.exe"}) {
+    EXPECT_THROW(CheckRelativeName(bad, "m.json", img), Error) << bad;
+  }
+  try {
+    CheckRelativeNames({"a.png", "b.png", "a.png"}, "m.json", img, "image name");
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_STREQ(e.what(), "m.json: image name 'a.png' appears twice");
+  }
+  try {
+    CheckRelativeName("../../etc/x.png", "m.json", img, "image name");
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("m.json: image name '../../etc/x.png': '..'"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
+TEST(CheckRange, NamesContextFieldAndBounds) {
+  try {
+    CheckRange(100000, 1, 4096, "m.json", "steps");
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_STREQ(e.what(), "m.json: steps = 100000: must be in [1, 4096]");
+  }
+}
+
+TEST(ReadTextFile, RefusesOversizedFiles) {
+  test::TempDir dir;
+  std::ofstream(dir / "a.txt") << std::string(100, 'x');
+  EXPECT_THROW(ReadTextFile(dir / "a.txt", 50), Error);
+  EXPECT_EQ(ReadTextFile(dir / "a.txt").size(), 100u);
+}
+
+TEST(OutputTransaction, CommitsAllOrNothing) {
+  test::TempDir dir;
+  {
+    OutputTransaction tx;
+    std::ofstream(tx.Stage(dir / "r.ply")) << "cloud";
+    EXPECT_THROW(tx.Stage(dir / "nodir" / "res.tiff"), Error);
+  }  // not committed: nothing left
+  EXPECT_TRUE(fs::is_empty(dir.path()));
+  OutputTransaction tx;
+  const fs::path a = tx.Stage(dir / "r.ply");
+  EXPECT_EQ(a.extension(), ".ply");
+  std::ofstream(a) << "cloud";
+  std::ofstream(tx.Stage(dir / "res.tiff")) << "res";
+  EXPECT_THROW(tx.Stage(dir / "r.ply"), Error);
+  tx.Commit();
+  EXPECT_EQ(ReadTextFile(dir / "r.ply"), "cloud");
+  EXPECT_EQ(ReadTextFile(dir / "res.tiff"), "res");
+  int n = 0;
+  for (auto& e : fs::directory_iterator(dir.path())) n += e.is_regular_file() ? 1 : 0;
+  EXPECT_EQ(n, 2);
+}
+
 TEST(RequireFile, NamesFileAndProblem) {
   try {
     RequireFile("/nonexistent/file.png", "image");

@@ -1,0 +1,525 @@
+#include "fringe/io/opencv_calibration.h"
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <memory>
+#include <opencv2/core.hpp>
+#include <sstream>
+
+#include "fringe/io/calibration_io.h"
+#include "fringe/util/error.h"
+#include "fringe/util/files.h"
+
+namespace fringe::io {
+namespace {
+
+namespace fs = std::filesystem;
+using util::StrCat;
+
+constexpr std::uintmax_t kMaxOpenCvFileBytes = std::uintmax_t{16} << 20;
+constexpr int kMaxIndentColumns = 512;
+
+// Key spellings, most common first. Matched exactly (OpenCV keys are case sensitive).
+const std::vector<std::string> kLeftK = {"M1",
+                                         "K1",
+                                         "cameraMatrix1",
+                                         "cameraMatrixL",
+                                         "camera_matrix_left",
+                                         "cameraMatrixLeft",
+                                         "K_left",
+                                         "KL",
+                                         "Kl",
+                                         "M_l",
+                                         "leftCameraMatrix",
+                                         "camera_matrix",
+                                         "cameraMatrix",
+                                         "K"};
+const std::vector<std::string> kLeftD = {"D1",
+                                         "distCoeffs1",
+                                         "distCoeffsL",
+                                         "dist_coeffs_left",
+                                         "distCoeffsLeft",
+                                         "D_left",
+                                         "DL",
+                                         "Dl",
+                                         "D_l",
+                                         "leftDistCoeffs",
+                                         "distortion_coefficients",
+                                         "dist_coeffs",
+                                         "distCoeffs",
+                                         "D"};
+const std::vector<std::string> kRightK = {"M2",
+                                          "K2",
+                                          "cameraMatrix2",
+                                          "cameraMatrixR",
+                                          "camera_matrix_right",
+                                          "cameraMatrixRight",
+                                          "K_right",
+                                          "KR",
+                                          "Kr",
+                                          "M_r",
+                                          "rightCameraMatrix"};
+const std::vector<std::string> kRightD = {
+    "D2", "distCoeffs2", "distCoeffsR", "dist_coeffs_right", "distCoeffsRight", "D_right",
+    "DR", "Dr",          "D_r",         "rightDistCoeffs"};
+const std::vector<std::string> kProjK = {"M3",
+                                         "M4",
+                                         "K3",
+                                         "K4",
+                                         "Kp",
+                                         "K_p",
+                                         "KP",
+                                         "Mp",
+                                         "projectorMatrix",
+                                         "cameraMatrixP",
+                                         "camera_matrix_projector",
+                                         "projector_matrix",
+                                         "K_projector",
+                                         "projectorCameraMatrix"};
+const std::vector<std::string> kProjD = {"D3",          "D4",
+                                         "Dp",          "D_p",
+                                         "DP",          "projectorDistCoeffs",
+                                         "distCoeffsP", "dist_coeffs_projector",
+                                         "D_projector"};
+const std::vector<std::string> kRightR = {"R", "Rlr", "R_l2r", "R_lr", "R12", "Rl2r", "R_LR"};
+const std::vector<std::string> kRightT = {"T", "Tlr", "T_l2r", "T_lr", "T12", "Tl2r", "T_LR"};
+const std::vector<std::string> kProjR = {"Rlp",  "R_l2p", "R_lp", "R13",
+                                         "Rl2p", "R_LP",  "Rp",   "R_p"};
+const std::vector<std::string> kProjT = {"Tlp",  "T_l2p", "T_lp", "T13",
+                                         "Tl2p", "T_LP",  "Tp",   "T_p"};
+
+// A value found in one of the files.
+struct Found {
+  fs::path file;
+  std::string key;
+  cv::Mat m;  // CV_64F, one row
+};
+
+class Files {
+ public:
+  explicit Files(const std::vector<fs::path>& paths) {
+    for (const fs::path& p : paths) {
+      util::RequireFile(p, "OpenCV calibration");
+      CheckOpenCvFileBounds(p);
+      auto storage = std::make_unique<cv::FileStorage>();
+      try {
+        storage->open(p.string(), cv::FileStorage::READ);
+      } catch (const cv::Exception& e) {
+        throw Error(StrCat(p.string(), ": cannot parse as OpenCV YAML/XML: ", e.err));
+      }
+      if (!storage->isOpened()) {
+        throw Error(StrCat(p.string(), ": cannot parse as OpenCV YAML/XML"));
+      }
+      storages_.emplace_back(p, std::move(storage));
+    }
+  }
+
+  // The first spelling present in any file; an error when two files (or two spellings) hold it.
+  std::optional<Found> Matrix(const std::vector<std::string>& spellings, const char* what) const {
+    std::optional<Found> found;
+    for (const auto& [path, fs] : storages_) {
+      for (const std::string& key : spellings) {
+        const cv::FileNode node = (*fs)[key];
+        if (node.empty() || node.isNone()) continue;
+        if (found) {
+          throw Error(StrCat(path.string(), ": ", key, " and ", found->file.string(), ": ",
+                             found->key, " both give the ", what,
+                             "; keep one (fringe will not guess)"));
+        }
+        cv::Mat m;
+        try {
+          if (!node.isMap() && !node.isSeq()) throw cv::Exception();
+          if (node.isSeq()) {
+            std::vector<double> v;
+            node >> v;
+            m = cv::Mat(v, true);
+          } else {
+            node >> m;
+          }
+        } catch (const cv::Exception&) {
+          m = cv::Mat();
+        }
+        if (m.empty()) {
+          throw Error(StrCat(path.string(), ": ", key, " (", what,
+                             "): not a matrix (expected !!opencv-matrix or a list of numbers)"));
+        }
+        m.convertTo(m, CV_64F);
+        m = m.reshape(1, 1).clone();
+        for (int i = 0; i < m.cols; ++i) {
+          if (!std::isfinite(m.at<double>(i))) {
+            throw Error(
+                StrCat(path.string(), ": ", key, " (", what, "): entry ", i, " is not finite"));
+          }
+        }
+        found = Found{path, key, m};
+      }
+    }
+    return found;
+  }
+
+  // An integer pair (width, height) under one of the spellings, or {0, 0}.
+  std::pair<int, int> Size(const std::vector<std::pair<std::string, std::string>>& pairs,
+                           const std::vector<std::string>& vectors, std::string* source) const {
+    for (const auto& [path, fs] : storages_) {
+      for (const auto& [wk, hk] : pairs) {
+        const cv::FileNode w = (*fs)[wk], h = (*fs)[hk];
+        if (w.isInt() && h.isInt()) {
+          *source = StrCat(path.filename().string(), ": ", wk, " ", hk);
+          return {static_cast<int>(w), static_cast<int>(h)};
+        }
+      }
+      for (const std::string& k : vectors) {
+        const cv::FileNode n = (*fs)[k];
+        if (n.isSeq() && n.size() == 2 && n[0].isInt() && n[1].isInt()) {
+          *source = StrCat(path.filename().string(), ": ", k);
+          return {static_cast<int>(n[0]), static_cast<int>(n[1])};
+        }
+        if (n.isMap()) {
+          // A 2-element !!opencv-matrix (SLMaster's "S: [1280., 1024.]").
+          cv::Mat m;
+          try {
+            n >> m;
+          } catch (const cv::Exception&) {
+            continue;
+          }
+          if (m.total() != 2 || m.channels() != 1) continue;
+          m.convertTo(m, CV_64F);
+          const double w = m.at<double>(0), h = m.at<double>(1);
+          if (w >= 1 && h >= 1 && w <= util::kMaxImageSidePx && h <= util::kMaxImageSidePx &&
+              w == std::floor(w) && h == std::floor(h)) {
+            *source = StrCat(path.filename().string(), ": ", k);
+            return {static_cast<int>(w), static_cast<int>(h)};
+          }
+        }
+      }
+    }
+    return {0, 0};
+  }
+
+ private:
+  std::vector<std::pair<fs::path, std::unique_ptr<cv::FileStorage>>> storages_;
+};
+
+std::string Where(const Found& f) { return StrCat(f.file.string(), ": ", f.key); }
+
+CameraModel Camera(const Found& k, const std::optional<Found>& d, int width, int height,
+                   const char* device) {
+  if (k.m.cols != 9) {
+    throw Error(StrCat(Where(k), " (", device, " camera matrix): ", k.m.cols,
+                       " entries, expected a 3x3 matrix"));
+  }
+  const double* a = k.m.ptr<double>();
+  if (a[1] != 0 || a[3] != 0 || a[6] != 0 || a[7] != 0 || a[8] != 1) {
+    // Skew or a scaled matrix: fringe's model has neither.
+    throw Error(StrCat(Where(k), " (", device,
+                       " camera matrix): expected [fx 0 cx; 0 fy cy; 0 0 1] (no skew)"));
+  }
+  CameraModel c;
+  c.width = width;
+  c.height = height;
+  c.fx = a[0];
+  c.cx = a[2];
+  c.fy = a[4];
+  c.cy = a[5];
+  std::array<double, 5> dist{0, 0, 0, 0, 0};
+  if (d) {
+    const int n = d->m.cols;
+    if (n != 4 && n != 5 && n != 8 && n != 12 && n != 14) {
+      throw Error(StrCat(Where(*d), " (", device, " distortion): ", n,
+                         " coefficients; expected 4 or 5 (k1 k2 p1 p2 [k3])"));
+    }
+    for (int i = 5; i < n; ++i) {
+      if (d->m.at<double>(i) != 0) {
+        throw Error(StrCat(Where(*d), " (", device, " distortion): ", n,
+                           " coefficients (OpenCV's rational / thin-prism / tilt model); fringe's "
+                           "model is k1 k2 p1 p2 k3 and coefficient ",
+                           i, " is ", d->m.at<double>(i),
+                           ", not 0: recalibrate with the 5-coefficient model"));
+      }
+    }
+    for (int i = 0; i < std::min(n, 5); ++i) dist[i] = d->m.at<double>(i);
+  }
+  c.SetDistortion(dist);
+  try {
+    c.Check();
+  } catch (const Error& e) {
+    throw Error(StrCat(Where(k), " (", device, " camera): ", e.what()));
+  }
+  CheckPlausibleCamera(c, StrCat(Where(k), " (", device, " camera)"));
+  return c;
+}
+
+Rigid3d Extrinsics(const Found& r, const Found& t, const char* what) {
+  Eigen::Matrix3d m;
+  if (r.m.cols == 9) {
+    for (int i = 0; i < 9; ++i) m(i / 3, i % 3) = r.m.at<double>(i);
+  } else if (r.m.cols == 3) {
+    // A Rodrigues vector (as cv::stereoCalibrate's callers sometimes save om).
+    const Eigen::Vector3d om(r.m.at<double>(0), r.m.at<double>(1), r.m.at<double>(2));
+    const double angle = om.norm();
+    m = angle > 0 ? Eigen::AngleAxisd(angle, om / angle).toRotationMatrix()
+                  : Eigen::Matrix3d::Identity();
+  } else {
+    throw Error(StrCat(Where(r), " (", what, " rotation): ", r.m.cols,
+                       " entries, expected a 3x3 matrix or a 3-vector"));
+  }
+  CheckRotationMatrix(m, StrCat(Where(r), " (", what, " rotation)"));
+  if (t.m.cols != 3) {
+    throw Error(StrCat(Where(t), " (", what, " translation): ", t.m.cols, " entries, expected 3"));
+  }
+  return Rigid3d(m, Eigen::Vector3d(t.m.at<double>(0), t.m.at<double>(1), t.m.at<double>(2)));
+}
+
+}  // namespace
+
+void CheckOpenCvFileBounds(const fs::path& path) {
+  const std::uintmax_t size = util::FileSizeBytes(path);
+  if (size > kMaxOpenCvFileBytes) {
+    throw Error(StrCat(path.string(), ": ", size, " bytes, larger than the ", kMaxOpenCvFileBytes,
+                       " bytes an OpenCV calibration file can plausibly need"));
+  }
+  const std::string text = util::ReadTextFile(path, kMaxOpenCvFileBytes);
+  const auto fail = [&](int line, const std::string& what) {
+    throw Error(StrCat(path.string(), ": line ", line, ": ", what));
+  };
+  int line = 1, flow = 0, xml = 0;
+  bool line_start = true, in_quote = false;
+  int indent = 0, dashes = 0;
+  char quote = 0;
+  size_t next_close = 0;
+  for (size_t i = 0; i < text.size(); ++i) {
+    const char c = text[i];
+    if (c == '\n') {
+      ++line;
+      line_start = true;
+      indent = dashes = 0;
+      in_quote = false;
+      continue;
+    }
+    if (in_quote) {
+      if (c == quote) in_quote = false;
+      continue;
+    }
+    if (line_start && c == ' ') {
+      if (++indent > kMaxIndentColumns) fail(line, "indented deeper than fringe accepts");
+      continue;
+    }
+    line_start = false;
+    // "- " opens a nested block sequence, also several on one line ("key: - - - 1").
+    if (c == '-' && i + 1 < text.size() && text[i + 1] == ' ' &&
+        (i == 0 || text[i - 1] == ' ' || text[i - 1] == ':' || text[i - 1] == '\n')) {
+      if (++dashes > util::kMaxNestingDepth) fail(line, "YAML sequences nested too deeply");
+      continue;
+    }
+    if (c == '"' || c == '\'') {
+      in_quote = true;
+      quote = c;
+    } else if (c == '[' || c == '{') {
+      if (++flow > util::kMaxNestingDepth) fail(line, "YAML brackets nested too deeply");
+    } else if (c == ']' || c == '}') {
+      flow = std::max(0, flow - 1);
+    } else if (c == '<' && i + 1 < text.size()) {
+      const char n = text[i + 1];
+      if (n == '/') {
+        xml = std::max(0, xml - 1);
+      } else if (std::isalpha(static_cast<unsigned char>(n)) || n == '_') {
+        // Self-closing "<a/>" does not nest.
+        if (next_close != std::string::npos && next_close <= i) next_close = text.find('>', i);
+        const size_t close = next_close;  // amortised: each '>' is found once
+        if (close == std::string::npos || text[close - 1] != '/') {
+          if (++xml > util::kMaxNestingDepth) fail(line, "XML elements nested too deeply");
+        }
+      }
+    }
+  }
+  // Declared matrix sizes: OpenCV allocates rows x cols before reading the data, so a few bytes
+  // could ask for gigabytes. Every element takes at least one byte of the file.
+  for (const char* key : {"rows", "cols"}) {
+    for (const std::string& pattern : {StrCat(key, ":"), StrCat("<", key, ">")}) {
+      for (size_t pos = text.find(pattern); pos != std::string::npos;
+           pos = text.find(pattern, pos + 1)) {
+        const char* p = text.c_str() + pos + pattern.size();
+        char* end = nullptr;
+        const double v = std::strtod(p, &end);
+        if (end == p) continue;
+        if (!(v >= 0 && v <= static_cast<double>(size))) {
+          const int l = 1 + static_cast<int>(std::count(text.begin(), text.begin() + pos, '\n'));
+          fail(l, StrCat("matrix ", key, " = ", v, " exceeds what the file's ", size,
+                         " bytes can hold"));
+        }
+      }
+    }
+  }
+  // rows x cols together (both bounded above, so the product cannot overflow a double).
+  size_t pos = 0;
+  while ((pos = text.find("rows", pos)) != std::string::npos) {
+    const size_t cpos = text.find("cols", pos);
+    pos += 4;
+    if (cpos == std::string::npos || cpos - pos > 64) continue;
+    const double r =
+        std::strtod(text.c_str() + pos + (text[pos] == ':' || text[pos] == '>'), nullptr);
+    const double c = std::strtod(
+        text.c_str() + cpos + 4 + (text[cpos + 4] == ':' || text[cpos + 4] == '>'), nullptr);
+    if (r * c > static_cast<double>(size)) {
+      const int l = 1 + static_cast<int>(std::count(text.begin(), text.begin() + cpos, '\n'));
+      fail(l, StrCat("matrix of ", r, " x ", c, " elements exceeds what the file's ", size,
+                     " bytes can hold"));
+    }
+  }
+}
+
+OpenCvCalibration ReadOpenCvCalibration(const std::vector<fs::path>& paths, int camera_width,
+                                        int camera_height) {
+  if (paths.empty()) throw Error("no OpenCV calibration file given");
+  const Files files(paths);
+  OpenCvCalibration out;
+  auto note = [&](const std::optional<Found>& f, const char* what) {
+    if (f) out.keys_used.push_back(StrCat(Where(*f), " -> ", what));
+  };
+  const auto lk = files.Matrix(kLeftK, "left camera matrix");
+  const auto ld = files.Matrix(kLeftD, "left distortion");
+  const auto rk = files.Matrix(kRightK, "right camera matrix");
+  const auto rd = files.Matrix(kRightD, "right distortion");
+  const auto pk = files.Matrix(kProjK, "projector matrix");
+  const auto pd = files.Matrix(kProjD, "projector distortion");
+  const auto rr = files.Matrix(kRightR, "right_from_left rotation");
+  const auto rt = files.Matrix(kRightT, "right_from_left translation");
+  const auto pr = files.Matrix(kProjR, "projector_from_left rotation");
+  const auto pt = files.Matrix(kProjT, "projector_from_left translation");
+  const std::string names = [&] {
+    std::string s;
+    for (const auto& p : paths) s += (s.empty() ? "" : ", ") + p.string();
+    return s;
+  }();
+  if (!lk) {
+    throw Error(StrCat(names, ": no camera matrix found (looked for ", kLeftK[0], ", ", kLeftK[1],
+                       ", ", kLeftK[2], ", ... ; docs/formats.md lists the spellings)"));
+  }
+  std::string size_source;
+  auto [w, h] = files.Size({{"image_width", "image_height"},
+                            {"imageWidth", "imageHeight"},
+                            {"width", "height"},
+                            {"camera_width", "camera_height"}},
+                           {"imageSize", "image_size", "img_size", "imgSize", "S"}, &size_source);
+  if (w > 0 && h > 0) {
+    out.keys_used.push_back(StrCat(size_source, " -> camera image size ", w, "x", h));
+  } else {
+    w = camera_width;
+    h = camera_height;
+    if (w < 0 && lk->m.cols == 9) {
+      // Description only (fringe info): twice the principal point stands in for the size.
+      w = std::max(1, static_cast<int>(std::lround(2 * lk->m.at<double>(2))));
+      h = std::max(1, static_cast<int>(std::lround(2 * lk->m.at<double>(5))));
+      out.keys_used.push_back(StrCat("image size not in the file; assumed ", w, "x", h,
+                                     " (twice the principal point) for this description"));
+    } else if (w <= 0 || h <= 0) {
+      throw Error(StrCat(names,
+                         ": the camera image size is not in the file (image_width/"
+                         "image_height or imageSize) and was not given"));
+    }
+    if (camera_width > 0) {
+      out.keys_used.push_back(StrCat("camera image size ", w, "x", h, " given (not in the file)"));
+    }
+  }
+  util::CheckRange(w, 1, util::kMaxImageSidePx, names, "camera image width");
+  util::CheckRange(h, 1, util::kMaxImageSidePx, names, "camera image height");
+  note(lk, "left camera matrix");
+  note(ld, "left distortion");
+  out.left = Camera(*lk, ld, w, h, "left");
+  if (rk) {
+    note(rk, "right camera matrix");
+    note(rd, "right distortion");
+    out.right = Camera(*rk, rd, w, h, "right");
+  } else if (rd) {
+    throw Error(StrCat(Where(*rd), ": right distortion without a right camera matrix"));
+  }
+  if (pk) {
+    std::string psource;
+    const auto [pw, ph] = files.Size({{"projector_width", "projector_height"},
+                                      {"projectorWidth", "projectorHeight"},
+                                      {"proj_width", "proj_height"}},
+                                     {"projectorSize", "projector_size", "projSize"}, &psource);
+    if (pw > 0 && ph > 0) {
+      util::CheckRange(pw, 1, util::kMaxImageSidePx, names, "projector width");
+      util::CheckRange(ph, 1, util::kMaxImageSidePx, names, "projector height");
+      note(pk, "projector matrix");
+      note(pd, "projector distortion");
+      out.keys_used.push_back(StrCat(psource, " -> projector size ", pw, "x", ph));
+      out.projector = Camera(*pk, pd, pw, ph, "projector");
+    } else {
+      out.keys_used.push_back(StrCat(Where(*pk),
+                                     ": projector ignored (its size is not in the file: "
+                                     "projector_width/projector_height or projectorSize)"));
+    }
+  }
+  // R/T describe the second device: the right camera, or the projector when the file has one
+  // camera and a projector (camera-projector systems).
+  if (rr || rt) {
+    if (!rr || !rt) {
+      throw Error(StrCat(Where(rr ? *rr : *rt), ": rotation and translation come in pairs"));
+    }
+    if (out.right || !pk) {
+      out.right_from_left = Extrinsics(*rr, *rt, "right_from_left");
+      note(rr, "right_from_left rotation");
+      note(rt, "right_from_left translation (mm)");
+    } else if (out.projector && !pr) {
+      out.projector_from_left = Extrinsics(*rr, *rt, "projector_from_left");
+      note(rr, "projector_from_left rotation");
+      note(rt, "projector_from_left translation (mm)");
+    }
+  }
+  if (pr || pt) {
+    if (!pr || !pt) {
+      throw Error(StrCat(Where(pr ? *pr : *pt), ": rotation and translation come in pairs"));
+    }
+    if (out.projector) {
+      out.projector_from_left = Extrinsics(*pr, *pt, "projector_from_left");
+      note(pr, "projector_from_left rotation");
+      note(pt, "projector_from_left translation (mm)");
+    }
+  }
+  if (out.projector && !out.projector_from_left) {
+    out.keys_used.push_back("projector ignored: no projector extrinsics (Rlp/Tlp or similar)");
+    out.projector.reset();
+  }
+  return out;
+}
+
+StereoRig OpenCvCalibration::ToRig(const std::string& context) const {
+  if (!left || !right || !right_from_left) {
+    std::string have = left ? "left camera" : "";
+    if (right) have += ", right camera";
+    if (projector) have += ", projector";
+    throw Error(StrCat(context,
+                       ": fringe reconstructs with two cameras and their extrinsics "
+                       "(R/T); the file holds: ",
+                       have.empty() ? "nothing usable" : have));
+  }
+  StereoRig rig;
+  rig.left = *left;
+  rig.right = *right;
+  rig.right_from_left = *right_from_left;
+  if (projector && projector_from_left) {
+    rig.projector = *projector;
+    rig.projector_from_left = *projector_from_left;
+  }
+  return rig;
+}
+
+std::string OpenCvCalibration::Describe() const {
+  std::ostringstream os;
+  os << "  devices:";
+  if (left) os << " left camera";
+  if (right) os << ", right camera";
+  if (projector) os << ", projector";
+  os << "\n";
+  for (const auto& k : keys_used) os << "  " << k << "\n";
+  if (right_from_left) {
+    os << "  baseline " << right_from_left->translation().norm() << " (file units, taken as mm)\n";
+  }
+  return os.str();
+}
+
+}  // namespace fringe::io

@@ -1,0 +1,58 @@
+// Calibration files written by OpenCV-based tools (cv::FileStorage YAML / XML): any subset of
+// devices (two cameras + extrinsics, one camera + projector + extrinsics, or all three) under
+// the usual key spellings, e.g.
+//   left camera   M1 K1 cameraMatrix1 cameraMatrixL camera_matrix_left ... / D1 distCoeffs1 ...
+//   right camera  M2 K2 cameraMatrix2 cameraMatrixR camera_matrix_right ... / D2 distCoeffs2 ...
+//   projector     M3 M4 Kp K_p projectorMatrix cameraMatrixP ... / D3 D4 Dp projectorDistCoeffs
+//   right_from_left      R T, Rlr Tlr, R_l2r T_l2r, R_lr T_lr, R12 T12
+//   projector_from_left  Rlp Tlp, R_l2p T_l2p, R_lp T_lp, R13 T13, Rp Tp
+// (docs/formats.md lists them all). Rectification outputs (R1 R2 P1 P2 Q) are not extrinsics
+// and are never taken for them. Translations are in the file's length unit, taken as mm.
+// Distortion: fringe's model is OpenCV's k1 k2 p1 p2 [k3]; longer vectors (8, 12, 14
+// coefficients: rational, thin-prism, tilt models) are an error unless the extra coefficients
+// are exactly zero, never silently truncated.
+//
+// Files are untrusted: before a file reaches OpenCV's recursive parser its size, nesting depth
+// and every declared matrix size are checked against the file (CheckOpenCvFileBounds).
+#pragma once
+
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "fringe/geometry/camera.h"
+#include "fringe/geometry/rigid3.h"
+#include "fringe/geometry/stereo_rig.h"
+
+namespace fringe::io {
+
+struct OpenCvCalibration {
+  std::optional<CameraModel> left, right, projector;
+  std::optional<Rigid3d> right_from_left, projector_from_left;
+  // What was read from where, e.g. "intrinsic.yml: M1 -> left camera matrix", and notes.
+  std::vector<std::string> keys_used;
+
+  // The rig fringe reconstructs with: needs both cameras and right_from_left (the projector is
+  // kept when present with projector_from_left). Throws fringe::Error naming `context` and what
+  // is missing.
+  StereoRig ToRig(const std::string& context) const;
+  // Devices and keys, one per line (for `fringe info` and the reconstruct log).
+  std::string Describe() const;
+};
+
+// Reads the devices from one or more files (stereo_calib writes intrinsics and extrinsics
+// separately; a key found in two files is an error). Image sizes come from the files when they
+// hold them (image_width/image_height, imageSize, image_size, width/height; the projector's
+// from projector_width/projector_height, projectorSize, projector_size), else from
+// camera_width/height (> 0; -1: assume twice the principal point, for descriptions only); a
+// projector of unknown size is dropped with a note.
+OpenCvCalibration ReadOpenCvCalibration(const std::vector<std::filesystem::path>& files,
+                                        int camera_width = 0, int camera_height = 0);
+
+// Throws fringe::Error naming the file when it is larger than 16 MiB, nests deeper than
+// util::kMaxNestingDepth (flow brackets, "- " sequences, XML elements) or indents more than 512
+// columns, or declares a matrix (rows x cols) with more elements than the file has bytes.
+void CheckOpenCvFileBounds(const std::filesystem::path& path);
+
+}  // namespace fringe::io

@@ -1,0 +1,128 @@
+#include "fringe/io/opencv_calibration.h"
+
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <string>
+
+#include "fringe/util/error.h"
+#include "fringe_test.h"
+
+namespace fringe::io {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string Matrix(const std::string& key, int rows, int cols, const std::string& data) {
+  return key + ": !!opencv-matrix\n   rows: " + std::to_string(rows) +
+         "\n   cols: " + std::to_string(cols) + "\n   dt: d\n   data: [ " + data + " ]\n";
+}
+
+const char* kK = "1000., 0., 320., 0., 1001., 240., 0., 0., 1.";
+const char* kD = "-0.1, 0.05, 0.001, -0.002, 0.";
+const char* kR = "0.9998, 0., 0.0199987, 0., 1., 0., -0.0199987, 0., 0.9998";
+
+fs::path Yaml(const test::TempDir& dir, const std::string& name, const std::string& body) {
+  const fs::path p = dir / name;
+  std::ofstream(p) << "%YAML:1.0\n---\n" << body;
+  return p;
+}
+
+std::string ErrorOf(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(OpenCvCalibration, ReadsTheUsualKeySpellingsAndSaysWhichItUsed) {
+  test::TempDir dir;
+  // stereo_calib's M1/D1/M2/D2 + R/T, cameraMatrix1/distCoeffs1 + Rlr/Tlr, K_left + R_l2r.
+  const std::vector<std::array<std::string, 6>> spellings = {
+      {"M1", "D1", "M2", "D2", "R", "T"},
+      {"cameraMatrix1", "distCoeffs1", "cameraMatrix2", "distCoeffs2", "Rlr", "Tlr"},
+      {"K_left", "D_left", "K_right", "D_right", "R_l2r", "T_l2r"}};
+  for (const auto& k : spellings) {
+    const fs::path f = Yaml(
+        dir, "c.yml",
+        "image_width: 640\nimage_height: 480\n" + Matrix(k[0], 3, 3, kK) + Matrix(k[1], 1, 5, kD) +
+            Matrix(k[2], 3, 3, kK) + Matrix(k[3], 5, 1, kD) + Matrix(k[4], 3, 3, kR) +
+            Matrix(k[5], 3, 1, "-150., 0.5, 1.") + Matrix("R1", 3, 3, "1, 0, 0, 0, 1, 0, 0, 0, 1"));
+    const OpenCvCalibration cv = ReadOpenCvCalibration({f});
+    const StereoRig rig = cv.ToRig("c.yml");
+    EXPECT_EQ(rig.left.width, 640);
+    EXPECT_DOUBLE_EQ(rig.left.fy, 1001.0);
+    EXPECT_DOUBLE_EQ(rig.right.k1, -0.1);
+    EXPECT_DOUBLE_EQ(rig.right.p2, -0.002);
+    EXPECT_NEAR(rig.BaselineMm(), std::sqrt(150.0 * 150 + 0.25 + 1), 1e-9);
+    const std::string d = cv.Describe();
+    for (const auto& key : k) EXPECT_NE(d.find(": " + key + " -> "), std::string::npos) << d;
+  }
+}
+
+TEST(OpenCvCalibration, CameraProjectorFileAndSizeFromTheFile) {
+  test::TempDir dir;
+  const fs::path f =
+      Yaml(dir, "cp.yml",
+           Matrix("S", 2, 1, "1280., 1024.") + Matrix("M1", 3, 3, kK) + Matrix("D1", 1, 5, kD) +
+               Matrix("M4", 3, 3, kK) + Matrix("D4", 1, 5, kD) +
+               "projector_width: 1920\n"
+               "projector_height: 1080\n" +
+               Matrix("Rlp", 3, 3, kR) + Matrix("Tlp", 3, 1, "100., 0., 0."));
+  const OpenCvCalibration cv = ReadOpenCvCalibration({f});
+  ASSERT_TRUE(cv.left && cv.projector && cv.projector_from_left);
+  EXPECT_FALSE(cv.right);
+  EXPECT_EQ(cv.left->width, 1280);
+  EXPECT_EQ(cv.projector->width, 1920);
+  // fringe reconstructs with two cameras: the error says what the file holds.
+  const std::string msg = ErrorOf([&] { cv.ToRig("cp.yml"); });
+  EXPECT_NE(msg.find("the file holds: left camera, projector"), std::string::npos) << msg;
+}
+
+TEST(OpenCvCalibration, LongDistortionAndBadRotationsAreErrors) {
+  test::TempDir dir;
+  const std::string cams = "image_width: 640\nimage_height: 480\n" + Matrix("M1", 3, 3, kK) +
+                           Matrix("M2", 3, 3, kK) + Matrix("T", 3, 1, "-150., 0., 0.");
+  std::string msg = ErrorOf([&] {
+    ReadOpenCvCalibration({Yaml(
+        dir, "d8.yml",
+        cams + Matrix("R", 3, 3, kR) + Matrix("D1", 1, 8, "0.1, 0.2, 0., 0., 0.3, 0.01, 0., 0."))});
+  });
+  EXPECT_NE(msg.find("d8.yml: D1 (left distortion): 8 coefficients"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("coefficient 5 is 0.01"), std::string::npos) << msg;
+  // Trailing exact zeros lose nothing and are accepted.
+  EXPECT_NO_THROW(ReadOpenCvCalibration({Yaml(
+      dir, "d8z.yml",
+      cams + Matrix("R", 3, 3, kR) + Matrix("D1", 1, 8, "0.1, 0.2, 0., 0., 0.3, 0., 0., 0."))}));
+  for (const char* r : {"0, 0, 0, 0, 0, 0, 0, 0, 0", "2, 0, 0, 0, 2, 0, 0, 0, 2"}) {
+    msg =
+        ErrorOf([&] { ReadOpenCvCalibration({Yaml(dir, "r.yml", cams + Matrix("R", 3, 3, r))}); });
+    EXPECT_NE(msg.find("r.yml: R (right_from_left rotation): not a rotation matrix"),
+              std::string::npos)
+        << msg;
+  }
+  msg = ErrorOf([&] {
+    ReadOpenCvCalibration({Yaml(dir, "s.yml", cams + Matrix("R", 3, 3, kR) + "D1: \"abc\"\n")});
+  });
+  EXPECT_NE(msg.find("s.yml: D1 (left distortion): not a matrix"), std::string::npos) << msg;
+  // Two spellings of one device: fringe does not guess.
+  msg = ErrorOf([&] {
+    ReadOpenCvCalibration(
+        {Yaml(dir, "two.yml", cams + Matrix("R", 3, 3, kR) + Matrix("K1", 3, 3, kK))});
+  });
+  EXPECT_NE(msg.find("both give the left camera matrix"), std::string::npos) << msg;
+}
+
+TEST(OpenCvCalibration, SplitFilesAsStereoCalibWritesThem) {
+  FRINGE_SHARED_DATA_OR_SKIP(data, "slsdk-stereo-phasegray");
+  const OpenCvCalibration cv =
+      ReadOpenCvCalibration({data / "intrinsic.yml", data / "extrinsic.yml"}, 2048, 1536);
+  const StereoRig rig = cv.ToRig("slsdk");
+  EXPECT_NEAR(rig.BaselineMm(), 302, 5);  // ../shared/data/README.md
+  EXPECT_NE(cv.Describe().find("extrinsic.yml: R -> right_from_left rotation"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace fringe::io

@@ -338,9 +338,9 @@ int main(int argc, char** argv) {
   }
   std::sort(times.begin(), times.end());
   const PointCloud demo_cloud = demo_rec.cloud.Compact();
-  sim::TriangleMesh mesh = demo.CombinedMesh();
+  TriangleMesh mesh = demo.CombinedMesh();
   mesh.Transform(demo_pose.Inverse());
-  const eval::MeshDistance mesh_distance(mesh.vertices, mesh.triangles);
+  const eval::MeshDistance mesh_distance(std::move(mesh));
   const eval::DeviationStats dev = eval::DeviationFromMesh(demo_cloud, mesh_distance);
   int lit = 0, covered = 0;
   const sim::CameraTruth& dt = demo_view.left.truth;

@@ -35,7 +35,7 @@ namespace {
 // Casts the primary rays of both cameras (n x n per pixel) with Open3D; returns seconds.
 double Open3dPrimaryRays(const sim::Scene& scene, const StereoRig& rig,
                          const Rigid3d& world_from_sensor, int n) {
-  const sim::TriangleMesh mesh = scene.CombinedMesh();
+  const TriangleMesh mesh = scene.CombinedMesh();
   open3d::core::Tensor vertices({static_cast<int64_t>(mesh.vertices.size()), 3},
                                 open3d::core::Float32);
   open3d::core::Tensor triangles({static_cast<int64_t>(mesh.triangles.size()), 3},

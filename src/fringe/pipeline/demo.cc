@@ -13,6 +13,7 @@
 #include "fringe/eval/vdi2634.h"
 #include "fringe/io/calibration_io.h"
 #include "fringe/io/image_io.h"
+#include "fringe/io/mesh_io.h"
 #include "fringe/io/ply.h"
 #include "fringe/phase/pattern_scheme.h"
 #include "fringe/phase/stack_io.h"
@@ -204,8 +205,7 @@ DemoSummary RunDemo(const DemoOptions& options, const fs::path& out_dir) {
     {
       const fs::path truth = dir / "scan-demo" / "truth";
       const Rigid3d world_from_sensor = ReadWorldFromSensor(truth / "poses.json", 0);
-      const io::PlyData mesh = io::ReadPly(truth / "scene.ply");
-      const eval::MeshDistance distance(mesh.cloud.points, mesh.triangles);
+      const eval::MeshDistance distance(io::ReadMesh(truth / "scene.ply"));
       // Distances on the grid, for the picture.
       PointCloud grid_world = Transformed(part.cloud.cloud, world_from_sensor);
       std::vector<double> d_grid(part.cloud.valid.size(), std::numeric_limits<double>::quiet_NaN());

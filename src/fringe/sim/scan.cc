@@ -9,6 +9,7 @@
 
 #include "fringe/io/calibration_io.h"
 #include "fringe/io/image_io.h"
+#include "fringe/io/mesh_io.h"
 #include "fringe/phase/pattern_scheme.h"
 #include "fringe/sim/markers.h"
 #include "fringe/util/error.h"
@@ -276,7 +277,8 @@ ScanSummary SimulateScan(const StereoRig& rig, const ScanOptions& options,
   util::WriteFolderAtomically(out_dir, [&](const fs::path& tmp) {
     fs::create_directories(tmp / "truth");
     io::WriteRig(tmp / "truth" / "rig.json", rig);
-    WriteMesh(tmp / "truth" / "scene.ply", scene.CombinedMesh());
+    io::WriteMesh(tmp / "truth" / "scene.ply", scene.CombinedMesh(),
+                  {"fringe virtual scanner scene, world frame, mm"});
     json objects = json::array();
     for (const SceneObject& o : scene.objects()) {
       json j = {{"name", o.name},

@@ -3,6 +3,7 @@
 #include <filesystem>
 #include <iostream>
 #include <memory>
+#include <optional>
 
 #include "fringe/cli/cli.h"
 #include "fringe/io/calibration_io.h"
@@ -11,6 +12,7 @@
 #include "fringe/phase/pattern_scheme.h"
 #include "fringe/phase/stack_io.h"
 #include "fringe/registration/markers.h"
+#include "fringe/scan/scan_folder.h"
 #include "fringe/stereo/reconstruct_view.h"
 #include "fringe/util/error.h"
 
@@ -61,9 +63,9 @@ void AddReconstructCommand(CLI::App& app) {
   sub->add_option("--opencv-extrinsics", a->cv_extrinsics,
                   "With --opencv-intrinsics: OpenCV stereo extrinsics (R T, millimetres)");
   sub->add_option("--scheme", a->scheme,
-                  "Scheme manifest or preset name; default VIEW/manifest.json, "
-                  "VIEW/left/manifest.json, VIEW/../manifest.json or, in a scan folder, "
-                  "VIEW/../../scheme.json");
+                  "Scheme manifest or preset name; default: in a scan folder the scheme its "
+                  "scan.json names, else VIEW/manifest.json, VIEW/left/manifest.json or "
+                  "VIEW/../manifest.json");
   sub->add_option("--out", a->out, "Output PLY (organized: keeps the left camera grid)")
       ->required();
   sub->add_option("--residuals", a->residuals,
@@ -98,13 +100,16 @@ void AddReconstructCommand(CLI::App& app) {
       throw Error(util::StrCat("reconstruct: ", view.string(),
                                " must contain left/ and right/ (or L/ and R/) image folders"));
     }
+    // In a scan folder (ROOT/views/NNN) the scheme is the one its manifest names; elsewhere a
+    // manifest beside the images.
+    const std::optional<fs::path> scan_root = scan::ScanFolder::RootOfView(view);
     const std::string scheme_arg =
-        a->scheme.empty() ? FirstExisting({view / "manifest.json", view / "left" / "manifest.json",
-                                           view.parent_path() / "manifest.json",
-                                           view.parent_path().parent_path() / "scheme.json"},
-                                          "scheme manifest", "--scheme")
-                                .string()
-                          : a->scheme;
+        !a->scheme.empty() ? a->scheme
+        : scan_root ? (*scan_root / scan::ScanFolder::Open(*scan_root).manifest().scheme).string()
+                    : FirstExisting({view / "manifest.json", view / "left" / "manifest.json",
+                                     view.parent_path() / "manifest.json"},
+                                    "scheme manifest", "--scheme")
+                          .string();
     const phase::PatternScheme scheme = phase::SchemeFromNameOrFile(scheme_arg);
     const auto left = phase::ReadStack(left_dir, scheme);
     const auto right = phase::ReadStack(right_dir, scheme);

@@ -1,5 +1,7 @@
 #include "fringe/io/image_io.h"
 
+#include <algorithm>
+#include <cctype>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -33,6 +35,30 @@ void CheckSize(const std::filesystem::path& path, const cv::Mat& img,
 }
 
 }  // namespace
+
+const std::vector<std::string>& ImageExtensions() {
+  static const std::vector<std::string> kExtensions = {".png", ".tif",  ".tiff", ".bmp",
+                                                       ".jpg", ".jpeg", ".pgm"};
+  return kExtensions;
+}
+
+bool IsImageFile(const std::filesystem::path& path) {
+  std::string ext = path.extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  const auto& all = ImageExtensions();
+  return std::find(all.begin(), all.end(), ext) != all.end();
+}
+
+std::vector<std::string> ListImageFiles(const std::filesystem::path& dir) {
+  util::RequireDirectory(dir, "image folder");
+  std::vector<std::string> names;
+  for (const auto& e : std::filesystem::directory_iterator(dir)) {
+    if (e.is_regular_file() && IsImageFile(e.path())) names.push_back(e.path().filename().string());
+  }
+  std::sort(names.begin(), names.end());
+  return names;
+}
 
 cv::Mat ReadGrayImage(const std::filesystem::path& path, std::optional<cv::Size> expected_size) {
   cv::Mat img = ReadAny(path);

@@ -15,14 +15,6 @@ namespace {
 
 using util::StrCat;
 
-bool IsImageFile(const std::filesystem::path& p) {
-  std::string ext = p.extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(),
-                 [](unsigned char c) { return std::tolower(c); });
-  return ext == ".png" || ext == ".tif" || ext == ".tiff" || ext == ".bmp" || ext == ".jpg" ||
-         ext == ".jpeg" || ext == ".pgm";
-}
-
 void Write(const std::filesystem::path& path, const cv::Mat& m) {
   if (!cv::imwrite(path.string(), m)) throw Error(StrCat(path.string(), ": cannot write image"));
 }
@@ -36,7 +28,7 @@ std::vector<cv::Mat> ReadStack(const std::filesystem::path& dir, const PatternSc
   std::vector<std::string> extra;
   for (const auto& entry : std::filesystem::directory_iterator(dir)) {
     const auto name = entry.path().filename().string();
-    if (entry.is_regular_file() && IsImageFile(entry.path()) && !expected.count(name)) {
+    if (entry.is_regular_file() && io::IsImageFile(entry.path()) && !expected.count(name)) {
       extra.push_back(name);
     }
   }

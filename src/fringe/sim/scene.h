@@ -29,6 +29,7 @@
 #include "fringe/geometry/point_cloud.h"
 #include "fringe/geometry/rigid3.h"
 #include "fringe/geometry/triangle_mesh.h"
+#include "fringe/scan/truth.h"
 
 namespace fringe::sim {
 
@@ -49,13 +50,9 @@ struct SceneObject {
   std::optional<Sphere> sphere;
 };
 
-struct Marker {
-  int id = 0;
-  Eigen::Vector3d centre_in_world = Eigen::Vector3d::Zero();   // on the surface, mm
-  Eigen::Vector3d normal_in_world = Eigen::Vector3d::UnitZ();  // outward unit surface normal
-  double inner_radius_mm = 1.5;                                // white disk radius
-  double outer_radius_mm = 2.5;                                // black ring outer radius
-};
+// Markers are the scan folder's truth records (scan/truth.h): the same type in the scene, the
+// renderer and truth/markers.json.
+using Marker = scan::Marker;
 
 class Scene {
  public:

@@ -17,6 +17,7 @@
 //
 // Usage: bench_reconstruction [--json] [--quick]   (--quick: fewer positions, no calibration)
 #include <tbb/global_control.h>
+#include <CLI/CLI.hpp>
 
 #include <Eigen/Geometry>
 #include <algorithm>
@@ -175,10 +176,10 @@ double AngleDeg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
 int main(int argc, char** argv) {
   using namespace fringe;
   bool json_out = false, quick = false;
-  for (int i = 1; i < argc; ++i) {
-    if (!std::strcmp(argv[i], "--json")) json_out = true;
-    if (!std::strcmp(argv[i], "--quick")) quick = true;
-  }
+  CLI::App app("bench_reconstruction: accuracy and speed of one-view reconstruction");
+  app.add_flag("--json", json_out, "Print one JSON object");
+  app.add_flag("--quick", quick, "Fewer positions, no calibration");
+  CLI11_PARSE(app, argc, argv);
   Context ctx;
   ctx.patterns = phase::GeneratePatterns(ctx.scheme, ctx.render.projector.gamma);
   ctx.sigma_dn = std::sqrt(std::pow(ctx.render.sensor.read_noise_dn, 2) + 1.0 / 12);

@@ -59,6 +59,15 @@ std::string DescribeJson(const fs::path& path) {
   const nlohmann::json j = io::ReadJson(path);
   std::ostringstream os;
   const std::string format = j.is_object() ? j.value("format", std::string()) : std::string();
+  if (format == "fringe-rig" && j.contains("camera") && !j.contains("cameras")) {
+    const StereoRig rig = io::RigFromJson(j, path.string());
+    os << path.string() << ": single-camera calibration\n";
+    os << "  camera:    " << DescribeCamera(rig.left) << "\n";
+    if (j.contains("calibration") && j["calibration"].contains("rms_px")) {
+      os << "  RMS reprojection error: " << j["calibration"]["rms_px"] << " px\n";
+    }
+    return os.str();
+  }
   if (format == "fringe-rig") {
     const StereoRig rig = io::RigFromJson(j, path.string());
     os << path.string() << ": rig calibration\n";

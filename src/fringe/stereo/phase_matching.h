@@ -92,7 +92,16 @@ struct MatchingOptions {
   void Check() const;
 };
 
+enum class MatchingStatus {
+  kOk = 0,
+  kNoValidPixels,  // no left pixel had a valid phase
+  kNoPoints,       // valid pixels, but none was matched and kept
+};
+const char* ToString(MatchingStatus status);
+
 struct MatchingSummary {
+  MatchingStatus status = MatchingStatus::kOk;
+  std::string message;    // why, when status is not kOk
   int left_valid = 0;     // left pixels with a valid phase (and enough modulation)
   int no_crossing = 0;    // the phase does not occur on the rectified right row
   int ambiguous = 0;      // it occurs more than once
@@ -105,6 +114,7 @@ struct MatchingSummary {
   int points = 0;
   double mean_reprojection_error_px = 0;
   double time_s = 0;
+  bool ok() const { return status == MatchingStatus::kOk; }
   std::string BriefReport() const;
 };
 

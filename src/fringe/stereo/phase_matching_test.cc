@@ -53,6 +53,16 @@ Errors Compare(const StereoRig& rig, const testing::TrueView& truth, const Match
   return e;
 }
 
+// A 40 mm sphere 480 mm in front of the sensor, midway between the cameras, before a plane at
+// 560 mm: occlusions, a grazing limb and a depth jump.
+Scene SphereBeforePlane(const StereoRig& rig) {
+  Scene scene;
+  scene.spheres.push_back(
+      {Eigen::Vector3d(0, 0, 480) + rig.right_from_left.Inverse().translation() / 2, 40});
+  scene.planes.push_back({Eigen::Vector3d(0, 0, -1), -560});
+  return scene;
+}
+
 int LitPixels(const cv::Mat& phase) {
   int n = 0;
   for (int r = 0; r < phase.rows; ++r) {
@@ -98,10 +108,7 @@ TEST(PhaseMatching, SphereBeforePlaneHasNoWrongMatches) {
   constexpr double kMaxLimbErrorMm = 0.5;
   constexpr double kMinCoverage = 0.8;
   const StereoRig rig = testing::ScaledReferenceRig(kRigScale);
-  Scene scene;
-  scene.spheres.push_back(
-      {Eigen::Vector3d(0, 0, 480) + rig.right_from_left.Inverse().translation() / 2, 40});
-  scene.planes.push_back({Eigen::Vector3d(0, 0, -1), -560});
+  const Scene scene = SphereBeforePlane(rig);
   const auto left = testing::TraceView(rig, scene, false);
   const auto right = testing::TraceView(rig, scene, true);
   MatchingOptions options;
@@ -124,10 +131,7 @@ TEST(PhaseMatching, SphereBeforePlaneHasNoWrongMatches) {
 // oversubscribed arena of 8 give bit-identical clouds, matches and counts.
 TEST(PhaseMatching, IndependentOfThreadCount) {
   const StereoRig rig = testing::ScaledReferenceRig(kRigScale);
-  Scene scene;
-  scene.spheres.push_back(
-      {Eigen::Vector3d(0, 0, 480) + rig.right_from_left.Inverse().translation() / 2, 40});
-  scene.planes.push_back({Eigen::Vector3d(0, 0, -1), -560});
+  const Scene scene = SphereBeforePlane(rig);
   const auto left = testing::TraceView(rig, scene, false);
   const auto right = testing::TraceView(rig, scene, true);
   MatchResult a, b;

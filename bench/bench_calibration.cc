@@ -17,6 +17,7 @@
 // Usage: bench_calibration [--json] [--poses N] [--seed S]
 // The top-level JSON keys are the rings board's; "circles" holds the same keys for solid
 // circles, "tilt_bins" the per-tilt centre errors.
+#include <CLI/CLI.hpp>
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
@@ -333,18 +334,13 @@ int main(int argc, char** argv) {
   bool as_json = false;
   int count = 18;
   uint64_t seed = 5;
-  for (int i = 1; i < argc; ++i) {
-    if (!std::strcmp(argv[i], "--json")) {
-      as_json = true;
-    } else if (!std::strcmp(argv[i], "--poses") && i + 1 < argc) {
-      count = std::max(3, std::atoi(argv[++i]));
-    } else if (!std::strcmp(argv[i], "--seed") && i + 1 < argc) {
-      seed = std::strtoull(argv[++i], nullptr, 10);
-    } else {
-      std::cerr << "usage: bench_calibration [--json] [--poses N] [--seed S]\n";
-      return 2;
-    }
-  }
+  CLI::App app("bench_calibration: board detection and stereo calibration, ours vs OpenCV");
+  app.add_flag("--json", as_json, "Print one JSON object");
+  app.add_option("--poses", count, "Board poses")
+      ->check(CLI::Range(3, 1000))
+      ->capture_default_str();
+  app.add_option("--seed", seed, "Board pose seed")->capture_default_str();
+  CLI11_PARSE(app, argc, argv);
   const StereoRig rig = StereoRig::Reference();
   const CalibrationTarget rings = CalibrationTarget::Reference();
   CalibrationTarget circles = rings;

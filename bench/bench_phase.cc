@@ -11,6 +11,7 @@
 // sqrt(2/N) sigma_I / B is exact.
 #include <tbb/global_control.h>
 #include <tbb/task_arena.h>
+#include <CLI/CLI.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -258,18 +259,15 @@ int main(int argc, char** argv) {
   int repeats = 15;
   std::filesystem::path data;
   if (auto d = util::SharedDataDir()) data = *d;
-  for (int i = 1; i < argc; ++i) {
-    if (!std::strcmp(argv[i], "--json")) {
-      as_json = true;
-    } else if (!std::strcmp(argv[i], "--repeats") && i + 1 < argc) {
-      repeats = std::max(1, std::atoi(argv[++i]));
-    } else if (!std::strcmp(argv[i], "--data") && i + 1 < argc) {
-      data = argv[++i];
-    } else {
-      std::cerr << "usage: bench_phase [--json] [--repeats N] [--data DIR]\n";
-      return 2;
-    }
-  }
+  CLI::App app("bench_phase: fringe analysis accuracy and speed, against OpenCV structured_light");
+  app.add_flag("--json", as_json, "Print one JSON object");
+  app.add_option("--repeats", repeats, "Timing repeats (median)")
+      ->check(CLI::Range(1, 1000))
+      ->capture_default_str();
+  std::string data_arg;
+  app.add_option("--data", data_arg, "Shared data folder (default ../shared/data)");
+  CLI11_PARSE(app, argc, argv);
+  if (!data_arg.empty()) data = data_arg;
   json out;
   out["camera"] = {{"width", kCamera.width}, {"height", kCamera.height}};
   out["threads"] = tbb::this_task_arena::max_concurrency();

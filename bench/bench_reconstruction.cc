@@ -20,6 +20,7 @@
 // Usage: bench_reconstruction [--json] [--quick] [--finest-set-only]   (--quick: fewer positions,
 // no calibration; --finest-set-only: absolute phase from the finest set alone, as before issue 10)
 #include <tbb/global_control.h>
+#include <CLI/CLI.hpp>
 
 #include <Eigen/Geometry>
 #include <algorithm>
@@ -181,11 +182,12 @@ double AngleDeg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
 int main(int argc, char** argv) {
   using namespace fringe;
   bool json_out = false, quick = false, finest_only = false;
-  for (int i = 1; i < argc; ++i) {
-    if (!std::strcmp(argv[i], "--json")) json_out = true;
-    if (!std::strcmp(argv[i], "--quick")) quick = true;
-    if (!std::strcmp(argv[i], "--finest-set-only")) finest_only = true;
-  }
+  CLI::App app("bench_reconstruction: accuracy and speed of one-view reconstruction");
+  app.add_flag("--json", json_out, "Print one JSON object");
+  app.add_flag("--quick", quick, "Fewer positions, no calibration");
+  app.add_flag("--finest-set-only", finest_only,
+               "Absolute phase from the finest set alone (as before issue 10)");
+  CLI11_PARSE(app, argc, argv);
   Context ctx;
   ctx.whole_stack = !finest_only;
   ctx.patterns = phase::GeneratePatterns(ctx.scheme, ctx.render.projector.gamma);
@@ -350,9 +352,9 @@ int main(int argc, char** argv) {
   }
   std::sort(times.begin(), times.end());
   const PointCloud demo_cloud = demo_rec.cloud.Compact();
-  sim::TriangleMesh mesh = demo.CombinedMesh();
+  TriangleMesh mesh = demo.CombinedMesh();
   mesh.Transform(demo_pose.Inverse());
-  const eval::MeshDistance mesh_distance(mesh.vertices, mesh.triangles);
+  const eval::MeshDistance mesh_distance(std::move(mesh));
   const eval::DeviationStats dev = eval::DeviationFromMesh(demo_cloud, mesh_distance);
   int lit = 0, covered = 0;
   const sim::CameraTruth& dt = demo_view.left.truth;

@@ -8,6 +8,7 @@
 // patterns + sensor model) with its primary rays alone.
 //
 //   build/bench/bench_sim [--json] [--supersampling N]
+#include <CLI/CLI.hpp>
 #include <cstdio>
 #include <cstring>
 #include <ctime>
@@ -35,7 +36,7 @@ namespace {
 // Casts the primary rays of both cameras (n x n per pixel) with Open3D; returns seconds.
 double Open3dPrimaryRays(const sim::Scene& scene, const StereoRig& rig,
                          const Rigid3d& world_from_sensor, int n) {
-  const sim::TriangleMesh mesh = scene.CombinedMesh();
+  const TriangleMesh mesh = scene.CombinedMesh();
   open3d::core::Tensor vertices({static_cast<int64_t>(mesh.vertices.size()), 3},
                                 open3d::core::Float32);
   open3d::core::Tensor triangles({static_cast<int64_t>(mesh.triangles.size()), 3},
@@ -88,18 +89,15 @@ int main(int argc, char** argv) {
   bool json = false;
   bool peer = true;
   int n = 3;
-  for (int i = 1; i < argc; ++i) {
-    if (!std::strcmp(argv[i], "--json")) {
-      json = true;
-    } else if (!std::strcmp(argv[i], "--no-peer")) {
-      peer = false;
-    } else if (!std::strcmp(argv[i], "--supersampling") && i + 1 < argc) {
-      n = std::atoi(argv[++i]);
-    } else {
-      std::fprintf(stderr, "usage: bench_sim [--json] [--no-peer] [--supersampling N]\n");
-      return 2;
-    }
-  }
+  bool no_peer = false;
+  CLI::App app("bench_sim: virtual scanner speed, Open3D ray casting as a peer");
+  app.add_flag("--json", json, "Print one JSON object");
+  app.add_flag("--no-peer", no_peer, "Skip the Open3D peer");
+  app.add_option("--supersampling", n, "Samples per pixel side")
+      ->check(CLI::Range(1, 16))
+      ->capture_default_str();
+  CLI11_PARSE(app, argc, argv);
+  peer = !no_peer;
   const StereoRig rig = StereoRig::Reference();
   util::Timer timer;
   const sim::Scene scene = sim::MakeDemoPart();

@@ -8,6 +8,7 @@
 #include "fringe/cli/cli.h"
 #include "fringe/io/calibration_io.h"
 #include "fringe/io/image_io.h"
+#include "fringe/io/mesh_io.h"
 #include "fringe/io/ply.h"
 #include "fringe/phase/pattern_scheme.h"
 #include "fringe/sim/poses.h"
@@ -64,7 +65,7 @@ TEST(ReconstructCli, SimulatedSphereViewToVdiFigures) {
   WriteStack(dir / "right", scheme, view.right.images);
   phase::WriteScheme(dir / "manifest.json", scheme);
   io::WriteRig(dir / "rig.json", rig);
-  sim::WriteMesh(tmp / "truth.ply", scene.CombinedMesh());
+  io::WriteMesh(tmp / "truth.ply", scene.CombinedMesh());
   io::WriteJson(tmp / "pose.json", io::RigidToJson(world_from_sensor));
 
   std::string out, err;

@@ -19,21 +19,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-std::vector<std::string> ImageNames(const fs::path& dir) {
-  std::vector<std::string> out;
-  for (const auto& e : fs::directory_iterator(dir)) {
-    if (!e.is_regular_file()) continue;
-    std::string ext = e.path().extension().string();
-    std::transform(ext.begin(), ext.end(), ext.begin(), ::tolower);
-    if (ext == ".png" || ext == ".jpg" || ext == ".jpeg" || ext == ".tif" || ext == ".tiff" ||
-        ext == ".bmp") {
-      out.push_back(e.path().filename().string());
-    }
-  }
-  std::sort(out.begin(), out.end());
-  return out;
-}
-
 nlohmann::json ViewsJson(const CalibrationSummary& s) {
   nlohmann::json views = nlohmann::json::array();
   for (const auto& v : s.views) {
@@ -115,10 +100,10 @@ FolderCalibration CalibrateFolder(const fs::path& dir, const CalibrationTarget& 
   FolderCalibration out;
   out.stereo = fs::is_directory(dir / "left") && fs::is_directory(dir / "right");
   const fs::path ldir = out.stereo ? dir / "left" : dir;
-  out.names = ImageNames(ldir);
+  out.names = io::ListImageFiles(ldir);
   if (out.names.empty()) throw Error(util::StrCat(ldir.string(), ": no images found"));
   if (out.stereo) {
-    const auto rnames = ImageNames(dir / "right");
+    const auto rnames = io::ListImageFiles(dir / "right");
     if (rnames != out.names) {
       throw Error(util::StrCat(dir.string(),
                                ": left/ and right/ must hold images of the same "

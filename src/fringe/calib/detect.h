@@ -20,8 +20,8 @@
 // to the image's +x, so a stereo pair seeing the board alike orders it alike; a rotation of the
 // board frame by 180 degrees in its own plane does not change intrinsics.
 //
-// Chessboards: OpenCV's findChessboardCornersSB (fallback findChessboardCorners +
-// cornerSubPix). Asymmetric circle grids (CalibrationTarget's layout: odd rows shifted by half
+// Chessboards: OpenCV's findChessboardCorners + cornerSubPix first, findChessboardCornersSB
+// (exhaustive, accuracy flag) when that finds no complete board. Asymmetric circle grids (CalibrationTarget's layout: odd rows shifted by half
 // a spacing) are grown like symmetric ones and mapped onto the board by the unimodular basis
 // change that covers it completely and right-handed; unique, so no orientation ambiguity.
 // (OpenCV's findCirclesGrid expects its own asymmetric lattice, x = (2 col + row % 2) d,

@@ -9,10 +9,12 @@
 #include <tuple>
 #include <vector>
 
+#include "fringe/calib/calibrate_folder.h"
 #include "fringe/cli/cli.h"
 #include "fringe/io/calibration_io.h"
 #include "fringe/io/ply.h"
 #include "fringe/sim/scan.h"
+#include "fringe/util/error.h"
 #include "fringe/util/files.h"
 #include "fringe_test.h"
 
@@ -346,6 +348,25 @@ TEST(CliBadInput, FailuresWithoutAResultExit1) {
                    nullptr, &err),
             1);
   EXPECT_NE(err.find("nope.json: scheme manifest: no such file"), std::string::npos) << err;
+}
+
+// What `fringe calibrate` writes for one camera is a rig file the readers and `fringe info`
+// accept (issue 9: ReadRig used to throw "missing 'cameras'").
+TEST(Cli, InfoAndReadRigOnASingleCameraCalibration) {
+  test::TempDir dir;
+  calib::FolderCalibration cal;
+  cal.stereo = false;
+  cal.mono.camera = StereoRig::Reference().left;
+  cal.mono.summary.final_rms_px = 0.125;
+  calib::WriteFolderCalibration(dir / "mono.json", cal);
+  const StereoRig rig = io::ReadRig(dir / "mono.json");
+  EXPECT_TRUE(rig.left == cal.mono.camera);
+  EXPECT_EQ(rig.BaselineMm(), 0.0);  // no second camera: a stereo consumer's Check() refuses it
+  EXPECT_THROW(rig.Check(), Error);
+  std::string out, err;
+  EXPECT_EQ(RunCli({"info", (dir / "mono.json").string()}, &out, &err), 0) << err;
+  EXPECT_NE(out.find("single-camera calibration"), std::string::npos) << out;
+  EXPECT_NE(out.find("1280x1024"), std::string::npos) << out;
 }
 
 }  // namespace

@@ -10,6 +10,7 @@
 #include "fringe/eval/vdi2634.h"
 #include "fringe/io/calibration_io.h"
 #include "fringe/io/image_io.h"
+#include "fringe/io/mesh_io.h"
 #include "fringe/io/ply.h"
 #include "fringe/util/error.h"
 #include "fringe/util/files.h"
@@ -101,22 +102,18 @@ void AddEvaluateCommand(CLI::App& app) {
     bool ok = true;  // a stage that produces no figure exits 1 after printing why
     if (!a->truth.empty()) {
       const fs::path mesh_path = TruthMesh(a->truth);
-      io::PlyData mesh = io::ReadPly(mesh_path);
-      if (mesh.triangles.empty()) {
-        throw Error(util::StrCat(mesh_path.string(), ": reference mesh has no triangles"));
-      }
-      for (size_t i = 0; i < mesh.cloud.size(); ++i) {
-        if (!mesh.cloud.points[i].allFinite()) {
+      TriangleMesh mesh = io::ReadMesh(mesh_path);  // throws naming the file when empty
+      for (size_t i = 0; i < mesh.vertices.size(); ++i) {
+        if (!mesh.vertices[i].allFinite()) {
           throw Error(util::StrCat(mesh_path.string(), ": vertex ", i,
                                    " is not finite (NaN or infinite coordinates)"));
         }
       }
       // Move the mesh into the cloud's frame (keeps the cloud's grid for the colour map).
       if (!a->pose.empty()) {
-        const Rigid3d cloud_from_mesh = io::RigidFromJson(io::ReadJson(a->pose), a->pose).Inverse();
-        for (auto& v : mesh.cloud.points) v = cloud_from_mesh * v;
+        mesh.Transform(io::RigidFromJson(io::ReadJson(a->pose), a->pose).Inverse());
       }
-      const eval::MeshDistance distance(mesh.cloud.points, mesh.triangles);
+      const eval::MeshDistance distance(std::move(mesh));
       std::vector<double> d;
       const eval::DeviationStats s = eval::DeviationFromMesh(cloud, distance, a->deviation, &d);
       j["truth"] = mesh_path.string();

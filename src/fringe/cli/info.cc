@@ -4,7 +4,7 @@
 #include <memory>
 
 #include "fringe/cli/cli.h"
-#include "fringe/io/describe.h"
+#include "fringe/scan/describe.h"
 
 namespace fringe::cli {
 
@@ -14,7 +14,7 @@ void AddInfoCommand(CLI::App& app) {
       "info", "Print what is in a PLY file, a calibration (rig JSON) or a scan folder");
   sub->add_option("paths", *paths, "Files or folders")->required();
   sub->callback([paths] {
-    for (const auto& p : *paths) std::cout << io::DescribePath(p);
+    for (const auto& p : *paths) std::cout << scan::DescribePath(p);
   });
 }
 

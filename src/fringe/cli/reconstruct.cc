@@ -2,10 +2,8 @@
 #include <CLI/CLI.hpp>
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 #include <iostream>
 #include <memory>
-#include <nlohmann/json.hpp>
 #include <optional>
 
 #include "fringe/cli/cli.h"
@@ -17,6 +15,7 @@
 #include "fringe/phase/pattern_scheme.h"
 #include "fringe/phase/stack_io.h"
 #include "fringe/registration/markers.h"
+#include "fringe/scan/scan_folder.h"
 #include "fringe/stereo/reconstruct_view.h"
 #include "fringe/util/error.h"
 #include "fringe/util/files.h"
@@ -37,29 +36,6 @@ fs::path FirstExisting(const std::vector<fs::path>& candidates, const char* what
   for (const auto& c : candidates) tried += " " + c.string();
   throw Error(
       util::StrCat("reconstruct: no ", what, " given (", flag, ") and none found at", tried));
-}
-
-// The bit depth of a scan folder's images (scan.json "bit_depth", docs/scan-folder.md) when
-// `view` is a view of one (SCAN/views/NNN); nullopt otherwise.
-std::optional<int> ScanBitDepth(const fs::path& view) {
-  const fs::path manifest = view.parent_path().parent_path() / "scan.json";
-  if (view.parent_path().filename() != "views" || !fs::is_regular_file(manifest)) {
-    return std::nullopt;
-  }
-  nlohmann::json j;
-  try {
-    std::ifstream in(manifest);
-    j = nlohmann::json::parse(in);
-  } catch (const std::exception& e) {
-    throw Error(util::StrCat(manifest.string(), ": not valid JSON (", e.what(), ")"));
-  }
-  if (!j.is_object() || !j.contains("bit_depth")) return std::nullopt;
-  const auto& b = j["bit_depth"];
-  if (!b.is_number_integer() || b.get<int>() < 1 || b.get<int>() > 16) {
-    throw Error(util::StrCat(manifest.string(), ": bit_depth must be an integer in [1, 16], got ",
-                             b.dump()));
-  }
-  return b.get<int>();
 }
 
 }  // namespace
@@ -98,9 +74,9 @@ void AddReconstructCommand(CLI::App& app) {
   sub->add_option("--opencv-extrinsics", a->cv_extrinsics,
                   "With --opencv-intrinsics: OpenCV stereo extrinsics (R T, millimetres)");
   sub->add_option("--scheme", a->scheme,
-                  "Scheme manifest or preset name; default VIEW/manifest.json, "
-                  "VIEW/left/manifest.json, VIEW/../manifest.json or, in a scan folder, "
-                  "VIEW/../../scheme.json");
+                  "Scheme manifest or preset name; default: in a scan folder the scheme its "
+                  "scan.json names, else VIEW/manifest.json, VIEW/left/manifest.json or "
+                  "VIEW/../manifest.json");
   AddSchemeFlags(sub, &a->parameters);
   sub->add_option("--out", a->out, "Output PLY (organized: keeps the left camera grid)")
       ->required();
@@ -145,13 +121,16 @@ void AddReconstructCommand(CLI::App& app) {
       throw Error(util::StrCat("reconstruct: ", view.string(),
                                " must contain left/ and right/ (or L/ and R/) image folders"));
     }
+    // In a scan folder (ROOT/views/NNN) the scheme is the one its manifest names; elsewhere a
+    // manifest beside the images.
+    const std::optional<fs::path> scan_root = scan::ScanFolder::RootOfView(view);
     const std::string scheme_arg =
-        a->scheme.empty() ? FirstExisting({view / "manifest.json", view / "left" / "manifest.json",
-                                           view.parent_path() / "manifest.json",
-                                           view.parent_path().parent_path() / "scheme.json"},
-                                          "scheme manifest", "--scheme")
-                                .string()
-                          : a->scheme;
+        !a->scheme.empty() ? a->scheme
+        : scan_root ? (*scan_root / scan::ScanFolder::Open(*scan_root).manifest().scheme).string()
+                    : FirstExisting({view / "manifest.json", view / "left" / "manifest.json",
+                                     view.parent_path() / "manifest.json"},
+                                    "scheme manifest", "--scheme")
+                          .string();
     std::vector<fs::path> opencv_files(a->opencv.begin(), a->opencv.end());
     if (!a->cv_intrinsics.empty() || !a->cv_extrinsics.empty()) {
       if (a->cv_intrinsics.empty() || a->cv_extrinsics.empty()) {
@@ -199,7 +178,10 @@ void AddReconstructCommand(CLI::App& app) {
     } else {
       rig = io::ReadRig(calib_path);
     }
-    if (a->bit_depth == 0) a->bit_depth = ScanBitDepth(view).value_or(0);
+    // In a scan folder the full scale follows the bit depth its manifest states.
+    if (a->bit_depth == 0 && scan_root) {
+      a->bit_depth = scan::ScanFolder::Open(*scan_root).manifest().bit_depth;
+    }
     if (a->bit_depth > 0) a->options.decode.full_scale_dn = std::ldexp(1.0, a->bit_depth) - 1;
     a->options.compute_normals = !a->no_normals;
     a->options.remove_outliers = !a->keep_outliers;

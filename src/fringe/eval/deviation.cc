@@ -15,9 +15,9 @@
 
 namespace fringe::eval {
 
+// The mesh and the pseudo-normals derived from it.
 struct MeshData {
-  std::vector<Eigen::Vector3d> vertices;
-  std::vector<std::array<int32_t, 3>> triangles;
+  TriangleMesh mesh;
   std::vector<Eigen::Vector3d> face_normals;
   std::vector<Eigen::Vector3d> vertex_normals;               // angle-weighted
   std::vector<std::array<Eigen::Vector3d, 3>> edge_normals;  // per triangle: ab, bc, ca
@@ -75,10 +75,10 @@ namespace {
 bool QueryCallback(RTCPointQueryFunctionArguments* args) {
   auto* q = static_cast<Query*>(args->userPtr);
   const MeshData& m = *q->mesh;
-  const auto& t = m.triangles[args->primID];
+  const auto& t = m.mesh.triangles[args->primID];
   int feature = 0;
-  const Eigen::Vector3d c =
-      ClosestOnTriangle(q->p, m.vertices[t[0]], m.vertices[t[1]], m.vertices[t[2]], &feature);
+  const Eigen::Vector3d c = ClosestOnTriangle(q->p, m.mesh.vertices[t[0]], m.mesh.vertices[t[1]],
+                                              m.mesh.vertices[t[2]], &feature);
   const double d2 = (c - q->p).squaredNorm();
   if (d2 >= q->best_sq) return false;
   q->best_sq = d2;
@@ -97,32 +97,23 @@ bool QueryCallback(RTCPointQueryFunctionArguments* args) {
 
 }  // namespace
 
-MeshDistance::MeshDistance(std::vector<Eigen::Vector3d> vertices,
-                           std::vector<std::array<int32_t, 3>> triangles)
-    : impl_(std::make_unique<Impl>()) {
+MeshDistance::MeshDistance(TriangleMesh mesh) : impl_(std::make_unique<Impl>()) {
   MeshData& m = impl_->data;
-  m.vertices = std::move(vertices);
-  m.triangles = std::move(triangles);
-  if (m.triangles.empty()) throw Error("deviation: the reference mesh has no triangles");
-  const int32_t nv = static_cast<int32_t>(m.vertices.size());
-  m.face_normals.resize(m.triangles.size());
-  m.vertex_normals.assign(m.vertices.size(), Eigen::Vector3d::Zero());
-  m.edge_normals.resize(m.triangles.size());
+  m.mesh = std::move(mesh);
+  if (m.mesh.triangles.empty()) throw Error("deviation: the reference mesh has no triangles");
+  m.mesh.Check("deviation: the reference mesh");
+  m.face_normals.resize(m.mesh.triangles.size());
+  m.vertex_normals.assign(m.mesh.vertices.size(), Eigen::Vector3d::Zero());
+  m.edge_normals.resize(m.mesh.triangles.size());
   std::unordered_map<uint64_t, Eigen::Vector3d> edge_sum;
   auto key = [](int32_t a, int32_t b) {
     return (static_cast<uint64_t>(std::min(a, b)) << 32) | static_cast<uint32_t>(std::max(a, b));
   };
-  for (size_t i = 0; i < m.triangles.size(); ++i) {
-    const auto& t = m.triangles[i];
-    for (int k = 0; k < 3; ++k) {
-      if (t[k] < 0 || t[k] >= nv) {
-        throw Error(util::StrCat("deviation: triangle ", i, " has vertex index ", t[k],
-                                 " outside [0, ", nv, ")"));
-      }
-    }
-    const Eigen::Vector3d& a = m.vertices[t[0]];
-    const Eigen::Vector3d& b = m.vertices[t[1]];
-    const Eigen::Vector3d& c = m.vertices[t[2]];
+  for (size_t i = 0; i < m.mesh.triangles.size(); ++i) {
+    const auto& t = m.mesh.triangles[i];
+    const Eigen::Vector3d& a = m.mesh.vertices[t[0]];
+    const Eigen::Vector3d& b = m.mesh.vertices[t[1]];
+    const Eigen::Vector3d& c = m.mesh.vertices[t[2]];
     Eigen::Vector3d n = (b - a).cross(c - a);
     n = n.norm() > 0 ? n.normalized() : Eigen::Vector3d::Zero();
     m.face_normals[i] = n;
@@ -135,8 +126,8 @@ MeshDistance::MeshDistance(std::vector<Eigen::Vector3d> vertices,
       edge_sum[key(t[k], t[(k + 1) % 3])] += n;
     }
   }
-  for (size_t i = 0; i < m.triangles.size(); ++i) {
-    const auto& t = m.triangles[i];
+  for (size_t i = 0; i < m.mesh.triangles.size(); ++i) {
+    const auto& t = m.mesh.triangles[i];
     for (int k = 0; k < 3; ++k) m.edge_normals[i][k] = edge_sum[key(t[k], t[(k + 1) % 3])];
   }
 
@@ -144,15 +135,17 @@ MeshDistance::MeshDistance(std::vector<Eigen::Vector3d> vertices,
   if (!impl_->device) throw Error("deviation: could not create an Embree device");
   impl_->scene = rtcNewScene(impl_->device);
   RTCGeometry geom = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_TRIANGLE);
-  auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(
-      geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), m.vertices.size()));
-  for (size_t i = 0; i < m.vertices.size(); ++i) {
-    for (int k = 0; k < 3; ++k) vb[3 * i + k] = static_cast<float>(m.vertices[i][k]);
+  auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0,
+                                                         RTC_FORMAT_FLOAT3, 3 * sizeof(float),
+                                                         m.mesh.vertices.size()));
+  for (size_t i = 0; i < m.mesh.vertices.size(); ++i) {
+    for (int k = 0; k < 3; ++k) vb[3 * i + k] = static_cast<float>(m.mesh.vertices[i][k]);
   }
-  auto* ib = static_cast<uint32_t*>(rtcSetNewGeometryBuffer(
-      geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(uint32_t), m.triangles.size()));
-  for (size_t i = 0; i < m.triangles.size(); ++i) {
-    for (int k = 0; k < 3; ++k) ib[3 * i + k] = static_cast<uint32_t>(m.triangles[i][k]);
+  auto* ib = static_cast<uint32_t*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0,
+                                                            RTC_FORMAT_UINT3, 3 * sizeof(uint32_t),
+                                                            m.mesh.triangles.size()));
+  for (size_t i = 0; i < m.mesh.triangles.size(); ++i) {
+    for (int k = 0; k < 3; ++k) ib[3 * i + k] = static_cast<uint32_t>(m.mesh.triangles[i][k]);
   }
   rtcCommitGeometry(geom);
   rtcAttachGeometry(impl_->scene, geom);

@@ -21,14 +21,15 @@
 #include <vector>
 
 #include "fringe/geometry/point_cloud.h"
+#include "fringe/geometry/triangle_mesh.h"
 
 namespace fringe::eval {
 
 class MeshDistance {
  public:
-  // Throws fringe::Error for an empty mesh or out-of-range indices.
-  MeshDistance(std::vector<Eigen::Vector3d> vertices,
-               std::vector<std::array<int32_t, 3>> triangles);
+  // Throws fringe::Error for an empty mesh, out-of-range indices or non-finite vertices. Only
+  // vertices and triangles are used (normals come from the triangle order).
+  explicit MeshDistance(TriangleMesh mesh);
   ~MeshDistance();
   MeshDistance(const MeshDistance&) = delete;
   MeshDistance& operator=(const MeshDistance&) = delete;

@@ -10,7 +10,10 @@ namespace fringe::eval {
 namespace {
 
 // Unit cube [0, 1]^3, triangles counter-clockwise seen from outside.
-void Cube(std::vector<Eigen::Vector3d>* v, std::vector<std::array<int32_t, 3>>* t) {
+TriangleMesh Cube() {
+  TriangleMesh m;
+  auto* v = &m.vertices;
+  auto* t = &m.triangles;
   for (int i = 0; i < 8; ++i) v->emplace_back(i & 1, (i >> 1) & 1, (i >> 2) & 1);
   const int quads[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4},
                            {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
@@ -18,16 +21,14 @@ void Cube(std::vector<Eigen::Vector3d>* v, std::vector<std::array<int32_t, 3>>* 
     t->push_back({q[0], q[1], q[2]});
     t->push_back({q[0], q[2], q[3]});
   }
+  return m;
 }
 
 TEST(Deviation, DefaultOptionsPassCheck) { EXPECT_NO_THROW(DeviationOptions().Check()); }
 
 TEST(Deviation, SignedDistancesToACube) {
   constexpr double kTol = 1e-12;
-  std::vector<Eigen::Vector3d> v;
-  std::vector<std::array<int32_t, 3>> t;
-  Cube(&v, &t);
-  const MeshDistance mesh(v, t);
+  const MeshDistance mesh(Cube());
   EXPECT_NEAR(mesh.SignedDistance({0.5, 0.5, 1.1}), 0.1, kTol);   // above the top face
   EXPECT_NEAR(mesh.SignedDistance({0.5, 0.5, 0.9}), -0.1, kTol);  // just inside
   EXPECT_NEAR(mesh.SignedDistance({0.3, -0.2, 0.4}), 0.2, kTol);  // in front of a face
@@ -41,10 +42,7 @@ TEST(Deviation, SignedDistancesToACube) {
 }
 
 TEST(Deviation, StatisticsAndColourMap) {
-  std::vector<Eigen::Vector3d> v;
-  std::vector<std::array<int32_t, 3>> t;
-  Cube(&v, &t);
-  const MeshDistance mesh(v, t);
+  const MeshDistance mesh(Cube());
   PointCloud cloud;
   // 100 points above the top face at heights -0.049 ... +0.050 mm, and one far away.
   for (int i = 0; i < 100; ++i) {
@@ -76,8 +74,11 @@ TEST(Deviation, StatisticsAndColourMap) {
 }
 
 TEST(Deviation, BadMeshThrows) {
-  EXPECT_THROW(MeshDistance({}, {}), Error);
-  EXPECT_THROW(MeshDistance({Eigen::Vector3d::Zero()}, {{0, 1, 2}}), Error);
+  EXPECT_THROW(MeshDistance(TriangleMesh{}), Error);
+  TriangleMesh bad;
+  bad.vertices = {Eigen::Vector3d::Zero()};
+  bad.triangles = {{0, 1, 2}};
+  EXPECT_THROW(MeshDistance(std::move(bad)), Error);
 }
 
 }  // namespace

@@ -69,9 +69,22 @@ void GridNormalOptions::Check() const {
               "must be in [3, 1000]");
 }
 
+const char* ToString(GridNormalStatus status) {
+  switch (status) {
+    case GridNormalStatus::kOk:
+      return "ok";
+    case GridNormalStatus::kNoPoints:
+      return "no points";
+    case GridNormalStatus::kNoNormals:
+      return "no normals";
+  }
+  return "unknown";
+}
+
 std::string GridNormalSummary::BriefReport() const {
-  return util::StrCat("grid normals: ", normals, " normals, ", missing, " points without, ",
-                      edge_points, " edge points, ", time_s, " s");
+  return util::StrCat("grid normals: ", ToString(status), ok() ? "" : " (" + message + ")", ", ",
+                      normals, " normals, ", missing, " points without, ", edge_points,
+                      " edge points, ", time_s, " s");
 }
 
 GridNormalSummary EstimateGridNormals(OrganizedPointCloud* grid, const GridNormalOptions& options) {
@@ -242,6 +255,13 @@ GridNormalSummary EstimateGridNormals(OrganizedPointCloud* grid, const GridNorma
     summary.normals += rs.normals;
     summary.missing += rs.missing;
     summary.edge_points += rs.edge_points;
+  }
+  if (summary.normals == 0) {
+    const bool any = summary.missing > 0;
+    summary.status = any ? GridNormalStatus::kNoNormals : GridNormalStatus::kNoPoints;
+    summary.message = any ? util::StrCat("none of the ", summary.missing, " points has ",
+                                         options.min_points, " usable neighbours")
+                          : "the cloud has no valid point";
   }
   summary.time_s = timer.ElapsedSeconds();
   return summary;

@@ -37,11 +37,21 @@ struct GridNormalOptions {
   void Check() const;
 };
 
+enum class GridNormalStatus {
+  kOk = 0,
+  kNoPoints,   // the cloud has no valid point
+  kNoNormals,  // no point had enough neighbours for a normal
+};
+const char* ToString(GridNormalStatus status);
+
 struct GridNormalSummary {
+  GridNormalStatus status = GridNormalStatus::kOk;
+  std::string message;  // why, when status is not kOk
   int normals = 0;      // points that got a normal
   int missing = 0;      // valid points left without one (too few neighbours)
   int edge_points = 0;  // points next to a depth jump, a hole or the image border
   double time_s = 0;
+  bool ok() const { return status == GridNormalStatus::kOk; }
   std::string BriefReport() const;
 };
 

@@ -2,7 +2,10 @@
 
 #include <gtest/gtest.h>
 
+#include <tbb/task_arena.h>
+
 #include <cmath>
+#include <cstring>
 #include <random>
 
 #include "fringe/geometry/camera.h"
@@ -125,9 +128,31 @@ TEST(GridNormals, NoisySphereBeforePlaneKeepsEdges) {
   EXPECT_LT(sum / n, kMeanTolDeg);
 }
 
+// The header promises results independent of the number of threads: one thread and an
+// oversubscribed arena of 8 give bit-identical normals.
+TEST(GridNormals, IndependentOfThreadCount) {
+  const Scene s = MakeScene(0.02, 560);
+  OrganizedPointCloud one = s.grid, many = s.grid;
+  GridNormalSummary a, b;
+  tbb::task_arena(1).execute([&] { a = EstimateGridNormals(&one); });
+  tbb::task_arena(8).execute([&] { b = EstimateGridNormals(&many); });
+  EXPECT_EQ(a.normals, b.normals);
+  EXPECT_EQ(a.missing, b.missing);
+  EXPECT_EQ(a.edge_points, b.edge_points);
+  ASSERT_EQ(one.cloud.normals.size(), many.cloud.normals.size());
+  int differ = 0;
+  for (size_t i = 0; i < one.cloud.normals.size(); ++i) {
+    differ += std::memcmp(one.cloud.normals[i].data(), many.cloud.normals[i].data(),
+                          3 * sizeof(double)) != 0;
+  }
+  EXPECT_EQ(differ, 0);
+}
+
 TEST(GridNormals, EmptyCloud) {
   OrganizedPointCloud grid(8, 6);
   const GridNormalSummary summary = EstimateGridNormals(&grid);
+  EXPECT_EQ(summary.status, GridNormalStatus::kNoPoints);
+  EXPECT_FALSE(summary.message.empty());
   EXPECT_EQ(summary.normals, 0);
   EXPECT_EQ(grid.cloud.normals.size(), 48u);
 }

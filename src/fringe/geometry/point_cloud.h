@@ -16,7 +16,7 @@ using Color3u8 = std::array<uint8_t, 3>;
 
 struct PointCloud {
   std::vector<Eigen::Vector3d> points;
-  std::vector<Eigen::Vector3d> normals;  // unit length, or empty
+  std::vector<Eigen::Vector3d> normals;  // unit length (NaN: that point has none), or empty
   std::vector<Color3u8> colors;          // RGB, or empty
   std::vector<float> intensity;          // texture grey value (0-255 scale), or empty
   std::vector<float> quality;            // larger is better (e.g. fringe modulation), or empty

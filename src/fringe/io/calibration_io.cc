@@ -181,8 +181,16 @@ StereoRig RigFromJson(const json& j, const std::string& context) {
                        ": a single-camera calibration (\"camera\"), not a stereo rig "
                        "(\"cameras\" with left and right)"));
   }
+  if (j.contains("camera") && !j.contains("cameras")) {
+    // A single-camera file (what `fringe calibrate` writes for one camera): the camera is
+    // `left`; `right` is a copy at zero baseline, so a stereo consumer's rig.Check() refuses it.
+    StereoRig rig;
+    rig.left = CameraFromJson(j["camera"], context + ": camera");
+    rig.right = rig.left;
+    return rig;
+  }
   if (!j.contains("cameras") || !j["cameras"].is_object()) {
-    throw Error(StrCat(context, ": missing 'cameras'"));
+    throw Error(StrCat(context, ": missing 'cameras' (or 'camera' for a single camera)"));
   }
   const json& cams = j["cameras"];
   CheckKnownKeys(cams, {"left", "right", "projector"}, context + ".cameras");

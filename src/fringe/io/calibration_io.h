@@ -30,6 +30,9 @@ nlohmann::json RigidToJson(const Rigid3d& t);
 Rigid3d RigidFromJson(const nlohmann::json& j, const std::string& context);
 
 nlohmann::json RigToJson(const StereoRig& rig);
+// Reads a two-camera rig ({"cameras": {"left", "right", "projector"?}, ...}) or a single-camera
+// file ({"camera": {...}}, written by `fringe calibrate` for one camera). A single camera, or
+// "cameras" without "right", is returned as `left` with `right` a copy of it at zero baseline.
 StereoRig RigFromJson(const nlohmann::json& j, const std::string& context);
 
 // Whole-file helpers; ReadRig also accepts a single-camera file ({"camera": {...}}) and throws

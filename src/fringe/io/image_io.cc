@@ -1,5 +1,7 @@
 #include "fringe/io/image_io.h"
 
+#include <algorithm>
+#include <cctype>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -33,6 +35,22 @@ void CheckSize(const std::filesystem::path& path, const cv::Mat& img,
 }
 
 }  // namespace
+
+const std::vector<std::string>& ImageExtensions() { return util::ImageExtensions(); }
+
+bool IsImageFile(const std::filesystem::path& path) {
+  return util::HasExtension(path, util::ImageExtensions());
+}
+
+std::vector<std::string> ListImageFiles(const std::filesystem::path& dir) {
+  util::RequireDirectory(dir, "image folder");
+  std::vector<std::string> names;
+  for (const auto& e : std::filesystem::directory_iterator(dir)) {
+    if (e.is_regular_file() && IsImageFile(e.path())) names.push_back(e.path().filename().string());
+  }
+  std::sort(names.begin(), names.end());
+  return names;
+}
 
 cv::Mat ReadGrayImage(const std::filesystem::path& path, std::optional<cv::Size> expected_size) {
   cv::Mat img = ReadAny(path);

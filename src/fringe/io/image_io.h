@@ -5,8 +5,19 @@
 #include <filesystem>
 #include <opencv2/core.hpp>
 #include <optional>
+#include <string>
+#include <vector>
 
 namespace fringe::io {
+
+// The image files fringe reads from a folder (fringe stacks, calibration images, captures),
+// case-insensitive: util::ImageExtensions(), the one list (names in data files are checked
+// against the same list).
+const std::vector<std::string>& ImageExtensions();
+bool IsImageFile(const std::filesystem::path& path);
+// Names (not paths) of the regular image files in `dir`, sorted. Throws fringe::Error when `dir`
+// is not a folder.
+std::vector<std::string> ListImageFiles(const std::filesystem::path& dir);
 
 // Reads an image as single-channel CV_8U or CV_16U (colour images are converted to grey).
 // Throws fringe::Error for a missing file, an undecodable file, an unsupported depth, or a size

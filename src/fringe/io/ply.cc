@@ -465,12 +465,23 @@ OrganizedPointCloud ReadOrganizedPly(const std::filesystem::path& path) {
   return grid;
 }
 
+TriangleMesh ReadPlyMesh(const std::filesystem::path& path) {
+  PlyData d = ReadPly(path);
+  TriangleMesh m;
+  m.vertices = std::move(d.cloud.points);
+  m.normals = std::move(d.cloud.normals);
+  m.colors = std::move(d.cloud.colors);
+  m.triangles = std::move(d.triangles);
+  m.Check(path.string());
+  return m;
+}
+
 namespace {
 
 // Writes the vertices `indices` of `cloud` (all when empty) with optional grid indices.
 void WritePlyImpl(const std::filesystem::path& path, const PointCloud& cloud,
                   const std::vector<uint32_t>* grid_index, int grid_w, int grid_h,
-                  const std::vector<std::array<int32_t, 3>>& triangles, PlyFormat format,
+                  const std::vector<TriangleMesh::Triangle>& triangles, PlyFormat format,
                   const std::vector<std::string>& comments) {
   cloud.CheckConsistent();
   static_assert(sizeof(float) == 4, "PLY float must be 4 bytes");
@@ -559,10 +570,20 @@ void WritePlyImpl(const std::filesystem::path& path, const PointCloud& cloud,
 
 }  // namespace
 
-void WritePly(const std::filesystem::path& path, const PointCloud& cloud,
-              const std::vector<std::array<int32_t, 3>>& triangles, PlyFormat format,
+void WritePly(const std::filesystem::path& path, const PointCloud& cloud, PlyFormat format,
               const std::vector<std::string>& comments) {
-  WritePlyImpl(path, cloud, nullptr, 0, 0, triangles, format, comments);
+  WritePlyImpl(path, cloud, nullptr, 0, 0, {}, format, comments);
+}
+
+void WritePly(const std::filesystem::path& path, const TriangleMesh& mesh, PlyFormat format,
+              const std::vector<std::string>& comments) {
+  mesh.Check(path.string());
+  // The writer's vertex record is the cloud's; the copy costs one pass over the vertices.
+  PointCloud cloud;
+  cloud.points = mesh.vertices;
+  cloud.normals = mesh.normals;
+  cloud.colors = mesh.colors;
+  WritePlyImpl(path, cloud, nullptr, 0, 0, mesh.triangles, format, comments);
 }
 
 void WritePly(const std::filesystem::path& path, const OrganizedPointCloud& grid, PlyFormat format,

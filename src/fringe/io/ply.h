@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "fringe/geometry/point_cloud.h"
+#include "fringe/geometry/triangle_mesh.h"
 
 namespace fringe::io {
 
@@ -43,10 +44,12 @@ struct PlyHeader {
   int grid_height = 0;
 };
 
+// What a PLY file holds, element by element: the vertex attributes as a cloud and the face
+// element's triangles. Code that wants a mesh uses ReadPlyMesh / io::ReadMesh (mesh_io.h).
 struct PlyData {
   PlyHeader header;
   PointCloud cloud;
-  std::vector<std::array<int32_t, 3>> triangles;
+  std::vector<TriangleMesh::Triangle> triangles;
   std::vector<uint32_t> grid_index;  // per vertex, when the file has grid_index
 };
 
@@ -56,10 +59,16 @@ PlyHeader ReadPlyHeader(const std::filesystem::path& path);
 PlyData ReadPly(const std::filesystem::path& path);
 // Reads a file written by WritePly(OrganizedPointCloud); throws when it has no grid.
 OrganizedPointCloud ReadOrganizedPly(const std::filesystem::path& path);
+// The file's vertices (with normals and colours when present) and triangles; validated
+// (TriangleMesh::Check), possibly without triangles.
+TriangleMesh ReadPlyMesh(const std::filesystem::path& path);
 
 // Writes atomically (temporary name, then rename). Throws fringe::Error on failure.
 void WritePly(const std::filesystem::path& path, const PointCloud& cloud,
-              const std::vector<std::array<int32_t, 3>>& triangles = {},
+              PlyFormat format = PlyFormat::kBinaryLittleEndian,
+              const std::vector<std::string>& comments = {});
+// Vertices (with normals and colours when the mesh has them) and a face element.
+void WritePly(const std::filesystem::path& path, const TriangleMesh& mesh,
               PlyFormat format = PlyFormat::kBinaryLittleEndian,
               const std::vector<std::string>& comments = {});
 void WritePly(const std::filesystem::path& path, const OrganizedPointCloud& grid,

@@ -15,10 +15,6 @@ namespace {
 
 using util::StrCat;
 
-bool IsImageFile(const std::filesystem::path& p) {
-  return util::HasExtension(p, util::ImageExtensions());
-}
-
 void Write(const std::filesystem::path& path, const cv::Mat& m) {
   if (!cv::imwrite(path.string(), m)) throw Error(StrCat(path.string(), ": cannot write image"));
 }
@@ -34,7 +30,7 @@ std::vector<cv::Mat> ReadStack(const std::filesystem::path& dir, const PatternSc
   for (std::filesystem::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
     const auto name = it->path().filename().string();
     std::error_code fec;
-    if (it->is_regular_file(fec) && IsImageFile(it->path()) && !expected.count(name)) {
+    if (it->is_regular_file(fec) && io::IsImageFile(it->path()) && !expected.count(name)) {
       extra.push_back(name);
     }
   }

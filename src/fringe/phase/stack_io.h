@@ -13,7 +13,7 @@ namespace fringe::phase {
 
 // Reads scheme.ImageNames() from `dir` (8- or 16-bit grey). Throws fringe::Error naming the file
 // for a missing image, an image of another size or bit depth than the first, or an extra image
-// file in `dir` (any .png/.tif/.tiff/.bmp/.jpg/.pgm not in the manifest).
+// file in `dir` (any io::IsImageFile not in the manifest).
 std::vector<cv::Mat> ReadStack(const std::filesystem::path& dir, const PatternScheme& scheme);
 
 nlohmann::json DecodeSummaryToJson(const DecodeSummary& summary);

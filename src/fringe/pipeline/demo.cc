@@ -13,9 +13,10 @@
 #include "fringe/eval/vdi2634.h"
 #include "fringe/io/calibration_io.h"
 #include "fringe/io/image_io.h"
+#include "fringe/io/mesh_io.h"
 #include "fringe/io/ply.h"
 #include "fringe/phase/pattern_scheme.h"
-#include "fringe/phase/stack_io.h"
+#include "fringe/scan/scan_folder.h"
 #include "fringe/sim/scan.h"
 #include "fringe/stereo/reconstruct_view.h"
 #include "fringe/util/error.h"
@@ -33,40 +34,15 @@ using util::StrCat;
 // Deviation colour map range: the demo part's expected errors are tens of micrometres.
 constexpr double kDeviationRangeMm = 0.1;
 
-struct TruthSphere {
-  Eigen::Vector3d centre_in_world;
-  double radius_mm = 0;
-};
-
-// Exact spheres of a simulated scene by object name (truth/scene.json).
-std::map<std::string, TruthSphere> ReadTruthSpheres(const fs::path& scene_json) {
-  const json j = io::ReadJson(scene_json);
-  std::map<std::string, TruthSphere> out;
-  for (const json& o : j.at("objects")) {
-    if (!o.contains("sphere")) continue;
-    const json& s = o["sphere"];
-    TruthSphere t;
-    for (int k = 0; k < 3; ++k) t.centre_in_world[k] = s.at("centre_in_world")[k].get<double>();
-    t.radius_mm = s.at("radius_mm").get<double>();
-    out[o.at("name").get<std::string>()] = t;
-  }
-  return out;
-}
-
-Rigid3d ReadWorldFromSensor(const fs::path& poses_json, int view) {
-  const json j = io::ReadJson(poses_json);
-  return io::RigidFromJson(j.at("views").at(view).at("world_from_sensor"), poses_json.string());
-}
-
-stereo::ViewReconstruction ReconstructScanView(const StereoRig& rig, const fs::path& scan_dir,
+stereo::ViewReconstruction ReconstructScanView(const StereoRig& rig, const scan::ScanFolder& folder,
                                                const std::string& view) {
-  const phase::PatternScheme scheme = phase::ReadScheme(scan_dir / "scheme.json");
-  const auto left = phase::ReadStack(scan_dir / "views" / view / "left", scheme);
-  const auto right = phase::ReadStack(scan_dir / "views" / view / "right", scheme);
+  const phase::PatternScheme scheme = folder.ReadScheme();
+  const auto left = folder.ReadStack(view, scan::Camera::kLeft, scheme);
+  const auto right = folder.ReadStack(view, scan::Camera::kRight, scheme);
   stereo::ViewReconstruction rec = stereo::ReconstructView(rig, scheme, left, right);
   if (!rec.summary.ok()) {
-    throw Error(
-        StrCat(scan_dir.string(), ": view ", view, " did not reconstruct: ", rec.summary.message));
+    throw Error(StrCat(folder.root().string(), ": view ", view,
+                       " did not reconstruct: ", rec.summary.message));
   }
   return rec;
 }
@@ -156,17 +132,17 @@ DemoSummary RunDemo(const DemoOptions& options, const fs::path& out_dir) {
   util::WriteFolderAtomically(out_dir, output, [&](const fs::path& dir) {
     // 1. Simulate.
     util::Timer timer;
-    sim::ScanOptions scan;
-    scan.scene = "demo";
-    scan.views = 1;
-    scan.seed = options.seed;
-    scan.scheme = options.scheme;
-    scan.precompensate_gamma = options.precompensate_gamma;
-    scan.calibration_images = options.calibration_images;
+    sim::ScanOptions demo_scan;
+    demo_scan.scene = "demo";
+    demo_scan.views = 1;
+    demo_scan.seed = options.seed;
+    demo_scan.scheme = options.scheme;
+    demo_scan.precompensate_gamma = options.precompensate_gamma;
+    demo_scan.calibration_images = options.calibration_images;
     util::LogInfo("simulating the demo part and " + std::to_string(options.calibration_images) +
                   " calibration board poses");
-    sim::SimulateScan(true_rig, scan, dir / "scan-demo");
-    sim::ScanOptions vdi = scan;
+    sim::SimulateScan(true_rig, demo_scan, dir / "scan-demo");
+    sim::ScanOptions vdi = demo_scan;
     vdi.scene = "vdi";
     vdi.calibration_images = 0;
     util::LogInfo("simulating the VDI/VDE 2634-2 artefacts");
@@ -176,9 +152,10 @@ DemoSummary RunDemo(const DemoOptions& options, const fs::path& out_dir) {
     // 2. Calibrate from the board images.
     timer.Restart();
     util::LogInfo("calibrating from the board images");
-    const fs::path cal_dir = dir / "scan-demo" / "calibration";
-    const CalibrationTarget target = io::ReadTarget(cal_dir / "target.json");
-    const calib::FolderCalibration cal = calib::CalibrateFolder(cal_dir, target);
+    const scan::ScanFolder scan_demo = scan::ScanFolder::Open(dir / "scan-demo");
+    const scan::ScanFolder scan_vdi = scan::ScanFolder::Open(dir / "scan-vdi");
+    const calib::FolderCalibration cal =
+        calib::CalibrateFolder(scan_demo.layout().CalibrationDir(), scan_demo.ReadTarget());
     if (!cal.success()) {
       throw Error(StrCat("demo: calibration failed: ", cal.pair.summary.message));
     }
@@ -199,9 +176,9 @@ DemoSummary RunDemo(const DemoOptions& options, const fs::path& out_dir) {
     // 3. Reconstruct.
     timer.Restart();
     util::LogInfo("reconstructing the demo part and the artefacts");
-    const stereo::ViewReconstruction part = ReconstructScanView(rig, dir / "scan-demo", "000");
+    const stereo::ViewReconstruction part = ReconstructScanView(rig, scan_demo, "000");
     io::WritePly(dir / "demo_part.ply", part.cloud);
-    const stereo::ViewReconstruction artefacts = ReconstructScanView(rig, dir / "scan-vdi", "000");
+    const stereo::ViewReconstruction artefacts = ReconstructScanView(rig, scan_vdi, "000");
     io::WritePly(dir / "vdi_artefacts.ply", artefacts.cloud);
     s.seconds_reconstruct = timer.ElapsedSeconds();
 
@@ -209,10 +186,9 @@ DemoSummary RunDemo(const DemoOptions& options, const fs::path& out_dir) {
     timer.Restart();
     util::LogInfo("evaluating against the truth");
     {
-      const fs::path truth = dir / "scan-demo" / "truth";
-      const Rigid3d world_from_sensor = ReadWorldFromSensor(truth / "poses.json", 0);
-      const io::PlyData mesh = io::ReadPly(truth / "scene.ply");
-      const eval::MeshDistance distance(mesh.cloud.points, mesh.triangles);
+      const Rigid3d world_from_sensor =
+          scan_demo.ReadTruthPoses().Find("000")->world_from_sensor;  // checked by ReadTruthPoses
+      const eval::MeshDistance distance(scan_demo.ReadTruthMesh());
       // Distances on the grid, for the picture.
       PointCloud grid_world = Transformed(part.cloud.cloud, world_from_sensor);
       std::vector<double> d_grid(part.cloud.valid.size(), std::numeric_limits<double>::quiet_NaN());
@@ -234,7 +210,8 @@ DemoSummary RunDemo(const DemoOptions& options, const fs::path& out_dir) {
       s.part_rms_mm = dev.rms_mm;
       s.part_p95_mm = dev.p95_mm;
       s.part_max_mm = dev.max_mm;
-      const cv::Mat valid = io::ReadGrayImage(truth / "views" / "000" / "left" / "valid.png");
+      const cv::Mat valid =
+          io::ReadGrayImage(scan_demo.layout().TruthMaps("000", scan::Camera::kLeft) / "valid.png");
       size_t seen = 0, measured_seen = 0;
       for (int r = 0; r < valid.rows; ++r) {
         for (int c = 0; c < valid.cols; ++c) {
@@ -246,18 +223,21 @@ DemoSummary RunDemo(const DemoOptions& options, const fs::path& out_dir) {
       s.part_coverage = seen ? double(measured_seen) / seen : 0.0;
     }
     {
-      const auto spheres = ReadTruthSpheres(dir / "scan-vdi" / "truth" / "scene.json");
+      const scan::TruthScene truth = scan_vdi.ReadTruthScene();
+      auto sphere = [&](const char* name) -> const scan::TruthSphere* {
+        const scan::TruthObject* o = truth.Find(name);
+        return o && o->sphere ? &*o->sphere : nullptr;
+      };
       const PointCloud cloud = artefacts.cloud.Compact();
-      if (spheres.count("sphere")) {
-        const eval::SphereResult r =
-            eval::EvaluateSphere(cloud, 2 * spheres.at("sphere").radius_mm);
+      if (const scan::TruthSphere* truth_sphere = sphere("sphere")) {
+        const eval::SphereResult r = eval::EvaluateSphere(cloud, 2 * truth_sphere->radius_mm);
         s.sphere_ok = r.ok();
         s.PF_mm = r.PF_mm;
         s.PS_mm = r.PS_mm;
       }
-      if (spheres.count("sphere_a") && spheres.count("sphere_b")) {
-        const TruthSphere& a = spheres.at("sphere_a");
-        const TruthSphere& b = spheres.at("sphere_b");
+      if (sphere("sphere_a") && sphere("sphere_b")) {
+        const scan::TruthSphere& a = *sphere("sphere_a");
+        const scan::TruthSphere& b = *sphere("sphere_b");
         const eval::BallBarResult r = eval::EvaluateBallBar(
             cloud, 2 * a.radius_mm, (a.centre_in_world - b.centre_in_world).norm());
         s.ballbar_ok = r.ok();

@@ -94,14 +94,7 @@ struct CameraImages {
 };
 
 // A marker as seen in one view.
-struct MarkerObservation {
-  int id = 0;
-  Eigen::Vector3d centre_in_sensor = Eigen::Vector3d::Zero();  // left camera frame, mm
-  Eigen::Vector2d left_px = Eigen::Vector2d::Zero();           // true projected centre (left image)
-  Eigen::Vector2d right_px = Eigen::Vector2d::Zero();  // true projected centre (right image)
-  bool visible_left = false;  // in image, facing the camera and not occluded
-  bool visible_right = false;
-};
+using MarkerObservation = scan::MarkerObservation;  // scan/truth.h
 
 struct ViewImages {
   Rigid3d world_from_sensor;

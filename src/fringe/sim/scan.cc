@@ -9,7 +9,9 @@
 
 #include "fringe/io/calibration_io.h"
 #include "fringe/io/image_io.h"
+#include "fringe/io/mesh_io.h"
 #include "fringe/phase/pattern_scheme.h"
+#include "fringe/scan/scan_folder.h"
 #include "fringe/sim/markers.h"
 #include "fringe/util/error.h"
 #include "fringe/util/files.h"
@@ -23,18 +25,6 @@ namespace fs = std::filesystem;
 using nlohmann::json;
 
 namespace {
-
-std::string Index3(int i) {
-  std::ostringstream os;
-  os << std::setw(3) << std::setfill('0') << i;
-  return os.str();
-}
-
-json Vec(const Eigen::Vector3d& v) { return json::array({v.x(), v.y(), v.z()}); }
-json Vec(const Eigen::Vector2d& v) {
-  if (!v.allFinite()) return nullptr;
-  return json::array({v.x(), v.y()});
-}
 
 // Markers on the base plate of scenes that have one, so registration has something to use.
 void AddPlateMarkers(Scene* scene, uint64_t seed) {
@@ -274,90 +264,71 @@ ScanSummary SimulateScan(const StereoRig& rig, const ScanOptions& options,
   summary.markers = static_cast<int>(scene.markers().size());
 
   util::WriteFolderAtomically(out_dir, [&](const fs::path& tmp) {
-    fs::create_directories(tmp / "truth");
-    io::WriteRig(tmp / "truth" / "rig.json", rig);
-    WriteMesh(tmp / "truth" / "scene.ply", scene.CombinedMesh());
-    json objects = json::array();
+    const scan::ScanLayout layout{tmp};
+    fs::create_directories(layout.TruthDir());
+    io::WriteRig(layout.TruthRig(), rig);
+    io::WriteMesh(layout.TruthMesh(), scene.CombinedMesh(),
+                  {"fringe virtual scanner scene, world frame, mm"});
+    scan::TruthScene truth_scene;
+    truth_scene.scene = options.scene;
+    truth_scene.mesh = layout.TruthMesh().filename().string();
     for (const SceneObject& o : scene.objects()) {
-      json j = {{"name", o.name},
-                {"albedo", o.texture ? json(nullptr) : json(o.albedo)},
-                {"triangles", o.mesh.NumTriangles()}};
-      if (o.sphere) {
-        j["sphere"] = {{"centre_in_world", Vec(o.sphere->centre)},
-                       {"radius_mm", o.sphere->radius_mm}};
-      }
-      objects.push_back(j);
+      scan::TruthObject t;
+      t.name = o.name;
+      if (!o.texture) t.albedo = o.albedo;
+      t.triangles = o.mesh.NumTriangles();
+      if (o.sphere) t.sphere = scan::TruthSphere{o.sphere->centre, o.sphere->radius_mm};
+      truth_scene.objects.push_back(t);
     }
-    io::WriteJson(tmp / "truth" / "scene.json", {{"scene", options.scene},
-                                                 {"frame", "world, mm, z up"},
-                                                 {"mesh", "scene.ply"},
-                                                 {"objects", objects}});
+    scan::WriteTruthScene(layout.TruthScene(), truth_scene);
 
     // Fringe views.
-    json pose_list = json::array();
-    json marker_views = json::array();
+    scan::TruthPoses truth_poses;
+    truth_poses.turntable = options.orbit.turntable;
+    scan::TruthMarkers truth_markers;
+    truth_markers.markers = scene.markers();
     util::Progress progress("simulate views", options.views);
     const std::vector<std::string> names = scheme.ImageNames();
     for (int v = 0; v < options.views; ++v) {
       const ViewImages view = sim.RenderView(v);
-      const fs::path vdir = tmp / "views" / Index3(v);
-      for (const char* cam : {"left", "right"}) {
-        const CameraImages& images = std::string(cam) == "left" ? view.left : view.right;
-        fs::create_directories(vdir / cam);
+      const std::string view_name = scan::IndexName(v);
+      for (const scan::Camera cam : {scan::Camera::kLeft, scan::Camera::kRight}) {
+        const CameraImages& images = cam == scan::Camera::kLeft ? view.left : view.right;
+        const fs::path dir = layout.CameraDir(view_name, cam);
+        fs::create_directories(dir);
         for (size_t k = 0; k < images.images.size(); ++k) {
-          io::WriteImage(vdir / cam / names[k], images.images[k]);
+          io::WriteImage(dir / names[k], images.images[k]);
         }
-        if (options.truth_maps) {
-          WriteCameraTruth(tmp / "truth" / "views" / Index3(v) / cam, images.truth);
-        }
+        if (options.truth_maps) WriteCameraTruth(layout.TruthMaps(view_name, cam), images.truth);
       }
-      pose_list.push_back({{"view", Index3(v)}, {"world_from_sensor", io::RigidToJson(poses[v])}});
-      json obs = json::array();
-      for (const MarkerObservation& o : view.markers) {
-        obs.push_back({{"id", o.id},
-                       {"centre_in_sensor", Vec(o.centre_in_sensor)},
-                       {"left_px", Vec(o.left_px)},
-                       {"right_px", Vec(o.right_px)},
-                       {"visible_left", o.visible_left},
-                       {"visible_right", o.visible_right}});
-      }
-      marker_views.push_back({{"view", Index3(v)}, {"observations", obs}});
+      truth_poses.views.push_back({view_name, poses[v]});
+      truth_markers.views.push_back({view_name, view.markers});
       progress.Advance();
     }
     summary.views = options.views;
     summary.fringe_images = static_cast<int>(sim.patterns().size());
-    if (options.views > 0) phase::WriteScheme(tmp / "scheme.json", scheme);
-    io::WriteJson(tmp / "truth" / "poses.json",
-                  {{"frame", "world_from_sensor (sensor = left camera), mm"},
-                   {"turntable", options.orbit.turntable},
-                   {"views", pose_list}});
-    json markers = json::array();
-    for (const Marker& m : scene.markers()) {
-      markers.push_back({{"id", m.id},
-                         {"centre_in_world", Vec(m.centre_in_world)},
-                         {"normal_in_world", Vec(m.normal_in_world)},
-                         {"inner_radius_mm", m.inner_radius_mm},
-                         {"outer_radius_mm", m.outer_radius_mm}});
-    }
-    io::WriteJson(tmp / "truth" / "markers.json",
-                  {{"frame", "world, mm"}, {"markers", markers}, {"views", marker_views}});
+    if (options.views > 0) phase::WriteScheme(layout.Scheme(), scheme);
+    scan::WriteTruthPoses(layout.TruthPoses(), truth_poses);
+    scan::WriteTruthMarkers(layout.TruthMarkers(), truth_markers);
 
     // Calibration board images.
     if (!board_poses.empty()) {
-      fs::create_directories(tmp / "calibration" / "left");
-      fs::create_directories(tmp / "calibration" / "right");
-      io::WriteJson(tmp / "calibration" / "target.json", io::TargetToJson(options.target));
+      fs::create_directories(layout.CalibrationDir(scan::Camera::kLeft));
+      fs::create_directories(layout.CalibrationDir(scan::Camera::kRight));
+      io::WriteJson(layout.Target(), io::TargetToJson(options.target));
       json images = json::array();
       util::Progress board_progress("simulate calibration images",
                                     static_cast<int>(board_poses.size()));
       for (size_t i = 0; i < board_poses.size(); ++i) {
         const StereoBoardImages b = sim.RenderBoard(static_cast<int>(i));
-        const std::string name = Index3(static_cast<int>(i)) + ".png";
-        io::WriteImage(tmp / "calibration" / "left" / name, b.left.image);
-        io::WriteImage(tmp / "calibration" / "right" / name, b.right.image);
+        const std::string name = scan::IndexName(static_cast<int>(i)) + ".png";
+        io::WriteImage(layout.CalibrationDir(scan::Camera::kLeft) / name, b.left.image);
+        io::WriteImage(layout.CalibrationDir(scan::Camera::kRight) / name, b.right.image);
         auto camera_json = [](const BoardImage& img) {
           json centres = json::array();
-          for (const auto& c : img.centres_px) centres.push_back(Vec(c));
+          for (const auto& c : img.centres_px) {
+            centres.push_back(c.allFinite() ? json::array({c.x(), c.y()}) : json(nullptr));
+          }
           return json{{"centres_px", centres}, {"visible", img.visible}};
         };
         images.push_back({{"image", name},
@@ -366,30 +337,27 @@ ScanSummary SimulateScan(const StereoRig& rig, const ScanOptions& options,
                           {"right", camera_json(b.right)}});
         board_progress.Advance();
       }
-      io::WriteJson(tmp / "truth" / "calibration.json",
-                    {{"target", io::TargetToJson(options.target)},
-                     {"features", "row-major, index = row * cols + col"},
-                     {"images", images}});
+      io::WriteJson(layout.TruthCalibration(), {{"target", io::TargetToJson(options.target)},
+                                                {"features", "row-major, index = row * cols + col"},
+                                                {"images", images}});
     }
     summary.calibration_images = static_cast<int>(board_poses.size());
 
-    const CameraModel& cam = rig.left;
-    io::WriteJson(
-        tmp / "scan.json",
-        {{"format", "fringe-scan"},
-         {"version", 1},
-         {"generator", "fringe simulate"},
-         {"scene", options.scene},
-         {"seed", options.seed},
-         {"views", options.views},
-         {"image_width", cam.width},
-         {"image_height", cam.height},
-         {"bit_depth", options.render.sensor.bit_depth},
-         {"scheme", options.views > 0 ? json("scheme.json") : json(nullptr)},
-         {"calibration_images", summary.calibration_images},
-         {"calibration_target",
-          summary.calibration_images > 0 ? json("calibration/target.json") : json(nullptr)},
-         {"truth", "truth"}});
+    scan::ScanManifest manifest;
+    manifest.generator = "fringe simulate";
+    manifest.scene = options.scene;
+    manifest.seed = options.seed;
+    manifest.views = options.views;
+    manifest.image_width = rig.left.width;
+    manifest.image_height = rig.left.height;
+    manifest.bit_depth = options.render.sensor.bit_depth;
+    if (options.views > 0) manifest.scheme = layout.Scheme().filename().string();
+    manifest.calibration_images = summary.calibration_images;
+    if (summary.calibration_images > 0) {
+      manifest.calibration_target = layout.Target().lexically_relative(tmp).generic_string();
+    }
+    manifest.truth = layout.TruthDir().filename().string();
+    scan::WriteManifest(layout.Manifest(), manifest);
   });
   summary.seconds = timer.ElapsedSeconds();
   return summary;

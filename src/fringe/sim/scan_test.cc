@@ -7,6 +7,7 @@
 
 #include "fringe/io/calibration_io.h"
 #include "fringe/io/image_io.h"
+#include "fringe/scan/scan_folder.h"
 #include "fringe/util/error.h"
 #include "fringe_test.h"
 
@@ -83,6 +84,41 @@ TEST(Scan, WritesTheScanFolderWithTruth) {
   EXPECT_EQ(calib["images"][0]["left"]["centres_px"].size(), 63u);
   const cv::Mat img = io::ReadGrayImage(root / "views/000/left/00.png");
   EXPECT_EQ(img.cols, rig.left.width);
+
+  // The scan-folder reader finds what the simulator wrote, and the truth records equal the
+  // simulator's own poses and markers.
+  const scan::ScanFolder folder = scan::ScanFolder::Open(root);
+  EXPECT_EQ(folder.views(), (std::vector<std::string>{"000", "001"}));
+  EXPECT_EQ(folder.calibration_images(), (std::vector<std::string>{"000.png", "001.png"}));
+  EXPECT_EQ(folder.manifest().image_width, rig.left.width);
+  EXPECT_EQ(folder.ReadScheme().ImageNames().size(), 12u);
+  EXPECT_EQ(folder.ReadStack("001", scan::Camera::kRight, folder.ReadScheme()).size(), 12u);
+  const ScanSimulator sim(rig, opt);
+  const scan::TruthPoses truth_poses = folder.ReadTruthPoses();
+  ASSERT_EQ(truth_poses.views.size(), 2u);
+  for (int v = 0; v < 2; ++v) {
+    const Rigid3d& expected = sim.view_poses()[v];
+    const Rigid3d& got = truth_poses.Find(scan::IndexName(v))->world_from_sensor;
+    EXPECT_LT((got.translation() - expected.translation()).norm(), 1e-9);
+    EXPECT_LT(got.rotation().angularDistance(expected.rotation()), 1e-12);
+  }
+  const scan::TruthMarkers markers = folder.ReadTruthMarkers();
+  ASSERT_EQ(markers.markers.size(), sim.scene().markers().size());
+  ASSERT_EQ(markers.views.size(), 2u);
+  const ViewImages view1 = sim.RenderView(1);
+  ASSERT_EQ(markers.Find("001")->observations.size(), view1.markers.size());
+  for (size_t i = 0; i < view1.markers.size(); ++i) {
+    const scan::MarkerObservation& a = markers.views[1].observations[i];
+    const scan::MarkerObservation& b = view1.markers[i];
+    EXPECT_EQ(a.id, b.id);
+    EXPECT_LT((a.centre_in_sensor - b.centre_in_sensor).norm(), 1e-9);
+    EXPECT_EQ(a.visible_left, b.visible_left);
+  }
+  const scan::TruthScene truth_scene = folder.ReadTruthScene();
+  ASSERT_NE(truth_scene.Find("sphere"), nullptr);
+  EXPECT_DOUBLE_EQ(truth_scene.Find("sphere")->sphere->radius_mm, 15.0);
+  EXPECT_EQ(folder.ReadTruthMesh().NumTriangles(), sim.scene().NumTriangles());
+  EXPECT_EQ(folder.ReadTruthRig().left, rig.left);
 }
 
 TEST(Scan, DeterministicForASeed) {

@@ -7,7 +7,7 @@
 #include <limits>
 #include <sstream>
 
-#include "fringe/io/ply.h"
+#include "fringe/io/mesh_io.h"
 #include "fringe/util/error.h"
 #include "fringe/util/files.h"
 
@@ -31,58 +31,6 @@ Eigen::Vector3d AnyPerpendicular(const Eigen::Vector3d& a) {
 }
 
 }  // namespace
-
-// ---------------------------------------------------------------------------------------------
-
-void TriangleMesh::Append(const TriangleMesh& other) {
-  const int32_t offset = static_cast<int32_t>(vertices.size());
-  vertices.insert(vertices.end(), other.vertices.begin(), other.vertices.end());
-  triangles.reserve(triangles.size() + other.triangles.size());
-  for (const auto& t : other.triangles)
-    triangles.push_back({t[0] + offset, t[1] + offset, t[2] + offset});
-}
-
-void TriangleMesh::Transform(const Rigid3d& b_from_a) {
-  for (auto& v : vertices) v = b_from_a * v;
-}
-
-Eigen::Vector3d TriangleMesh::TriangleNormal(size_t i) const {
-  const auto& t = triangles[i];
-  const Eigen::Vector3d n =
-      (vertices[t[1]] - vertices[t[0]]).cross(vertices[t[2]] - vertices[t[0]]);
-  const double len = n.norm();
-  return len > 0 ? Eigen::Vector3d(n / len) : Eigen::Vector3d::Zero();
-}
-
-void TriangleMesh::Bounds(Eigen::Vector3d* min, Eigen::Vector3d* max) const {
-  const double nan = std::numeric_limits<double>::quiet_NaN();
-  if (vertices.empty()) {
-    *min = *max = Eigen::Vector3d::Constant(nan);
-    return;
-  }
-  *min = *max = vertices.front();
-  for (const auto& v : vertices) {
-    *min = min->cwiseMin(v);
-    *max = max->cwiseMax(v);
-  }
-}
-
-void TriangleMesh::Check(const std::string& context) const {
-  for (size_t i = 0; i < vertices.size(); ++i) {
-    if (!vertices[i].allFinite()) {
-      throw Error(util::StrCat(context, ": vertex ", i, " is not finite"));
-    }
-  }
-  const int32_t n = static_cast<int32_t>(vertices.size());
-  for (size_t i = 0; i < triangles.size(); ++i) {
-    for (int k = 0; k < 3; ++k) {
-      if (triangles[i][k] < 0 || triangles[i][k] >= n) {
-        throw Error(util::StrCat(context, ": triangle ", i, " has vertex index ", triangles[i][k],
-                                 " outside [0, ", n, ")"));
-      }
-    }
-  }
-}
 
 // ---------------------------------------------------------------------------------------------
 
@@ -242,114 +190,6 @@ TriangleMesh MakeCylinderMesh(const Eigen::Vector3d& base, const Eigen::Vector3d
 
 namespace {
 
-TriangleMesh ReadObj(const std::filesystem::path& path) {
-  std::istringstream in(util::ReadTextFile(path));
-  TriangleMesh m;
-  std::string line;
-  int line_no = 0;
-  while (std::getline(in, line)) {
-    ++line_no;
-    std::istringstream ls(line);
-    std::string tag;
-    ls >> tag;
-    if (tag == "v") {
-      Eigen::Vector3d p;
-      if (!(ls >> p.x() >> p.y() >> p.z())) {
-        throw Error(util::StrCat(path.string(), ":", line_no, ": bad vertex line"));
-      }
-      m.vertices.push_back(p);
-    } else if (tag == "f") {
-      std::vector<int32_t> idx;
-      std::string item;
-      while (ls >> item) {
-        const int i = std::atoi(item.substr(0, item.find('/')).c_str());
-        if (i == 0) throw Error(util::StrCat(path.string(), ":", line_no, ": bad face index"));
-        idx.push_back(i > 0 ? i - 1 : static_cast<int>(m.vertices.size()) + i);
-      }
-      for (size_t k = 2; k < idx.size(); ++k) m.triangles.push_back({idx[0], idx[k - 1], idx[k]});
-    }
-  }
-  return m;
-}
-
-TriangleMesh ReadStl(const std::filesystem::path& path) {
-  std::ifstream f(path, std::ios::binary);
-  if (!f) throw Error(util::StrCat(path.string(), ": cannot open mesh"));
-  std::string data((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
-  TriangleMesh m;
-  bool binary = data.size() >= 84;
-  uint32_t count = 0;
-  if (binary) {
-    std::memcpy(&count, data.data() + 80, 4);
-    binary = data.size() == 84 + 50ull * count;
-  }
-  if (binary) {
-    for (uint32_t i = 0; i < count; ++i) {
-      const char* rec = data.data() + 84 + 50ull * i + 12;
-      for (int k = 0; k < 3; ++k) {
-        float xyz[3];
-        std::memcpy(xyz, rec + 12 * k, 12);
-        m.vertices.emplace_back(xyz[0], xyz[1], xyz[2]);
-      }
-      const int32_t b = 3 * static_cast<int32_t>(i);
-      m.triangles.push_back({b, b + 1, b + 2});
-    }
-    return m;
-  }
-  std::istringstream in(data);
-  std::string word;
-  while (in >> word) {
-    if (word == "vertex") {
-      Eigen::Vector3d p;
-      if (!(in >> p.x() >> p.y() >> p.z())) {
-        throw Error(util::StrCat(path.string(), ": bad ASCII STL vertex"));
-      }
-      m.vertices.push_back(p);
-    } else if (word == "endfacet") {
-      const int32_t n = static_cast<int32_t>(m.vertices.size());
-      if (n < 3 || n % 3 != 0) throw Error(util::StrCat(path.string(), ": bad ASCII STL facet"));
-      m.triangles.push_back({n - 3, n - 2, n - 1});
-    }
-  }
-  return m;
-}
-
-}  // namespace
-
-TriangleMesh ReadMesh(const std::filesystem::path& path) {
-  util::RequireFile(path, "mesh");
-  std::string ext = path.extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(),
-                 [](unsigned char c) { return std::tolower(c); });
-  TriangleMesh m;
-  if (ext == ".ply") {
-    io::PlyData ply = io::ReadPly(path);
-    m.vertices = std::move(ply.cloud.points);
-    m.triangles = std::move(ply.triangles);
-  } else if (ext == ".obj") {
-    m = ReadObj(path);
-  } else if (ext == ".stl") {
-    m = ReadStl(path);
-  } else {
-    throw Error(util::StrCat(path.string(), ": unknown mesh extension '", ext,
-                             "' (expected .ply, .obj or .stl)"));
-  }
-  m.Check(path.string());
-  if (m.triangles.empty()) throw Error(util::StrCat(path.string(), ": mesh has no triangles"));
-  return m;
-}
-
-void WriteMesh(const std::filesystem::path& path, const TriangleMesh& mesh) {
-  PointCloud cloud;
-  cloud.points = mesh.vertices;
-  io::WritePly(path, cloud, mesh.triangles, io::PlyFormat::kBinaryLittleEndian,
-               {"fringe virtual scanner scene, world frame, mm"});
-}
-
-// ---------------------------------------------------------------------------------------------
-
-namespace {
-
 SceneObject BasePlate(double size_x, double size_y, double thickness, const Eigen::Vector3d& c) {
   SceneObject plate;
   plate.name = "base_plate";
@@ -453,7 +293,7 @@ Scene MakeMeshScene(const std::filesystem::path& path) {
   Scene scene;
   SceneObject o;
   o.name = path.stem().string();
-  o.mesh = ReadMesh(path);
+  o.mesh = io::ReadMesh(path);
   scene.AddObject(std::move(o));
   return scene;
 }

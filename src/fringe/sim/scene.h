@@ -28,25 +28,13 @@
 
 #include "fringe/geometry/point_cloud.h"
 #include "fringe/geometry/rigid3.h"
+#include "fringe/geometry/triangle_mesh.h"
+#include "fringe/scan/truth.h"
 
 namespace fringe::sim {
 
 // Diffuse reflectance in [0, 1] at a surface point (world frame, mm). Must be thread safe.
 using AlbedoFunction = std::function<double(const Eigen::Vector3d& p_in_world)>;
-
-struct TriangleMesh {
-  std::vector<Eigen::Vector3d> vertices;
-  std::vector<std::array<int32_t, 3>> triangles;  // counter-clockwise seen from outside
-
-  size_t NumTriangles() const { return triangles.size(); }
-  void Append(const TriangleMesh& other);
-  void Transform(const Rigid3d& b_from_a);
-  // Unit normal of triangle i (right-handed order), zero for degenerate triangles.
-  Eigen::Vector3d TriangleNormal(size_t i) const;
-  void Bounds(Eigen::Vector3d* min, Eigen::Vector3d* max) const;
-  // Throws fringe::Error naming `context` for indices out of range or non-finite vertices.
-  void Check(const std::string& context) const;
-};
 
 struct Sphere {
   Eigen::Vector3d centre = Eigen::Vector3d::Zero();  // world frame, mm
@@ -62,13 +50,9 @@ struct SceneObject {
   std::optional<Sphere> sphere;
 };
 
-struct Marker {
-  int id = 0;
-  Eigen::Vector3d centre_in_world = Eigen::Vector3d::Zero();   // on the surface, mm
-  Eigen::Vector3d normal_in_world = Eigen::Vector3d::UnitZ();  // outward unit surface normal
-  double inner_radius_mm = 1.5;                                // white disk radius
-  double outer_radius_mm = 2.5;                                // black ring outer radius
-};
+// Markers are the scan folder's truth records (scan/truth.h): the same type in the scene, the
+// renderer and truth/markers.json.
+using Marker = scan::Marker;
 
 class Scene {
  public:
@@ -112,12 +96,6 @@ TriangleMesh MakeSphereMesh(const Sphere& sphere, double max_sag_mm = 1e-3);
 TriangleMesh MakeCylinderMesh(const Eigen::Vector3d& base, const Eigen::Vector3d& axis,
                               double radius_mm, double length_mm, double max_sag_mm = 1e-3);
 
-// A triangle mesh from PLY (io::ReadPly), OBJ (v / f lines) or binary / ASCII STL, by extension.
-// Throws fringe::Error naming the file for unreadable or empty meshes.
-TriangleMesh ReadMesh(const std::filesystem::path& path);
-// Binary little-endian PLY with faces (atomic).
-void WriteMesh(const std::filesystem::path& path, const TriangleMesh& mesh);
-
 // ---- Ready-made scenes (z up, resting on or centred near the world origin) ----
 
 // VDI/VDE 2634-2 matte sphere (albedo 0.75) centred at (0, 0, radius) on a plate at z = 0,
@@ -132,7 +110,7 @@ Scene MakePlateScene(double length_mm = 220.0, double width_mm = 60.0);
 Scene MakePlaneScene(double size_mm = 400.0);
 // The VDI set in one scene: sphere, ball bar and plate side by side.
 Scene MakeVdiScene();
-// A mesh file as one object (albedo 0.7) on no plate.
+// A mesh file (io::ReadMesh: .ply, .obj, .stl) as one object (albedo 0.7) on no plate.
 Scene MakeMeshScene(const std::filesystem::path& path);
 
 }  // namespace fringe::sim

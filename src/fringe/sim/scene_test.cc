@@ -4,6 +4,7 @@
 
 #include <fstream>
 
+#include "fringe/io/mesh_io.h"
 #include "fringe/util/error.h"
 #include "fringe_test.h"
 
@@ -41,23 +42,16 @@ TEST(Scene, BoxAndCylinderAreOutwardOriented) {
   }
 }
 
-TEST(Scene, MeshFilesRoundTrip) {
+TEST(Scene, MeshSceneFromFile) {
   test::TempDir dir;
   const TriangleMesh box = MakeBoxMesh(Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(1, 2, 3));
-  WriteMesh(dir / "box.ply", box);
-  const TriangleMesh ply = ReadMesh(dir / "box.ply");
-  EXPECT_EQ(ply.triangles, box.triangles);
-  {
-    std::ofstream obj(dir / "t.obj");
-    obj << "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1/1 2/2 3/3 4/4\n";
-    std::ofstream stl(dir / "t.stl");
-    stl << "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\n"
-           "endloop\nendfacet\nendsolid t\n";
-  }
-  EXPECT_EQ(ReadMesh(dir / "t.obj").triangles.size(), 2u);
-  EXPECT_EQ(ReadMesh(dir / "t.stl").triangles.size(), 1u);
-  EXPECT_THROW(ReadMesh(dir / "missing.ply"), Error);
-  EXPECT_THROW(ReadMesh(dir / "t.xyz"), Error);
+  io::WriteMesh(dir / "box.stl", box);
+  const Scene scene = MakeMeshScene(dir / "box.stl");
+  ASSERT_EQ(scene.objects().size(), 1u);
+  EXPECT_EQ(scene.object(0).name, "box");
+  EXPECT_EQ(scene.NumTriangles(), box.NumTriangles());
+  EXPECT_EQ(scene.object(0).mesh.NumVertices(), 8u);  // STL corners welded again
+  EXPECT_THROW(MakeMeshScene(dir / "missing.ply"), Error);
 }
 
 TEST(Scene, RejectsBadObjects) {

@@ -22,7 +22,6 @@ int Find(std::vector<int>& parent, int i) {
 
 void OutlierOptions::Check() const {
   using util::CheckOption;
-  CheckOption(focal_px > 0, "OutlierOptions", "focal_px", focal_px, "must be > 0");
   CheckOption(max_slope_factor > 0, "OutlierOptions", "max_slope_factor", max_slope_factor,
               "must be > 0");
   CheckOption(min_neighbours >= 0 && min_neighbours <= 8, "OutlierOptions", "min_neighbours",
@@ -31,25 +30,45 @@ void OutlierOptions::Check() const {
               "must be >= 1");
 }
 
-std::string OutlierSummary::BriefReport() const {
-  return util::StrCat("outliers: ", flying_pixels, " flying pixels, ", small_components,
-                      " small components (", component_points, " points) removed, ", kept, " kept");
+const char* ToString(OutlierStatus status) {
+  switch (status) {
+    case OutlierStatus::kOk:
+      return "ok";
+    case OutlierStatus::kNoPoints:
+      return "no points";
+    case OutlierStatus::kAllRemoved:
+      return "all points removed";
+  }
+  return "unknown";
 }
 
-OutlierSummary RemoveOrganizedOutliers(OrganizedPointCloud* grid, const OutlierOptions& options) {
+std::string OutlierSummary::BriefReport() const {
+  return util::StrCat("outliers: ", ToString(status), ok() ? "" : " (" + message + ")", ", ",
+                      flying_pixels, " flying pixels, ", small_components, " small components (",
+                      component_points, " points) removed, ", kept, " kept");
+}
+
+OutlierSummary RemoveOrganizedOutliers(OrganizedPointCloud* grid, double focal_px,
+                                       const OutlierOptions& options) {
   options.Check();
+  util::CheckOption(focal_px > 0, "RemoveOrganizedOutliers", "focal_px", focal_px, "must be > 0");
   grid->CheckConsistent();
   const int w = grid->width, h = grid->height;
   const auto& pts = grid->cloud.points;
   auto& valid = grid->valid;
   auto connected = [&](size_t i, size_t j, double steps) {
-    const double footprint = std::min(pts[i].z(), pts[j].z()) / options.focal_px;
+    const double footprint = std::min(pts[i].z(), pts[j].z()) / focal_px;
     const double limit = options.max_slope_factor * footprint * steps;
     return (pts[i] - pts[j]).squaredNorm() <= limit * limit;
   };
   const int dc[8] = {-1, 0, 1, -1, 1, -1, 0, 1};
   const int dr[8] = {-1, -1, -1, 0, 0, 1, 1, 1};
   OutlierSummary s;
+  if (grid->NumValid() == 0) {
+    s.status = OutlierStatus::kNoPoints;
+    s.message = "the cloud has no valid point";
+    return s;
+  }
 
   std::vector<uint8_t> flying(valid.size(), 0);
   for (int r = 0; r < h; ++r) {
@@ -109,6 +128,12 @@ OutlierSummary RemoveOrganizedOutliers(OrganizedPointCloud* grid, const OutlierO
     } else {
       ++s.kept;
     }
+  }
+  if (s.kept == 0) {
+    s.status = OutlierStatus::kAllRemoved;
+    s.message = util::StrCat("all ", s.flying_pixels + s.component_points,
+                             " points were flying pixels or in components smaller than ",
+                             options.min_component_px, " px");
   }
   return s;
 }

@@ -20,8 +20,6 @@
 namespace fringe::stereo {
 
 struct OutlierOptions {
-  // Focal length of the camera whose grid the cloud is on, pixels, > 0.
-  double focal_px = 2500;
   // Allowed neighbour distance in pixel footprints per grid step, > 0.
   double max_slope_factor = 5.0;
   // Connected 8-neighbours a point needs to stay, [0, 8].
@@ -31,15 +29,28 @@ struct OutlierOptions {
   void Check() const;
 };
 
+enum class OutlierStatus {
+  kOk = 0,
+  kNoPoints,    // the cloud had no valid point to begin with
+  kAllRemoved,  // every point was removed
+};
+const char* ToString(OutlierStatus status);
+
 struct OutlierSummary {
+  OutlierStatus status = OutlierStatus::kOk;
+  std::string message;       // why, when status is not kOk
   int flying_pixels = 0;     // removed for too few connected neighbours
   int small_components = 0;  // removed components
   int component_points = 0;  // points removed with them
   int kept = 0;
+  bool ok() const { return status == OutlierStatus::kOk; }
   std::string BriefReport() const;
 };
 
-// Marks the outliers invalid (valid = 0, position NaN).
-OutlierSummary RemoveOrganizedOutliers(OrganizedPointCloud* grid, const OutlierOptions& options);
+// Marks the outliers invalid (valid = 0, position NaN). `focal_px` is the focal length of the
+// camera whose grid the cloud is on (pixels, > 0): a point's footprint, the distance one grid
+// step spans at its depth, is depth / focal_px. Throws fringe::Error for bad options.
+OutlierSummary RemoveOrganizedOutliers(OrganizedPointCloud* grid, double focal_px,
+                                       const OutlierOptions& options = {});
 
 }  // namespace fringe::stereo

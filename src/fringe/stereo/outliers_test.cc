@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include "fringe/util/error.h"
+
 namespace fringe::stereo {
 namespace {
 
@@ -28,9 +30,8 @@ TEST(Outliers, RemovesFlyingPixelsAndSmallPatches) {
   for (int r = 40; r < 44; ++r) {
     for (int c = 20; c < 24; ++c) set(c, r, 480);
   }
-  OutlierOptions options;
-  options.focal_px = kFocal;
-  const OutlierSummary s = RemoveOrganizedOutliers(&grid, options);
+  const OutlierSummary s = RemoveOrganizedOutliers(&grid, kFocal);
+  EXPECT_TRUE(s.ok()) << s.BriefReport();
   EXPECT_EQ(s.flying_pixels, 3) << s.BriefReport();
   EXPECT_EQ(s.small_components, 1);
   EXPECT_EQ(s.component_points, 16);
@@ -39,6 +40,27 @@ TEST(Outliers, RemovesFlyingPixelsAndSmallPatches) {
   EXPECT_FALSE(grid.valid[grid.index(10, 10)]);
   EXPECT_FALSE(grid.valid[grid.index(21, 41)]);
   EXPECT_TRUE(grid.valid[grid.index(30, 30)]);
+}
+
+TEST(Outliers, StatusForEmptyAndFullyRemovedClouds) {
+  OrganizedPointCloud empty(20, 10);
+  const OutlierSummary none = RemoveOrganizedOutliers(&empty, 625);
+  EXPECT_EQ(none.status, OutlierStatus::kNoPoints);
+  EXPECT_FALSE(none.message.empty());
+  // A 3x3 patch is a component smaller than the default 50 px: everything goes.
+  OrganizedPointCloud patch(20, 10);
+  for (int r = 2; r < 5; ++r) {
+    for (int c = 2; c < 5; ++c) {
+      patch.valid[patch.index(c, r)] = 1;
+      patch.cloud.points[patch.index(c, r)] = Eigen::Vector3d(c * 0.8, r * 0.8, 500);
+    }
+  }
+  const OutlierSummary all = RemoveOrganizedOutliers(&patch, 625);
+  EXPECT_EQ(all.status, OutlierStatus::kAllRemoved) << all.BriefReport();
+  EXPECT_EQ(all.component_points, 9);
+  EXPECT_EQ(patch.NumValid(), 0u);
+  EXPECT_NE(all.BriefReport().find("all points removed"), std::string::npos);
+  EXPECT_THROW(RemoveOrganizedOutliers(&patch, 0.0), Error);
 }
 
 }  // namespace

@@ -332,14 +332,27 @@ void MatchingOptions::Check() const {
   rectification.Check();
 }
 
+const char* ToString(MatchingStatus status) {
+  switch (status) {
+    case MatchingStatus::kOk:
+      return "ok";
+    case MatchingStatus::kNoValidPixels:
+      return "no valid pixels";
+    case MatchingStatus::kNoPoints:
+      return "no points";
+  }
+  return "unknown";
+}
+
 std::string MatchingSummary::BriefReport() const {
-  return util::StrCat("matching: ", points, " points from ", left_valid,
-                      " valid left pixels (no crossing ", no_crossing, ", ambiguous ", ambiguous,
-                      ", discontinuity ", discontinuity, ", left-right ", lr_inconsistent,
-                      ", triangulation ", triangulation_failed, ", residual ", large_residual,
-                      ", projector ", projector_inconsistent, ", depth range ", out_of_depth_range,
-                      "), mean reprojection error ", mean_reprojection_error_px, " px, ", time_s,
-                      " s", warning.empty() ? "" : "; warning: ", warning);
+  return util::StrCat("matching: ", ToString(status), ok() ? "" : " (" + message + ")", ", ",
+                      points, " points from ", left_valid, " valid left pixels (no crossing ",
+                      no_crossing, ", ambiguous ", ambiguous, ", discontinuity ", discontinuity,
+                      ", left-right ", lr_inconsistent, ", triangulation ", triangulation_failed,
+                      ", residual ", large_residual, ", projector ", projector_inconsistent,
+                      ", depth range ", out_of_depth_range, "), mean reprojection error ",
+                      mean_reprojection_error_px, " px, ", time_s, " s",
+                      warning.empty() ? "" : "; warning: ", warning);
 }
 
 PhaseMatcher::PhaseMatcher(const StereoRig& rig, const MatchingOptions& options)
@@ -485,6 +498,14 @@ MatchResult PhaseMatcher::Match(const PhaseImage& left, const PhaseImage& right)
     error_sum += row_error_sum[r];
   }
   total.mean_reprojection_error_px = total.points > 0 ? error_sum / total.points : 0.0;
+  if (total.left_valid == 0) {
+    total.status = MatchingStatus::kNoValidPixels;
+    total.message = "no left pixel has a valid absolute phase";
+  } else if (total.points == 0) {
+    total.status = MatchingStatus::kNoPoints;
+    total.message =
+        util::StrCat("none of the ", total.left_valid, " valid left pixels was matched and kept");
+  }
   if (total.left_valid > 0 &&
       total.lr_inconsistent > options_.lr_warning_fraction * total.left_valid) {
     total.warning = util::StrCat(

@@ -102,7 +102,16 @@ struct MatchingOptions {
   void Check() const;
 };
 
+enum class MatchingStatus {
+  kOk = 0,
+  kNoValidPixels,  // no left pixel had a valid phase
+  kNoPoints,       // valid pixels, but none was matched and kept
+};
+const char* ToString(MatchingStatus status);
+
 struct MatchingSummary {
+  MatchingStatus status = MatchingStatus::kOk;
+  std::string message;    // why, when status is not kOk
   int left_valid = 0;     // left pixels with a valid phase (and enough modulation)
   int no_crossing = 0;    // the phase does not occur on the rectified right row
   int ambiguous = 0;      // it occurs more than once
@@ -117,6 +126,7 @@ struct MatchingSummary {
   double time_s = 0;
   // Empty, or why the result deserves a look (e.g. many left-right rejections).
   std::string warning;
+  bool ok() const { return status == MatchingStatus::kOk; }
   std::string BriefReport() const;
 };
 

@@ -63,9 +63,7 @@ ViewReconstructor::ViewReconstructor(const StereoRig& rig, const phase::PatternS
     : rig_(CheckedRig(rig, scheme)),
       scheme_(scheme),
       options_((options.Check(), options)),
-      matcher_(rig, options.matching) {
-  options_.outliers.focal_px = rig_.left.fx;
-}
+      matcher_(rig, options.matching) {}
 
 ViewReconstruction ViewReconstructor::Reconstruct(const std::vector<cv::Mat>& left_images,
                                                   const std::vector<cv::Mat>& right_images) const {
@@ -113,7 +111,7 @@ ViewReconstruction ViewReconstructor::Reconstruct(const std::vector<cv::Mat>& le
 
   if (options_.remove_outliers) {
     timer.Restart();
-    s.outliers = RemoveOrganizedOutliers(&out.cloud, options_.outliers);
+    s.outliers = RemoveOrganizedOutliers(&out.cloud, rig_.left.fx, options_.outliers);
     s.outliers_s = timer.ElapsedSeconds();
     for (size_t i = 0; i < out.cloud.valid.size(); ++i) {
       if (!out.cloud.valid[i]) {

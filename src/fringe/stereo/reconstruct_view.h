@@ -32,8 +32,7 @@ struct ReconstructionOptions {
   phase::DecodeOptions decode;
   MatchingOptions matching;
   bool remove_outliers = true;
-  // focal_px is taken from the rig's left camera.
-  OutlierOptions outliers;
+  OutlierOptions outliers;  // footprints from the rig's left focal length
   bool compute_normals = true;
   GridNormalOptions normals;
   void Check() const;

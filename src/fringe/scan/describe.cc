@@ -1,4 +1,4 @@
-#include "fringe/io/describe.h"
+#include "fringe/scan/describe.h"
 
 #include <cmath>
 #include <iomanip>
@@ -7,17 +7,19 @@
 
 #include "fringe/io/calibration_io.h"
 #include "fringe/io/opencv_calibration.h"
+#include "fringe/io/image_io.h"
 #include "fringe/io/ply.h"
+#include "fringe/scan/scan_folder.h"
 #include "fringe/util/error.h"
 
-namespace fringe::io {
+namespace fringe::scan {
 namespace {
 
 namespace fs = std::filesystem;
 using util::StrCat;
 
 std::string DescribePly(const fs::path& path) {
-  const PlyData d = ReadPly(path);
+  const io::PlyData d = io::ReadPly(path);
   std::ostringstream os;
   os << path.string() << ": PLY (" << d.header.format << ")\n";
   for (const auto& e : d.header.elements) {
@@ -55,17 +57,20 @@ std::string DescribeCamera(const CameraModel& c) {
 }
 
 std::string DescribeJson(const fs::path& path) {
-  const nlohmann::json j = ReadJson(path);
+  const nlohmann::json j = io::ReadJson(path);
   std::ostringstream os;
   const std::string format = j.is_object() ? j.value("format", std::string()) : std::string();
   if (format == "fringe-rig" && j.contains("camera") && !j.contains("cameras")) {
+    const StereoRig rig = io::RigFromJson(j, path.string());
     os << path.string() << ": single-camera calibration\n";
-    os << "  camera:    " << DescribeCamera(CameraFromJson(j["camera"], path.string() + ": camera"))
-       << "\n";
+    os << "  camera:    " << DescribeCamera(rig.left) << "\n";
+    if (j.contains("calibration") && j["calibration"].contains("rms_px")) {
+      os << "  RMS reprojection error: " << j["calibration"]["rms_px"] << " px\n";
+    }
     return os.str();
   }
   if (format == "fringe-rig") {
-    const StereoRig rig = RigFromJson(j, path.string());
+    const StereoRig rig = io::RigFromJson(j, path.string());
     os << path.string() << ": rig calibration\n";
     os << "  left:      " << DescribeCamera(rig.left) << "\n";
     os << "  right:     " << DescribeCamera(rig.right) << "\n";
@@ -83,43 +88,47 @@ std::string DescribeJson(const fs::path& path) {
   return os.str();
 }
 
-std::string DescribeFolder(const fs::path& path) {
+std::string DescribeScanFolder(const ScanFolder& scan) {
+  const ScanManifest& m = scan.manifest();
   std::ostringstream os;
-  os << path.string() << ": folder\n";
-  // Scan folder layout (docs/formats.md): views/NNN/{left,right}/, calibration/{left,right}/.
-  auto count_images = [](const fs::path& dir) {
-    int n = 0;
-    std::error_code ec;
-    if (!fs::is_directory(dir, ec)) return -1;
-    for (const auto& e : fs::directory_iterator(dir)) {
-      const std::string ext = e.path().extension().string();
-      n += (ext == ".png" || ext == ".tif" || ext == ".tiff" || ext == ".jpg" || ext == ".bmp");
-    }
-    return n;
-  };
+  os << scan.root().string() << ": scan folder"
+     << (m.generator.empty()
+             ? ""
+             : " (" + m.generator + (m.scene.empty() ? "" : ", scene " + m.scene) + ")")
+     << "\n";
+  os << "  images: " << m.image_width << "x" << m.image_height << ", " << m.bit_depth << "-bit\n";
+  os << "  views: " << scan.views().size();
+  if (scan.has_views()) {
+    os << " (" << scan.views().front() << " .. " << scan.views().back() << "), scheme " << m.scheme;
+  }
+  os << "\n";
+  for (const std::string& v : scan.views()) {
+    os << "    " << v << ": left "
+       << io::ListImageFiles(scan.layout().CameraDir(v, Camera::kLeft)).size() << " images, right "
+       << io::ListImageFiles(scan.layout().CameraDir(v, Camera::kRight)).size() << " images\n";
+  }
+  os << "  calibration: " << m.calibration_images << " board images per camera";
+  if (scan.has_calibration()) os << ", target " << m.calibration_target;
+  os << "\n";
+  os << "  truth: " << (scan.has_truth() ? m.truth + "/" : "none") << "\n";
+  return os.str();
+}
+
+// A folder that is not a scan folder: image counts of the usual sub-folders of a capture.
+std::string DescribeFolder(const fs::path& path) {
+  if (ScanFolder::IsScanFolder(path)) return DescribeScanFolder(ScanFolder::Open(path));
+  std::ostringstream os;
+  os << path.string() << ": folder (no scan.json: not a scan folder)\n";
   std::error_code ec;
-  if (fs::is_directory(path / "views", ec)) {
-    std::map<std::string, std::pair<int, int>> views;
-    for (const auto& e : fs::directory_iterator(path / "views")) {
-      if (e.is_directory()) {
-        views[e.path().filename().string()] = {count_images(e.path() / "left"),
-                                               count_images(e.path() / "right")};
-      }
-    }
-    os << "  views: " << views.size() << "\n";
-    for (const auto& [name, c] : views) {
-      os << "    " << name << ": left " << std::max(c.first, 0) << " images, right "
-         << std::max(c.second, 0) << " images\n";
+  for (const char* sub : {"left", "right", "L", "R", "calibration/left", "calibration/right"}) {
+    if (fs::is_directory(path / sub, ec)) {
+      os << "  " << sub << ": " << io::ListImageFiles(path / sub).size() << " images\n";
     }
   }
-  for (const char* sub : {"calibration/left", "calibration/right", "left", "right"}) {
-    const int n = count_images(path / sub);
-    if (n >= 0) os << "  " << sub << ": " << n << " images\n";
-  }
-  for (const char* f : {"rig.json", "calibration.json", "truth/rig.json", "scheme.json"}) {
+  for (const char* f : {"rig.json", "calibration.json", "scheme.json", "manifest.json"}) {
     if (fs::exists(path / f, ec)) os << "  " << f << "\n";
   }
-  const int here = count_images(path);
+  const size_t here = io::ListImageFiles(path).size();
   if (here > 0) os << "  images: " << here << "\n";
   return os.str();
 }
@@ -135,11 +144,11 @@ std::string DescribePath(const fs::path& path) {
   if (ext == ".ply") return DescribePly(path);
   if (ext == ".json") return DescribeJson(path);
   if (ext == ".yml" || ext == ".yaml" || ext == ".xml") {
-    const OpenCvCalibration cv = ReadOpenCvCalibration({path}, -1, -1);
+    const io::OpenCvCalibration cv = io::ReadOpenCvCalibration({path}, -1, -1);
     return StrCat(path.string(), ": OpenCV calibration\n", cv.Describe());
   }
   throw Error(StrCat(path.string(),
                      ": unknown kind of file (expected .ply, .json, .yml/.yaml/.xml or a folder)"));
 }
 
-}  // namespace fringe::io
+}  // namespace fringe::scan

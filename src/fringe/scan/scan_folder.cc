@@ -1,0 +1,259 @@
+#include "fringe/scan/scan_folder.h"
+
+#include <algorithm>
+#include <iomanip>
+#include <sstream>
+
+#include "fringe/io/calibration_io.h"
+#include "fringe/io/image_io.h"
+#include "fringe/io/mesh_io.h"
+#include "fringe/phase/stack_io.h"
+#include "fringe/util/error.h"
+#include "fringe/util/files.h"
+
+namespace fringe::scan {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+using util::StrCat;
+
+constexpr const char* kFormat = "fringe-scan";
+
+// A relative path field that may be null.
+std::string OptionalPath(const json& j, const char* field) {
+  const json& v = j.at(field);
+  if (v.is_null()) return {};
+  const std::string s = v.get<std::string>();
+  const fs::path p(s);
+  // The manifest names files inside the folder; anything else would read outside it.
+  if (s.empty() || p.is_absolute() || std::find(p.begin(), p.end(), "..") != p.end()) {
+    throw Error(StrCat("'", field, "' = '", s, "' must be a relative path inside the folder"));
+  }
+  return s;
+}
+
+json PathOrNull(const std::string& s) { return s.empty() ? json(nullptr) : json(s); }
+
+bool IsIndexName(const std::string& s) {
+  return s.size() == 3 &&
+         std::all_of(s.begin(), s.end(), [](char c) { return c >= '0' && c <= '9'; });
+}
+
+}  // namespace
+
+const char* CameraName(Camera camera) { return camera == Camera::kLeft ? "left" : "right"; }
+
+std::string IndexName(int index) {
+  std::ostringstream os;
+  os << std::setw(3) << std::setfill('0') << index;
+  return os.str();
+}
+
+json ManifestToJson(const ScanManifest& m) {
+  return {{"format", kFormat},
+          {"version", ScanManifest::kVersion},
+          {"generator", m.generator},
+          {"scene", m.scene},
+          {"seed", m.seed},
+          {"views", m.views},
+          {"image_width", m.image_width},
+          {"image_height", m.image_height},
+          {"bit_depth", m.bit_depth},
+          {"scheme", PathOrNull(m.scheme)},
+          {"calibration_images", m.calibration_images},
+          {"calibration_target", PathOrNull(m.calibration_target)},
+          {"truth", PathOrNull(m.truth)}};
+}
+
+ScanManifest ManifestFromJson(const json& j, const std::string& context) {
+  return io::WithJsonContext(context, [&] {
+    if (!j.is_object()) throw Error("not a JSON object");
+    const std::string format = j.at("format").get<std::string>();
+    if (format != kFormat) {
+      throw Error(StrCat("format '", format, "' is not '", kFormat, "'"));
+    }
+    const int version = j.at("version").get<int>();
+    if (version < 1 || version > ScanManifest::kVersion) {
+      throw Error(StrCat("version ", version, " is not supported (this fringe reads version ",
+                         ScanManifest::kVersion, ")"));
+    }
+    ScanManifest m;
+    m.generator = j.value("generator", std::string());
+    m.scene = j.value("scene", std::string());
+    m.seed = j.value("seed", uint64_t{0});
+    m.views = j.at("views").get<int>();
+    m.image_width = j.at("image_width").get<int>();
+    m.image_height = j.at("image_height").get<int>();
+    m.bit_depth = j.value("bit_depth", 8);
+    m.scheme = OptionalPath(j, "scheme");
+    m.calibration_images = j.at("calibration_images").get<int>();
+    m.calibration_target = OptionalPath(j, "calibration_target");
+    m.truth = j.contains("truth") ? OptionalPath(j, "truth") : std::string();
+    if (m.views < 0 || m.calibration_images < 0) {
+      throw Error("'views' and 'calibration_images' must be >= 0");
+    }
+    if (m.image_width <= 0 || m.image_height <= 0) {
+      throw Error("'image_width' and 'image_height' must be > 0");
+    }
+    if (m.bit_depth != 8 && m.bit_depth != 12 && m.bit_depth != 16) {
+      throw Error(StrCat("'bit_depth' = ", m.bit_depth, " must be 8, 12 or 16"));
+    }
+    if (m.views > 0 && m.scheme.empty()) throw Error("'scheme' is null but there are views");
+    if (m.calibration_images > 0 && m.calibration_target.empty()) {
+      throw Error("'calibration_target' is null but there are calibration images");
+    }
+    return m;
+  });
+}
+
+void WriteManifest(const fs::path& path, const ScanManifest& manifest) {
+  io::WriteJson(path, ManifestToJson(manifest));
+}
+
+bool ScanFolder::IsScanFolder(const fs::path& dir) {
+  std::error_code ec;
+  return fs::is_regular_file(ScanLayout{dir}.Manifest(), ec);
+}
+
+std::optional<fs::path> ScanFolder::RootOfView(const fs::path& view_dir) {
+  // Normalise "views/000/" and "views/000" alike.
+  const fs::path view = view_dir.lexically_normal().filename().empty()
+                            ? view_dir.lexically_normal().parent_path()
+                            : view_dir.lexically_normal();
+  const fs::path views = view.parent_path();
+  if (views.filename() != "views") return std::nullopt;
+  const fs::path root = views.parent_path();
+  if (!IsScanFolder(root.empty() ? fs::path(".") : root)) return std::nullopt;
+  return root.empty() ? fs::path(".") : root;
+}
+
+ScanFolder ScanFolder::Open(const fs::path& root) {
+  util::RequireDirectory(root, "scan folder");
+  ScanFolder s;
+  s.layout_.root = root;
+  const ScanLayout& l = s.layout_;
+  util::RequireFile(l.Manifest(), "scan manifest");
+  s.manifest_ = ManifestFromJson(io::ReadJson(l.Manifest()), l.Manifest().string());
+  const ScanManifest& m = s.manifest_;
+
+  // Views: exactly 000 .. views-1, each with both cameras.
+  std::error_code ec;
+  if (fs::is_directory(l.ViewsDir(), ec)) {
+    for (const auto& e : fs::directory_iterator(l.ViewsDir())) {
+      const std::string name = e.path().filename().string();
+      if (!e.is_directory()) continue;
+      if (!IsIndexName(name)) {
+        throw Error(
+            StrCat(e.path().string(), ": not a view folder (expected a three-digit index)"));
+      }
+      s.views_.push_back(name);
+    }
+  }
+  std::sort(s.views_.begin(), s.views_.end());
+  if (static_cast<int>(s.views_.size()) != m.views) {
+    throw Error(StrCat(l.ViewsDir().string(), ": ", s.views_.size(), " view folders, but ",
+                       l.Manifest().string(), " says ", m.views));
+  }
+  for (int v = 0; v < m.views; ++v) {
+    if (s.views_[v] != IndexName(v)) {
+      throw Error(StrCat(l.ViewDir(IndexName(v)).string(), ": missing view folder (views are ",
+                         IndexName(0), " .. ", IndexName(m.views - 1), ")"));
+    }
+    for (Camera c : {Camera::kLeft, Camera::kRight}) {
+      util::RequireDirectory(l.CameraDir(s.views_[v], c), "camera image folder");
+    }
+  }
+  if (!m.scheme.empty()) util::RequireFile(root / m.scheme, "scheme manifest");
+
+  // Calibration images: the same names for both cameras.
+  if (!m.calibration_target.empty()) util::RequireFile(root / m.calibration_target, "target");
+  if (m.calibration_images > 0) {
+    const std::vector<std::string> left = io::ListImageFiles(l.CalibrationDir(Camera::kLeft));
+    const std::vector<std::string> right = io::ListImageFiles(l.CalibrationDir(Camera::kRight));
+    for (const auto& [names, camera] :
+         {std::make_pair(&left, Camera::kLeft), std::make_pair(&right, Camera::kRight)}) {
+      if (static_cast<int>(names->size()) != m.calibration_images) {
+        throw Error(StrCat(l.CalibrationDir(camera).string(), ": ", names->size(), " images, but ",
+                           l.Manifest().string(), " says ", m.calibration_images));
+      }
+    }
+    if (left != right) {
+      throw Error(StrCat(l.CalibrationDir().string(),
+                         ": left/ and right/ hold differently named images (a board pose needs "
+                         "one image per camera under the same name)"));
+    }
+    s.calibration_images_ = left;
+  }
+  if (!m.truth.empty()) util::RequireDirectory(root / m.truth, "truth folder");
+  return s;
+}
+
+phase::PatternScheme ScanFolder::ReadScheme() const {
+  if (manifest_.scheme.empty()) {
+    throw Error(StrCat(layout_.Manifest().string(), ": the scan has no pattern scheme (no views)"));
+  }
+  return phase::ReadScheme(root() / manifest_.scheme);
+}
+
+std::vector<cv::Mat> ScanFolder::ReadStack(const std::string& view, Camera camera,
+                                           const phase::PatternScheme& scheme) const {
+  if (!std::binary_search(views_.begin(), views_.end(), view)) {
+    throw Error(StrCat(layout_.ViewDir(view).string(), ": no such view in the scan"));
+  }
+  std::vector<cv::Mat> images = phase::ReadStack(layout_.CameraDir(view, camera), scheme);
+  const cv::Size size(manifest_.image_width, manifest_.image_height);
+  if (!images.empty() && images[0].size() != size) {
+    throw Error(StrCat(layout_.CameraDir(view, camera).string(), ": images are ", images[0].cols,
+                       "x", images[0].rows, ", ", layout_.Manifest().string(), " says ", size.width,
+                       "x", size.height));
+  }
+  return images;
+}
+
+CalibrationTarget ScanFolder::ReadTarget() const {
+  if (manifest_.calibration_target.empty()) {
+    throw Error(StrCat(layout_.Manifest().string(), ": the scan has no calibration target"));
+  }
+  return io::ReadTarget(root() / manifest_.calibration_target);
+}
+
+void ScanFolder::RequireTruth(const fs::path& file) const {
+  if (!has_truth()) {
+    throw Error(StrCat(layout_.Manifest().string(), ": the scan has no truth (not simulated?); ",
+                       file.filename().string(), " is needed"));
+  }
+}
+
+StereoRig ScanFolder::ReadTruthRig() const {
+  RequireTruth(layout_.TruthRig());
+  return io::ReadRig(layout_.TruthRig());
+}
+
+TruthPoses ScanFolder::ReadTruthPoses() const {
+  RequireTruth(layout_.TruthPoses());
+  TruthPoses poses = scan::ReadTruthPoses(layout_.TruthPoses());
+  for (const std::string& v : views_) {
+    if (!poses.Find(v)) {
+      throw Error(StrCat(layout_.TruthPoses().string(), ": no pose for view ", v));
+    }
+  }
+  return poses;
+}
+
+TruthMarkers ScanFolder::ReadTruthMarkers() const {
+  RequireTruth(layout_.TruthMarkers());
+  return scan::ReadTruthMarkers(layout_.TruthMarkers());
+}
+
+TruthScene ScanFolder::ReadTruthScene() const {
+  RequireTruth(layout_.TruthScene());
+  return scan::ReadTruthScene(layout_.TruthScene());
+}
+
+TriangleMesh ScanFolder::ReadTruthMesh() const {
+  RequireTruth(layout_.TruthMesh());
+  return io::ReadMesh(layout_.TruthMesh());
+}
+
+}  // namespace fringe::scan

@@ -1,0 +1,137 @@
+// The scan folder (docs/scan-folder.md): the one place that knows its layout, reads and checks
+// its manifest, discovers its views and reads its scheme, calibration images and truth. The
+// simulator writes scan folders through ScanLayout and the writers here (sim/scan.cc); the
+// demo, `fringe reconstruct`, `fringe info` and the whole-scanner command read them through
+// ScanFolder.
+//
+//   DIR/scan.json                  manifest (ScanManifest)
+//   DIR/scheme.json                pattern scheme manifest
+//   DIR/views/NNN/{left,right}/    fringe image stacks, names from the scheme
+//   DIR/calibration/target.json    calibration board
+//   DIR/calibration/{left,right}/  board images, KKK.png
+//   DIR/truth/                     simulated scans only (truth.h, sim::ReadCameraTruth)
+//
+// Errors: every problem throws fringe::Error naming the file or folder and what was expected.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "fringe/geometry/calibration_target.h"
+#include "fringe/geometry/stereo_rig.h"
+#include "fringe/geometry/triangle_mesh.h"
+#include "fringe/phase/pattern_scheme.h"
+#include "fringe/scan/truth.h"
+
+namespace fringe::scan {
+
+enum class Camera { kLeft, kRight };
+// "left" / "right": the camera's folder name.
+const char* CameraName(Camera camera);
+
+// Three-digit index names of views and board images: 7 -> "007".
+std::string IndexName(int index);
+
+// Where everything lives in a scan folder rooted at `root`; nothing is read or checked.
+struct ScanLayout {
+  std::filesystem::path root;
+
+  std::filesystem::path Manifest() const { return root / "scan.json"; }
+  std::filesystem::path Scheme() const { return root / "scheme.json"; }
+  std::filesystem::path ViewsDir() const { return root / "views"; }
+  std::filesystem::path ViewDir(const std::string& view) const { return ViewsDir() / view; }
+  std::filesystem::path CameraDir(const std::string& view, Camera camera) const {
+    return ViewDir(view) / CameraName(camera);
+  }
+  std::filesystem::path CalibrationDir() const { return root / "calibration"; }
+  std::filesystem::path CalibrationDir(Camera camera) const {
+    return CalibrationDir() / CameraName(camera);
+  }
+  std::filesystem::path Target() const { return CalibrationDir() / "target.json"; }
+  std::filesystem::path TruthDir() const { return root / "truth"; }
+  std::filesystem::path TruthRig() const { return TruthDir() / "rig.json"; }
+  std::filesystem::path TruthPoses() const { return TruthDir() / "poses.json"; }
+  std::filesystem::path TruthMarkers() const { return TruthDir() / "markers.json"; }
+  std::filesystem::path TruthScene() const { return TruthDir() / "scene.json"; }
+  std::filesystem::path TruthMesh() const { return TruthDir() / "scene.ply"; }
+  std::filesystem::path TruthCalibration() const { return TruthDir() / "calibration.json"; }
+  // Per-pixel truth maps of one camera in one view (sim::WriteCameraTruth / ReadCameraTruth).
+  std::filesystem::path TruthMaps(const std::string& view, Camera camera) const {
+    return TruthDir() / "views" / view / CameraName(camera);
+  }
+};
+
+// scan.json. Relative paths are empty when the scan has no such part.
+struct ScanManifest {
+  static constexpr int kVersion = 1;
+  std::string generator;  // who wrote the folder, e.g. "fringe simulate"
+  std::string scene;      // scene name of a simulated scan, else empty
+  uint64_t seed = 0;      // simulation seed
+  int views = 0;          // number of view folders views/NNN
+  int image_width = 0;    // camera image size, px
+  int image_height = 0;
+  int bit_depth = 8;               // 8, or 12 (stored in 16-bit PNG)
+  std::string scheme;              // "scheme.json" when there are views
+  int calibration_images = 0;      // board images per camera
+  std::string calibration_target;  // "calibration/target.json" when there are board images
+  std::string truth;               // "truth" for simulated scans
+};
+nlohmann::json ManifestToJson(const ScanManifest& manifest);
+// Throws fringe::Error naming `context` for a missing / mistyped field, another format or a
+// newer version, or inconsistent values (negative counts, a bit depth other than 8 or 12).
+ScanManifest ManifestFromJson(const nlohmann::json& j, const std::string& context);
+void WriteManifest(const std::filesystem::path& path, const ScanManifest& manifest);
+
+// A scan folder opened for reading and checked against its manifest.
+class ScanFolder {
+ public:
+  // Reads ROOT/scan.json and checks the folder against it: the views under views/ are exactly
+  // 000 .. views-1, each with left/ and right/; the scheme, target and truth folder it names
+  // exist; calibration/left and right each hold `calibration_images` images with the same
+  // names. Throws fringe::Error naming the first file or folder that disagrees.
+  static ScanFolder Open(const std::filesystem::path& root);
+  // True when `dir` has a scan.json (a scan folder, maybe invalid).
+  static bool IsScanFolder(const std::filesystem::path& dir);
+  // The root of the scan folder that `view_dir` (ROOT/views/NNN) belongs to, if it is one.
+  static std::optional<std::filesystem::path> RootOfView(const std::filesystem::path& view_dir);
+
+  const ScanLayout& layout() const { return layout_; }
+  const std::filesystem::path& root() const { return layout_.root; }
+  const ScanManifest& manifest() const { return manifest_; }
+
+  // View names, sorted ("000", "001", ...).
+  const std::vector<std::string>& views() const { return views_; }
+  bool has_views() const { return !views_.empty(); }
+  // The pattern scheme (scheme.json); throws when the scan has none.
+  phase::PatternScheme ReadScheme() const;
+  // One camera's fringe images of a view in the scheme's order (phase::ReadStack checks them).
+  std::vector<cv::Mat> ReadStack(const std::string& view, Camera camera,
+                                 const phase::PatternScheme& scheme) const;
+
+  bool has_calibration() const { return manifest_.calibration_images > 0; }
+  // Board image file names (same in left/ and right/), sorted.
+  const std::vector<std::string>& calibration_images() const { return calibration_images_; }
+  CalibrationTarget ReadTarget() const;
+
+  bool has_truth() const { return !manifest_.truth.empty(); }
+  StereoRig ReadTruthRig() const;
+  TruthPoses ReadTruthPoses() const;
+  TruthMarkers ReadTruthMarkers() const;
+  TruthScene ReadTruthScene() const;
+  TriangleMesh ReadTruthMesh() const;  // world frame
+
+ private:
+  void RequireTruth(const std::filesystem::path& file) const;
+
+  ScanLayout layout_;
+  ScanManifest manifest_;
+  std::vector<std::string> views_;
+  std::vector<std::string> calibration_images_;
+};
+
+}  // namespace fringe::scan

@@ -1,0 +1,190 @@
+#include "fringe/scan/scan_folder.h"
+
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+#include "fringe/io/calibration_io.h"
+#include "fringe/io/image_io.h"
+#include "fringe/phase/pattern_scheme.h"
+#include "fringe/scan/describe.h"
+#include "fringe/util/error.h"
+#include "fringe_test.h"
+
+namespace fringe::scan {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr int kWidth = 16, kHeight = 12;
+
+// A small, valid scan folder written by hand: `views` views of the N-step scheme, `boards` board
+// images per camera, no truth.
+ScanManifest WriteSmallScan(const fs::path& root, int views, int boards) {
+  const ScanLayout layout{root};
+  fs::create_directories(root);
+  const phase::PatternScheme scheme =
+      phase::MakeScheme("heterodyne-4x3", 320, 200);  // the 0.25-scaled projector
+  const cv::Mat grey(kHeight, kWidth, CV_8U, cv::Scalar(90));
+  for (int v = 0; v < views; ++v) {
+    for (Camera c : {Camera::kLeft, Camera::kRight}) {
+      fs::create_directories(layout.CameraDir(IndexName(v), c));
+      for (const std::string& n : scheme.ImageNames()) {
+        io::WriteImage(layout.CameraDir(IndexName(v), c) / n, grey);
+      }
+    }
+  }
+  ScanManifest m;
+  m.generator = "test";
+  m.views = views;
+  m.image_width = kWidth;
+  m.image_height = kHeight;
+  if (views > 0) {
+    phase::WriteScheme(layout.Scheme(), scheme);
+    m.scheme = "scheme.json";
+  }
+  if (boards > 0) {
+    for (Camera c : {Camera::kLeft, Camera::kRight}) {
+      fs::create_directories(layout.CalibrationDir(c));
+      for (int k = 0; k < boards; ++k) {
+        io::WriteImage(layout.CalibrationDir(c) / (IndexName(k) + ".png"), grey);
+      }
+    }
+    io::WriteJson(layout.Target(), io::TargetToJson(CalibrationTarget::Reference()));
+    m.calibration_images = boards;
+    m.calibration_target = "calibration/target.json";
+  }
+  WriteManifest(layout.Manifest(), m);
+  return m;
+}
+
+// Runs `f`, expects fringe::Error whose message contains every one of `parts`.
+template <typename F>
+void ExpectError(F&& f, const std::vector<std::string>& parts) {
+  try {
+    f();
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    for (const auto& p : parts)
+      EXPECT_NE(std::string(e.what()).find(p), std::string::npos) << e.what();
+  }
+}
+
+TEST(ScanFolder, OpensAndReadsAValidFolder) {
+  test::TempDir dir;
+  const fs::path root = dir / "scan";
+  WriteSmallScan(root, 2, 3);
+  const ScanFolder scan = ScanFolder::Open(root);
+  EXPECT_EQ(scan.views(), (std::vector<std::string>{"000", "001"}));
+  EXPECT_EQ(scan.calibration_images(), (std::vector<std::string>{"000.png", "001.png", "002.png"}));
+  const phase::PatternScheme scheme = scan.ReadScheme();
+  EXPECT_EQ(scan.ReadStack("001", Camera::kLeft, scheme).size(), scheme.ImageNames().size());
+  EXPECT_EQ(scan.ReadTarget().rows, CalibrationTarget::Reference().rows);
+  EXPECT_FALSE(scan.has_truth());
+  ExpectError([&] { scan.ReadTruthPoses(); }, {"scan.json", "no truth", "poses.json"});
+  ExpectError([&] { scan.ReadStack("007", Camera::kLeft, scheme); }, {"007", "no such view"});
+  // A view folder is recognised as part of its scan folder, with or without a trailing slash.
+  EXPECT_EQ(ScanFolder::RootOfView(root / "views" / "001"), root);
+  EXPECT_EQ(ScanFolder::RootOfView(fs::path((root / "views" / "001").string() + "/")), root);
+  EXPECT_FALSE(ScanFolder::RootOfView(root / "calibration").has_value());
+  const std::string text = DescribePath(root);
+  EXPECT_NE(text.find("scan folder"), std::string::npos) << text;
+  EXPECT_NE(text.find("views: 2"), std::string::npos) << text;
+}
+
+TEST(ScanFolder, ManifestRoundTripsAndRejectsBadFields) {
+  ScanManifest m;
+  m.generator = "fringe simulate";
+  m.scene = "vdi";
+  m.seed = 7;
+  m.views = 3;
+  m.image_width = 1280;
+  m.image_height = 1024;
+  m.bit_depth = 12;
+  m.scheme = "scheme.json";
+  m.calibration_images = 15;
+  m.calibration_target = "calibration/target.json";
+  m.truth = "truth";
+  const ScanManifest r = ManifestFromJson(ManifestToJson(m), "scan.json");
+  EXPECT_EQ(r.scene, "vdi");
+  EXPECT_EQ(r.seed, 7u);
+  EXPECT_EQ(r.bit_depth, 12);
+  EXPECT_EQ(r.calibration_target, m.calibration_target);
+  EXPECT_EQ(r.truth, "truth");
+  auto with = [&](const char* field, const nlohmann::json& value) {
+    nlohmann::json j = ManifestToJson(m);
+    j[field] = value;
+    return j;
+  };
+  ExpectError([&] { ManifestFromJson(with("format", "other"), "s.json"); }, {"s.json", "format"});
+  ExpectError([&] { ManifestFromJson(with("version", 99), "s.json"); }, {"s.json", "version 99"});
+  ExpectError([&] { ManifestFromJson(with("views", -1), "s.json"); }, {"s.json", "views"});
+  ExpectError([&] { ManifestFromJson(with("views", "three"), "s.json"); }, {"s.json"});
+  ExpectError([&] { ManifestFromJson(with("scheme", "../x.json"), "s.json"); },
+              {"s.json", "relative path inside the folder"});
+  ExpectError([&] { ManifestFromJson(with("scheme", "/etc/x.json"), "s.json"); },
+              {"s.json", "relative path"});
+  ExpectError([&] { ManifestFromJson(with("scheme", nullptr), "s.json"); },
+              {"s.json", "'scheme' is null"});
+  ExpectError([&] { ManifestFromJson(with("bit_depth", 10), "s.json"); }, {"bit_depth"});
+}
+
+TEST(ScanFolder, ErrorsNameTheFileThatDisagrees) {
+  test::TempDir dir;
+  {
+    const fs::path root = dir / "missing_view";
+    WriteSmallScan(root, 2, 0);
+    fs::remove_all(root / "views" / "001");
+    ExpectError([&] { ScanFolder::Open(root); }, {"views", "1 view folders", "says 2"});
+  }
+  {
+    const fs::path root = dir / "gap";
+    WriteSmallScan(root, 2, 0);
+    fs::rename(root / "views" / "001", root / "views" / "002");
+    ExpectError([&] { ScanFolder::Open(root); }, {(root / "views" / "001").string(), "missing"});
+  }
+  {
+    const fs::path root = dir / "no_right";
+    WriteSmallScan(root, 1, 0);
+    fs::remove_all(root / "views" / "000" / "right");
+    ExpectError([&] { ScanFolder::Open(root); }, {(root / "views" / "000" / "right").string()});
+  }
+  {
+    const fs::path root = dir / "odd_view";
+    WriteSmallScan(root, 1, 0);
+    fs::create_directories(root / "views" / "extra");
+    ExpectError([&] { ScanFolder::Open(root); }, {"extra", "three-digit"});
+  }
+  {
+    const fs::path root = dir / "boards";
+    WriteSmallScan(root, 0, 2);
+    fs::rename(root / "calibration" / "right" / "001.png",
+               root / "calibration" / "right" / "009.png");
+    ExpectError([&] { ScanFolder::Open(root); }, {"calibration", "differently named"});
+    fs::remove(root / "calibration" / "right" / "009.png");
+    ExpectError([&] { ScanFolder::Open(root); },
+                {(root / "calibration" / "right").string(), "1 images"});
+  }
+  {
+    const fs::path root = dir / "no_scheme";
+    WriteSmallScan(root, 1, 0);
+    fs::remove(root / "scheme.json");
+    ExpectError([&] { ScanFolder::Open(root); }, {"scheme.json"});
+  }
+  {
+    const fs::path root = dir / "size";
+    WriteSmallScan(root, 1, 0);
+    ScanManifest m = ManifestFromJson(io::ReadJson(root / "scan.json"), "scan.json");
+    m.image_width = 32;
+    WriteManifest(root / "scan.json", m);
+    const ScanFolder scan = ScanFolder::Open(root);
+    ExpectError([&] { scan.ReadStack("000", Camera::kLeft, scan.ReadScheme()); },
+                {"16x12", "32x12"});
+  }
+  ExpectError([&] { ScanFolder::Open(dir / "nothing"); }, {"nothing"});
+  fs::create_directories(dir / "empty");
+  ExpectError([&] { ScanFolder::Open(dir / "empty"); }, {"scan.json"});
+}
+
+}  // namespace
+}  // namespace fringe::scan

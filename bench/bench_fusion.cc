@@ -200,8 +200,7 @@ int main(int argc, char** argv) {
   int64_t input_points = 0;
   for (const auto& v : views) input_points += static_cast<int64_t>(v.cloud.NumValid());
 
-  const sim::TriangleMesh truth_mesh = simulator.scene().CombinedMesh();
-  const eval::MeshDistance truth(truth_mesh.vertices, truth_mesh.triangles);
+  const eval::MeshDistance truth(simulator.scene().CombinedMesh());
 
   // Ours.
   fusion::FusionOptions options;
@@ -335,7 +334,7 @@ int main(int argc, char** argv) {
       util::Timer t;
       const fusion::MeshResult m = fusion::MeshPoisson(concat_cloud, mo);
       j["poisson_concat_s"] = t.ElapsedSeconds();
-      j["poisson_concat_rms_mm"] = StatsOf(Distances(m.vertices.points, truth)).rms;
+      j["poisson_concat_rms_mm"] = StatsOf(Distances(m.mesh.vertices, truth)).rms;
     }
   }
 
@@ -347,7 +346,7 @@ int main(int argc, char** argv) {
     j["mesh_time_s"] = t.ElapsedSeconds();
     j["mesh_summary"] = m.summary.BriefReport();
     if (m.summary.ok()) {
-      j["mesh_rms_mm"] = StatsOf(Distances(m.vertices.points, truth)).rms;
+      j["mesh_rms_mm"] = StatsOf(Distances(m.mesh.vertices, truth)).rms;
       j["mesh_watertight"] = m.summary.watertight;
       j["mesh_triangles"] = m.summary.triangles;
       // Truth points where measured (closest truth points of the concatenation, every 7th) to
@@ -358,7 +357,7 @@ int main(int argc, char** argv) {
         if (std::isfinite(truth.SignedDistance(concat[i], kMaxDistanceMm, &q)))
           truth_pts.push_back(q);
       }
-      const eval::MeshDistance ours(m.vertices.points, m.triangles);
+      const eval::MeshDistance ours(m.mesh);
       j["mesh_truth_rms_mm"] = StatsOf(Distances(truth_pts, ours)).rms;
       fusion::MeshOptions wt = mo;
       wt.watertight = true;

@@ -195,7 +195,7 @@ void AddFuseCommand(CLI::App& app) {
                                  mesh.summary.message));
       }
     }
-    io::WritePly(a->out, fused.fused, {},
+    io::WritePly(a->out, fused.fused,
                  a->ascii ? io::PlyFormat::kAscii : io::PlyFormat::kBinaryLittleEndian,
                  {"fringe fuse: world frame (the first view's sensor frame after fringe register), "
                   "mm; intensity = texture (also as grey colour), quality = weighted modulation"});

@@ -155,7 +155,7 @@ TEST(Fusion, SharpEdgeStaysSharp) {
   const FusionResult r = FuseViews(views);
   SCOPED_TRACE(r.summary.BriefReport());
   ASSERT_EQ(r.summary.status, FusionStatus::kOk);
-  const eval::MeshDistance truth(box.mesh.vertices, box.mesh.triangles);
+  const eval::MeshDistance truth(box.mesh);
   auto near_edge = [&](const Eigen::Vector3d& p) {
     return std::hypot(p.x() - 40, p.z()) < kEdgeBandMm && std::abs(p.y()) < 30;
   };

@@ -5,12 +5,11 @@
 #include <open3d/geometry/KDTreeFlann.h>
 #include <open3d/geometry/PointCloud.h>
 #include <open3d/geometry/TriangleMesh.h>
-#include <open3d/io/TriangleMeshIO.h>
 #include <algorithm>
 #include <cmath>
 
 #include "fringe/eval/deviation.h"
-#include "fringe/io/ply.h"
+#include "fringe/io/mesh_io.h"
 #include "fringe/util/error.h"
 #include "fringe/util/files.h"
 #include "fringe/util/timer.h"
@@ -25,8 +24,8 @@ double Quantile(std::vector<double> v, double q) {
   return v[k];
 }
 
-std::vector<std::array<int32_t, 3>> Triangles(const open3d::geometry::TriangleMesh& m) {
-  std::vector<std::array<int32_t, 3>> t(m.triangles_.size());
+std::vector<TriangleMesh::Triangle> Triangles(const open3d::geometry::TriangleMesh& m) {
+  std::vector<TriangleMesh::Triangle> t(m.triangles_.size());
   for (size_t i = 0; i < t.size(); ++i) {
     t[i] = {m.triangles_[i](0), m.triangles_[i](1), m.triangles_[i](2)};
   }
@@ -161,12 +160,12 @@ MeshResult MeshPoisson(const PointCloud& cloud, const MeshOptions& options) {
   // Closed and manifold (Open3D's IsWatertight adds a self-intersection test that is
   // quadratic in the triangle count).
   s.watertight = mesh->IsEdgeManifold(/*allow_boundary_edges=*/false) && mesh->IsVertexManifold();
-  result.vertices.points = mesh->vertices_;
-  result.vertices.normals = mesh->vertex_normals_;
-  result.triangles = Triangles(*mesh);
-  s.vertices = static_cast<int64_t>(result.vertices.size());
-  s.triangles = static_cast<int64_t>(result.triangles.size());
-  if (result.triangles.empty()) {
+  result.mesh.vertices = mesh->vertices_;
+  result.mesh.normals = mesh->vertex_normals_;
+  result.mesh.triangles = Triangles(*mesh);
+  s.vertices = static_cast<int64_t>(result.mesh.NumVertices());
+  s.triangles = static_cast<int64_t>(result.mesh.NumTriangles());
+  if (result.mesh.triangles.empty()) {
     return Fail(std::move(result), MeshStatus::kFailed, "no triangle left after trimming");
   }
   s.total_s = total.ElapsedSeconds();
@@ -174,29 +173,11 @@ MeshResult MeshPoisson(const PointCloud& cloud, const MeshOptions& options) {
 }
 
 void WriteMeshFile(const std::filesystem::path& path, const MeshResult& mesh) {
-  std::string ext = path.extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(),
-                 [](unsigned char c) { return std::tolower(c); });
-  if (ext == ".ply") {
-    io::WritePly(path, mesh.vertices, mesh.triangles, io::PlyFormat::kBinaryLittleEndian,
-                 {"fringe fuse: screened Poisson mesh, vertex normals"});
-    return;
+  if (!util::HasExtension(path, {".ply", ".stl"})) {
+    throw Error(util::StrCat(path.string(), ": unknown mesh format '", path.extension().string(),
+                             "' (expected .ply or .stl)"));
   }
-  if (ext != ".stl") {
-    throw Error(
-        util::StrCat(path.string(), ": unknown mesh format '", ext, "' (expected .ply or .stl)"));
-  }
-  open3d::geometry::TriangleMesh m;
-  m.vertices_ = mesh.vertices.points;
-  m.triangles_.reserve(mesh.triangles.size());
-  for (const auto& t : mesh.triangles) m.triangles_.emplace_back(t[0], t[1], t[2]);
-  m.ComputeTriangleNormals();
-  util::WriteAtomically(path, [&](const std::filesystem::path& tmp) {
-    if (!open3d::io::WriteTriangleMesh(tmp.string(), m, /*write_ascii=*/false, false,
-                                       /*write_vertex_normals=*/false, false, false, false)) {
-      throw Error(util::StrCat(path.string(), ": STL write failed"));
-    }
-  });
+  io::WriteMesh(path, mesh.mesh, {"fringe fuse: screened Poisson mesh, vertex normals"});
 }
 
 }  // namespace fringe::fusion

@@ -23,6 +23,7 @@
 #include <vector>
 
 #include "fringe/geometry/point_cloud.h"
+#include "fringe/geometry/triangle_mesh.h"
 
 namespace fringe::fusion {
 
@@ -65,16 +66,15 @@ struct MeshSummary {
 };
 
 struct MeshResult {
-  PointCloud vertices;                            // positions and unit vertex normals
-  std::vector<std::array<int32_t, 3>> triangles;  // counter-clockwise seen from outside
+  TriangleMesh mesh;  // vertices with unit normals; triangles counter-clockwise from outside
   MeshSummary summary;
 };
 
 // Bad options throw fringe::Error; bad data come back as a status.
 MeshResult MeshPoisson(const PointCloud& cloud, const MeshOptions& options = {});
 
-// Writes the mesh by extension: .ply (binary little-endian, with vertex normals) or .stl
-// (binary). Atomic (temporary name, then rename). Throws fringe::Error for another extension
+// Writes the mesh by extension through io::WriteMesh: .ply (binary little-endian, with vertex
+// normals) or .stl (binary). Atomic (temporary name, then rename). Throws fringe::Error for another extension
 // or a failed write.
 void WriteMeshFile(const std::filesystem::path& path, const MeshResult& mesh);
 

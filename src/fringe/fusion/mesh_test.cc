@@ -6,7 +6,7 @@
 
 #include "fringe/fusion/fuse.h"
 #include "fringe/fusion/test_views.h"
-#include "fringe/io/ply.h"
+#include "fringe/io/mesh_io.h"
 #include "fringe/sim/poses.h"
 #include "fringe/sim/scene.h"
 #include "fringe/util/error.h"
@@ -14,6 +14,15 @@
 
 namespace fringe::fusion {
 namespace {
+
+// The mesh's vertices (and normals) as a point cloud, for the radial-error helpers.
+PointCloud VertexCloud(const MeshResult& m) {
+  PointCloud c;
+  c.points = m.mesh.vertices;
+  c.normals = m.mesh.normals;
+  return c;
+}
+
 
 constexpr double kRadiusMm = 30;
 
@@ -67,13 +76,13 @@ TEST(Mesh, FusedSphereIsWatertightAndWithinToleranceOfTheSphere) {
   ASSERT_TRUE(m.summary.ok());
   EXPECT_TRUE(m.summary.watertight);
   EXPECT_EQ(m.summary.trimmed_vertices, 0);
-  const Eigen::Vector2d err = RadialErrorRmsMax(m.vertices);
+  const Eigen::Vector2d err = RadialErrorRmsMax(VertexCloud(m));
   EXPECT_LT(err[0], kRmsTolMm);
   EXPECT_LT(err[1], kMaxTolMm);
   // Outward normals: the vertex normal points away from the centre.
   int inward = 0;
-  for (size_t i = 0; i < m.vertices.size(); ++i) {
-    inward += m.vertices.normals[i].dot(m.vertices.points[i]) < 0;
+  for (size_t i = 0; i < m.mesh.NumVertices(); ++i) {
+    inward += m.mesh.normals[i].dot(m.mesh.vertices[i]) < 0;
   }
   EXPECT_EQ(inward, 0);
 }
@@ -94,15 +103,16 @@ TEST(Mesh, TrimmingKeepsOnlyTheMeasuredPart) {
   EXPECT_FALSE(trimmed.summary.watertight);
   EXPECT_GT(trimmed.summary.trimmed_vertices, 0);
   double min_z = 1e9;
-  for (const auto& p : trimmed.vertices.points) min_z = std::min(min_z, p.z());
+  for (const auto& p : trimmed.mesh.vertices) min_z = std::min(min_z, p.z());
   EXPECT_GT(min_z, -kMaxFromDataMm);
   // Away from the open rim (where Poisson is unconstrained on one side) the surface is as
   // close to the sphere as the closed mesh.
+  const PointCloud vertices = VertexCloud(trimmed);
   PointCloud inner;
-  for (size_t i = 0; i < trimmed.vertices.size(); ++i) {
-    if (trimmed.vertices.points[i].z() > 5) inner.PushBackFrom(trimmed.vertices, i);
+  for (size_t i = 0; i < vertices.size(); ++i) {
+    if (vertices.points[i].z() > 5) inner.PushBackFrom(vertices, i);
   }
-  ASSERT_GT(inner.size(), trimmed.vertices.size() / 2);
+  ASSERT_GT(inner.size(), vertices.size() / 2);
   EXPECT_LT(RadialErrorRmsMax(inner)[0], 0.05);
 }
 
@@ -124,12 +134,12 @@ TEST(Mesh, DecimationReportsItsDeviationAndFilesAreWritten) {
 
   test::TempDir dir;
   WriteMeshFile(dir / "m.ply", m);
-  const io::PlyData d = io::ReadPly(dir / "m.ply");
-  EXPECT_EQ(d.triangles.size(), m.triangles.size());
-  EXPECT_TRUE(d.cloud.has_normals());
+  const TriangleMesh d = io::ReadMesh(dir / "m.ply");
+  EXPECT_EQ(d.triangles.size(), m.mesh.triangles.size());
+  EXPECT_TRUE(d.has_normals());
   WriteMeshFile(dir / "m.stl", m);
-  const sim::TriangleMesh stl = sim::ReadMesh(dir / "m.stl");
-  EXPECT_EQ(stl.triangles.size(), m.triangles.size());
+  const TriangleMesh stl = io::ReadMesh(dir / "m.stl");
+  EXPECT_EQ(stl.triangles.size(), m.mesh.triangles.size());
   EXPECT_THROW(WriteMeshFile(dir / "m.obj", m), Error);
   EXPECT_FALSE(std::filesystem::exists(dir / "m.obj"));
 }

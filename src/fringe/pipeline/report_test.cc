@@ -48,7 +48,7 @@ TEST(Report, ColourMapShowsNaNAsGreyAndAddsABar) {
 TEST(Report, RenderedBoxFillsItsSilhouette) {
   // A 20 mm cube seen along -x: its silhouette is a square of 20 mm in a frame of
   // 2.1 x the bounding radius (17.3 mm) on the shorter side.
-  const sim::TriangleMesh box =
+  const TriangleMesh box =
       sim::MakeBoxMesh(Eigen::Vector3d(-10, -10, -10), Eigen::Vector3d(10, 10, 10));
   const cv::Mat img = RenderMesh(box.vertices, box.triangles, Eigen::Vector3d(-1, 0, 0), 200, 200);
   const double mm_per_px = 2.1 * std::sqrt(300.0) / 200;

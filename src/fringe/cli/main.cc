@@ -56,8 +56,7 @@ int Main(int argc, char** argv) {
   std::unique_ptr<tbb::global_control> thread_limit;
   app.footer(
       "Run 'fringe <command> --help' for the options of a command.\n"
-      "Exit codes: 0 success, 1 error or no result (the message names the file and the problem),
-      "
+      "Exit codes: 0 success, 1 error or no result (the message names the file and the problem), "
       "2 usage error, 3 partial success (e.g. scan --keep-going).");
 
   auto commands = Registry();

@@ -143,7 +143,10 @@ MeshResult MeshPoisson(const PointCloud& cloud, const MeshOptions& options) {
         std::numeric_limits<double>::infinity(), 1.0);
     decimated->RemoveUnreferencedVertices();
     if (!decimated->triangles_.empty()) {
-      const eval::MeshDistance surface(decimated->vertices_, Triangles(*decimated));
+      TriangleMesh decimated_mesh;
+      decimated_mesh.vertices = decimated->vertices_;
+      decimated_mesh.triangles = Triangles(*decimated);
+      const eval::MeshDistance surface(std::move(decimated_mesh));
       std::vector<double> d(mesh->vertices_.size());
       tbb::parallel_for(size_t{0}, d.size(), [&](size_t v) {
         d[v] = std::abs(surface.SignedDistance(mesh->vertices_[v]));

@@ -10,6 +10,7 @@
 
 #include "fringe/eval/deviation.h"
 #include "fringe/io/calibration_io.h"
+#include "fringe/io/mesh_io.h"
 #include "fringe/io/ply.h"
 #include "fringe/pipeline/report_test_util.h"
 #include "fringe/registration/markers.h"
@@ -81,8 +82,7 @@ TEST_F(ScanTest, ReconstructsEveryViewAccurately) {
   }
   // Every view against the truth: its cloud, placed by the true pose, lies on the truth mesh.
   const auto poses = io::ReadJson(Scan() / "truth" / "poses.json");
-  const io::PlyData mesh = io::ReadPly(Scan() / "truth" / "scene.ply");
-  const eval::MeshDistance distance(mesh.cloud.points, mesh.triangles);
+  const eval::MeshDistance distance(io::ReadMesh(Scan() / "truth" / "scene.ply"));
   int64_t points = 0;
   for (int v = 0; v < 3; ++v) {
     const std::string name = s.views[v].name;

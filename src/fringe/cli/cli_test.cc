@@ -184,7 +184,7 @@ TEST(CliBadInput, CalibrateAndReconstructNeverOverwriteTheirInputs) {
   EXPECT_EQ(util::ReadTextFile(dir / "rig.json"), "{}");
   // Residuals: a format that cannot hold floats, or a missing folder, fail before any work and
   // leave no cloud behind.
-  for (const std::string res : {(dir / "r.png").string(), (dir / "nodir" / "r.tiff").string()}) {
+  for (const std::string& res : {(dir / "r.png").string(), (dir / "nodir" / "r.tiff").string()}) {
     EXPECT_EQ(RunCli({"reconstruct", (dir / "view").string(), "--calib",
                       (dir / "rig.json").string(), "--scheme", (stack / "manifest.json").string(),
                       "--out", (dir / "r.ply").string(), "--residuals", res},

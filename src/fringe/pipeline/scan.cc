@@ -417,7 +417,13 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
   const std::vector<std::string> names = DiscoverViews(project);
 
   ScanSummary s;
-  util::WriteFolderAtomically(out, [&](const fs::path& dir) {
+  // The output folder must neither be the scan folder nor hold it (replacing it would delete the
+  // user's images); checked before the work.
+  util::OutputFolderOptions output;
+  output.inputs = {project};
+  if (!options.calib.empty()) output.inputs.push_back(options.calib);
+  util::CheckOutputFolder(out, output);
+  util::WriteFolderAtomically(out, output, [&](const fs::path& dir) {
     fs::create_directories(dir / "views");
     // 1. Calibration (its time is reported apart: a rig is calibrated once, not per scan).
     util::Timer timer;

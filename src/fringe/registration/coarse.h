@@ -1,0 +1,54 @@
+// Marker-free coarse alignment: FPFH features + RANSAC from Open3D (Rusu et al., "Fast Point
+// Feature Histograms (FPFH) for 3D registration", ICRA 2009), for views that share fewer than
+// three reliable markers with the map and for clouds without markers.
+//
+// Both clouds are voxel-downsampled (voxel_mm), FPFH features computed within
+// feature_radius_factor x voxel, and Open3D's RegistrationRANSACBasedOnFeatureMatching run with
+// edge-length and distance checkers; the result is accepted when its fitness (fraction of
+// source samples within 1.5 voxels of the target) reaches min_fitness.
+//
+// Determinism: Open3D's random generator is seeded with `seed`, but its RANSAC evaluates
+// hypotheses on several OpenMP threads and keeps the best as they finish, so two runs can pick
+// different (equally good) hypotheses; ICP refinement afterwards removes the difference to
+// within its convergence limits. Set OMP_NUM_THREADS=1 for bit-identical runs.
+//
+// Frames: source and target clouds in their own frames; result target_from_source. mm.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include "fringe/geometry/point_cloud.h"
+#include "fringe/geometry/rigid3.h"
+
+namespace fringe::registration {
+
+struct CoarseOptions {
+  double voxel_mm = 2.0;               // downsampling voxel, > 0
+  double feature_radius_factor = 5.0;  // FPFH radius / voxel, > 1
+  int max_ransac_iterations = 100000;  // >= 1
+  double ransac_confidence = 0.999;    // (0, 1)
+  double min_fitness = 0.2;            // accepted fraction of matched source samples, (0, 1]
+  uint64_t seed = 1;
+  void Check() const;
+};
+
+enum class CoarseStatus { kOk, kTooFewPoints, kNoAlignment };
+const char* ToString(CoarseStatus s);
+
+struct CoarseResult {
+  CoarseStatus status = CoarseStatus::kNoAlignment;
+  std::string message;
+  Rigid3d target_from_source;
+  double fitness = 0;  // fraction of downsampled source points with a close target point
+  double inlier_rms_mm = 0;
+  int source_samples = 0, target_samples = 0;
+  double seconds = 0;
+  bool ok() const { return status == CoarseStatus::kOk; }
+  std::string BriefReport() const;
+};
+
+CoarseResult AlignCoarse(const PointCloud& source, const PointCloud& target,
+                         const CoarseOptions& options = {});
+
+}  // namespace fringe::registration

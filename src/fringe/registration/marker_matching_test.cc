@@ -1,0 +1,181 @@
+#include "fringe/registration/marker_matching.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "fringe/geometry/align.h"
+#include "fringe/util/error.h"
+
+namespace fringe::registration {
+namespace {
+
+constexpr double kNoiseMm = 0.02;  // marker centre noise of a full-resolution view
+constexpr double kPoseRotTolDeg = 0.02;
+constexpr double kPoseTransTolMm = 0.05;  // at the markers' centroid
+
+// A random, asymmetric marker layout on a bumpy 200 x 150 mm part (normals up-ish).
+std::vector<MarkerPoint> RandomLayout(int n, std::mt19937* rng) {
+  std::uniform_real_distribution<double> ux(-100, 100), uy(-75, 75), uz(0, 40), un(-0.3, 0.3);
+  std::vector<MarkerPoint> out;
+  while (static_cast<int>(out.size()) < n) {
+    MarkerPoint p;
+    p.centre = {ux(*rng), uy(*rng), uz(*rng)};
+    bool close = false;
+    for (const auto& q : out) close |= (q.centre - p.centre).norm() < 8;
+    if (close) continue;
+    p.normal = Eigen::Vector3d(un(*rng), un(*rng), 1).normalized();
+    p.sigma_mm = kNoiseMm;
+    out.push_back(p);
+  }
+  return out;
+}
+
+Rigid3d SomePose() {
+  return Rigid3d::FromAxisAngle(Eigen::Vector3d(0.3, -0.5, 0.8).normalized(), 1.1,
+                                Eigen::Vector3d(40, -500, 120));
+}
+
+// view = sensor_from_world * (subset of map) + noise
+std::vector<MarkerPoint> SeeFrom(const std::vector<MarkerPoint>& world, const std::vector<int>& ids,
+                                 const Rigid3d& sensor_from_world, std::mt19937* rng) {
+  std::normal_distribution<double> noise(0, kNoiseMm);
+  std::vector<MarkerPoint> out;
+  for (int id : ids) {
+    MarkerPoint p = world[id];
+    p.centre =
+        sensor_from_world * p.centre + Eigen::Vector3d(noise(*rng), noise(*rng), noise(*rng));
+    p.normal = sensor_from_world.RotateDirection(p.normal);
+    out.push_back(p);
+  }
+  return out;
+}
+
+TEST(MarkerMatchOptions, DefaultsPassCheck) { EXPECT_NO_THROW(MarkerMatchOptions().Check()); }
+
+TEST(MatchMarkers, MissingExtraAndOutlierMarkers) {
+  std::mt19937 rng(7);
+  const std::vector<MarkerPoint> map = RandomLayout(30, &rng);
+  // The view sees 14 of the map's markers (16 missing) ...
+  std::vector<int> ids;
+  for (int k = 0; k < 30; k += 2) ids.push_back(k);
+  ids.pop_back();
+  const Rigid3d world_from_sensor = SomePose();
+  std::vector<MarkerPoint> view = SeeFrom(map, ids, world_from_sensor.Inverse(), &rng);
+  const size_t shared = view.size();
+  // ... plus 4 markers the map has not seen yet ...
+  const std::vector<MarkerPoint> fresh = RandomLayout(4, &rng);
+  for (MarkerPoint p : fresh) {
+    p.centre = world_from_sensor.Inverse() * (p.centre + Eigen::Vector3d(0, 0, 60));
+    view.push_back(p);
+  }
+  // ... and 2 outliers: shared markers measured 3 mm off.
+  view[1].centre += Eigen::Vector3d(3, 0, 0);
+  view[5].centre += Eigen::Vector3d(0, -2, 2);
+
+  const MarkerMatchResult r = MatchMarkers(view, map);
+  ASSERT_TRUE(r.ok()) << r.BriefReport();
+  const RigidDifference d = Difference(r.map_from_view, world_from_sensor);
+  EXPECT_LT(d.angle_rad * 180 / M_PI, kPoseRotTolDeg);
+  // Translation error where the markers are (the pose's own origin is 500 mm away, where any
+  // rotation error is magnified).
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  for (size_t k = 0; k < shared; ++k) centroid += view[k].centre / static_cast<double>(shared);
+  EXPECT_LT((r.map_from_view * centroid - world_from_sensor * centroid).norm(), kPoseTransTolMm);
+  // Every correspondence correct; all shared markers but the two outliers found.
+  for (const auto& [v, m] : r.pairs) {
+    ASSERT_LT(static_cast<size_t>(v), shared) << "an unseen marker was matched";
+    EXPECT_EQ(ids[v], m);
+    EXPECT_NE(v, 1);
+    EXPECT_NE(v, 5);
+  }
+  EXPECT_EQ(r.pairs.size(), shared - 2);
+}
+
+TEST(MatchMarkers, ViewsInAnyFrameAndOrder) {
+  std::mt19937 rng(11);
+  const std::vector<MarkerPoint> map = RandomLayout(12, &rng);
+  std::vector<int> ids = {11, 3, 7, 0, 5, 9, 1};  // shuffled order
+  const Rigid3d world_from_sensor =
+      Rigid3d::FromAxisAngle(Eigen::Vector3d(1, 0, 0), M_PI * 0.9, Eigen::Vector3d(5, 5, 700));
+  const MarkerMatchResult r =
+      MatchMarkers(SeeFrom(map, ids, world_from_sensor.Inverse(), &rng), map);
+  ASSERT_TRUE(r.ok()) << r.BriefReport();
+  ASSERT_EQ(r.pairs.size(), ids.size());
+  for (const auto& [v, m] : r.pairs) EXPECT_EQ(ids[v], m);
+}
+
+// Eight markers at the corners of two concentric squares: every quarter turn about the centre
+// maps the layout onto itself, normals included. No match can be right: refuse.
+TEST(MatchMarkers, RotationallySymmetricLayoutIsRefused) {
+  std::vector<MarkerPoint> map;
+  for (double r : {30.0, 55.0}) {
+    for (int k = 0; k < 4; ++k) {
+      MarkerPoint p;
+      const double a = k * M_PI / 2 + (r > 40 ? 0.3 : 0);
+      p.centre = {r * std::cos(a), r * std::sin(a), 0};
+      p.normal = Eigen::Vector3d::UnitZ();
+      p.sigma_mm = kNoiseMm;
+      map.push_back(p);
+    }
+  }
+  std::mt19937 rng(3);
+  const Rigid3d world_from_sensor = SomePose();
+  const MarkerMatchResult r =
+      MatchMarkers(SeeFrom(map, {0, 1, 2, 3, 4, 5, 6, 7}, world_from_sensor.Inverse(), &rng), map);
+  EXPECT_EQ(r.status, MarkerMatchStatus::kAmbiguous) << r.BriefReport();
+  EXPECT_TRUE(r.pairs.empty());
+}
+
+// A planar layout symmetric under a mirror: the mirror is no rigid motion, but the flip about
+// the mirror line (a rigid half turn) maps the centres onto themselves and turns the normals
+// over. With normals the match is unique and correct; without them it must be refused.
+TEST(MatchMarkers, MirrorSymmetricLayoutDisambiguatedByNormals) {
+  std::vector<MarkerPoint> map;
+  for (const auto& xy : std::vector<Eigen::Vector2d>{{20, 10}, {45, -30}, {60, 35}, {15, -50}}) {
+    for (double sx : {-1.0, 1.0}) {
+      MarkerPoint p;
+      p.centre = {sx * xy.x(), xy.y(), 0};
+      p.normal = Eigen::Vector3d::UnitZ();
+      p.sigma_mm = kNoiseMm;
+      map.push_back(p);
+    }
+  }
+  std::mt19937 rng(5);
+  const Rigid3d world_from_sensor = SomePose();
+  const std::vector<int> ids = {0, 1, 2, 3, 4, 5, 6, 7};
+  std::vector<MarkerPoint> view = SeeFrom(map, ids, world_from_sensor.Inverse(), &rng);
+  const MarkerMatchResult r = MatchMarkers(view, map);
+  ASSERT_TRUE(r.ok()) << r.BriefReport();
+  for (const auto& [v, m] : r.pairs) EXPECT_EQ(ids[v], m);
+  EXPECT_LT(Difference(r.map_from_view, world_from_sensor).angle_rad * 180 / M_PI, kPoseRotTolDeg);
+
+  for (auto* list : {&view}) {
+    for (MarkerPoint& p : *list) p.normal.setZero();
+  }
+  std::vector<MarkerPoint> map_without_normals = map;
+  for (MarkerPoint& p : map_without_normals) p.normal.setZero();
+  const MarkerMatchResult blind = MatchMarkers(view, map_without_normals);
+  EXPECT_EQ(blind.status, MarkerMatchStatus::kAmbiguous) << blind.BriefReport();
+}
+
+TEST(MatchMarkers, TooFewAndUnrelatedMarkers) {
+  std::mt19937 rng(9);
+  const std::vector<MarkerPoint> map = RandomLayout(10, &rng);
+  const MarkerMatchResult few = MatchMarkers(SeeFrom(map, {1, 2}, SomePose().Inverse(), &rng), map);
+  EXPECT_EQ(few.status, MarkerMatchStatus::kTooFewMarkers);
+  // A different random layout shares no distances with the map.
+  std::mt19937 other(1234);
+  const MarkerMatchResult unrelated = MatchMarkers(RandomLayout(8, &other), map);
+  EXPECT_FALSE(unrelated.ok()) << unrelated.BriefReport();
+}
+
+TEST(MatchMarkers, NonFiniteInputThrows) {
+  std::vector<MarkerPoint> v(3);
+  v[1].centre.x() = std::nan("");
+  EXPECT_THROW(MatchMarkers(v, v), Error);
+}
+
+}  // namespace
+}  // namespace fringe::registration

@@ -1,0 +1,122 @@
+// Multi-view registration (thesis capability 3): every view's cloud placed in one world frame.
+//
+// Stages, each reported in the summary:
+//  1. Input checks per view: empty cloud, no normals, an extent that looks like metres rather
+//     than millimetres (a view smaller than min_extent_mm across): the view gets a bad-input
+//     status; the others go on.
+//  2. World = the sensor frame of the first good view. Views with markers join the growing
+//     marker map by distance invariance (marker_matching.h), in any order: each round places the
+//     pending view with the most verified correspondences, until no pending view matches. A
+//     view with an initial pose (e.g. fringe register --initial) is placed by it.
+//  3. Views still pending fall back to marker-free coarse alignment against the clouds placed
+//     so far (coarse.h, Open3D FPFH + RANSAC), verified by a pairwise ICP; what still cannot be
+//     placed is reported as unplaced, never dropped silently.
+//  4. Global marker adjustment of the map and the marker-placed poses (adjustment.h, Ceres).
+//  5. Multi-level simultaneous multi-view ICP (icp.h) over all placed views, the world view
+//     fixed; its first threshold follows the marker alignment error (or the coarse alignment's).
+//
+// Frames: each view's cloud and markers in its sensor frame (left camera), results as
+// world_from_sensor; world = the first good view's sensor frame. Millimetres.
+// Deterministic for fixed seeds except for the Open3D RANSAC step (coarse.h). Thread safety:
+// reentrant; TBB inside the ICP.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "fringe/geometry/point_cloud.h"
+#include "fringe/geometry/rigid3.h"
+#include "fringe/registration/adjustment.h"
+#include "fringe/registration/coarse.h"
+#include "fringe/registration/icp.h"
+#include "fringe/registration/marker_matching.h"
+#include "fringe/registration/markers.h"
+
+namespace fringe::registration {
+
+struct RegistrationView {
+  std::string name;                 // e.g. the input file's stem
+  PointCloud cloud;                 // sensor frame, mm, unit normals toward the sensor
+  std::vector<ViewMarker> markers;  // sensor frame; empty when the view has none
+  std::optional<Rigid3d> initial_world_from_sensor;
+};
+
+struct RegistrationOptions {
+  bool use_markers = true;      // false: marker-free path for every view
+  bool coarse_fallback = true;  // FPFH + RANSAC for views the markers cannot place
+  bool adjust_markers = true;   // global marker adjustment
+  bool refine_icp = true;       // multi-level multi-view ICP
+  double min_extent_mm = 5.0;   // smaller clouds look like metres: refused, > 0
+  // ICP's first threshold: icp_threshold_factor x the worst marker alignment RMS, at least
+  // icp_min_start_threshold_mm (the point spacing and noise must fit under it), > 0.
+  double icp_threshold_factor = 10.0;
+  double icp_min_start_threshold_mm = 1.0;
+  double coarse_verify_min_overlap = 0.2;  // pairwise ICP overlap accepting a coarse alignment
+  MarkerMatchOptions matching;
+  AdjustmentOptions adjustment;
+  CoarseOptions coarse;
+  IcpOptions icp;  // initial_threshold_mm is used for views placed without markers
+  void Check() const;
+};
+
+enum class ViewPath { kWorld, kMarkers, kInitial, kMarkerFree, kUnplaced, kBadInput };
+const char* ToString(ViewPath p);
+
+struct ViewRegistration {
+  std::string name;
+  ViewPath path = ViewPath::kUnplaced;
+  std::string message;  // why unplaced / bad input, or how it was placed
+  Rigid3d world_from_sensor;
+  Rigid3d world_from_sensor_markers;   // after marker matching (markers path)
+  Rigid3d world_from_sensor_adjusted;  // after the global marker adjustment
+  int markers = 0;                     // markers in the view
+  int matched_markers = 0;             // correspondences with the map when it joined
+  double marker_rms_mm = 0;            // of its rigid fit when it joined
+  double adjusted_rms_mm = 0;          // its sightings after the global adjustment
+  double overlap_fraction = 0;         // largest ICP overlap with another view
+  bool placed() const {
+    return path == ViewPath::kWorld || path == ViewPath::kMarkers || path == ViewPath::kInitial ||
+           path == ViewPath::kMarkerFree;
+  }
+};
+
+// A marker of the map (world frame) and who saw it.
+struct MapMarker {
+  int id = 0;
+  Eigen::Vector3d centre_in_world = Eigen::Vector3d::Zero();
+  Eigen::Vector3d normal_in_world = Eigen::Vector3d::UnitZ();
+  double outer_radius_mm = 0;
+  double sigma_mm = 0;
+  struct Sighting {
+    int view = 0;         // index into RegistrationResult::views
+    int view_marker = 0;  // index into that view's markers
+  };
+  std::vector<Sighting> sightings;
+};
+
+enum class RegistrationStatus { kOk, kPartial, kFailed };
+const char* ToString(RegistrationStatus s);
+
+struct RegistrationSummary {
+  RegistrationStatus status = RegistrationStatus::kFailed;
+  std::string message;
+  int placed = 0, unplaced = 0, bad_input = 0;
+  AdjustmentSummary adjustment;
+  IcpSummary icp;
+  double seconds = 0;
+  bool ok() const { return status == RegistrationStatus::kOk; }
+  std::string BriefReport() const;
+};
+
+struct RegistrationResult {
+  std::vector<ViewRegistration> views;  // one per input view, same order
+  std::vector<MapMarker> map;
+  RegistrationSummary summary;
+};
+
+// Throws fringe::Error only for bad options; data problems come back as per-view statuses.
+RegistrationResult RegisterViews(const std::vector<RegistrationView>& views,
+                                 const RegistrationOptions& options = {});
+
+}  // namespace fringe::registration

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <cmath>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -13,6 +14,8 @@
 #include "fringe/cli/cli.h"
 #include "fringe/io/calibration_io.h"
 #include "fringe/io/ply.h"
+#include "fringe/registration/markers.h"
+#include "fringe/registration/registration_io.h"
 #include "fringe/sim/scan.h"
 #include "fringe/util/error.h"
 #include "fringe/util/files.h"
@@ -367,6 +370,74 @@ TEST(Cli, InfoAndReadRigOnASingleCameraCalibration) {
   EXPECT_EQ(RunCli({"info", (dir / "mono.json").string()}, &out, &err), 0) << err;
   EXPECT_NE(out.find("single-camera calibration"), std::string::npos) << out;
   EXPECT_NE(out.find("1280x1024"), std::string::npos) << out;
+}
+
+// fringe register on a folder of view PLYs with markers beside them: a wavy surface seen from
+// three poses, markers stuck on it; poses.json gets every view, relative to the first.
+TEST(Cli, RegisterWritesPoses) {
+  test::TempDir dir;
+  auto height = [](double x, double y) {
+    return 6 * std::sin(x / 15) * std::cos(y / 19) + 0.003 * x * x;
+  };
+  std::vector<Eigen::Vector3d> marker_world;
+  for (int k = 0; k < 10; ++k) {
+    const double x = -50 + 11 * k, y = (k % 3 - 1) * 25 + k;
+    marker_world.emplace_back(x, y, height(x, y));
+  }
+  std::vector<Rigid3d> world_from_sensor;
+  for (int v = 0; v < 3; ++v) {
+    world_from_sensor.push_back(
+        Rigid3d::FromAxisAngle(Eigen::Vector3d(0.1 * v, 1, 0.2).normalized(), M_PI + 0.15 * (v - 1),
+                               Eigen::Vector3d(5.0 * v, -3.0 * v, 450)));
+  }
+  for (int v = 0; v < 3; ++v) {
+    const Rigid3d sensor_from_world = world_from_sensor[v].Inverse();
+    PointCloud c;
+    for (double x = -70; x <= 70; x += 0.7) {
+      for (double y = -50; y <= 50; y += 0.7) {
+        const double z = height(x, y);
+        const double dzdx = 6 / 15.0 * std::cos(x / 15) * std::cos(y / 19) + 0.006 * x;
+        const double dzdy = -6 / 19.0 * std::sin(x / 15) * std::sin(y / 19);
+        c.points.push_back(sensor_from_world * Eigen::Vector3d(x, y, z));
+        c.normals.push_back(
+            sensor_from_world.RotateDirection(Eigen::Vector3d(-dzdx, -dzdy, 1).normalized()));
+      }
+    }
+    const std::string name = "view" + std::to_string(v);
+    io::WritePly(dir / (name + ".ply"), c);
+    std::vector<registration::ViewMarker> markers;
+    for (size_t k = 0; k < marker_world.size(); ++k) {
+      registration::ViewMarker m;
+      m.id = static_cast<int>(k);
+      m.centre_in_sensor = sensor_from_world * marker_world[k];
+      m.normal_in_sensor = sensor_from_world.RotateDirection(Eigen::Vector3d::UnitZ());
+      m.outer_radius_mm = 2.5;
+      m.sigma_mm = 0.02;
+      markers.push_back(m);
+    }
+    registration::WriteViewMarkers(dir / (name + ".markers.json"), markers);
+  }
+  std::string out, err;
+  ASSERT_EQ(RunCli({"register", (dir / "view0.ply").string(), (dir / "view1.ply").string(),
+                    (dir / "view2.ply").string(), "--out", (dir / "reg").string()},
+                   &out, &err),
+            0)
+      << out << err;
+  const auto poses = registration::ReadPoses(dir / "reg" / "poses.json");
+  ASSERT_EQ(poses.size(), 3u);
+  for (int v = 0; v < 3; ++v) {
+    const Rigid3d expected = world_from_sensor[0].Inverse() * world_from_sensor[v];
+    const RigidDifference d = Difference(poses.at("view" + std::to_string(v)), expected);
+    EXPECT_LT(d.angle_rad * 180 / M_PI, 0.01) << v;
+    EXPECT_LT(d.translation_mm, 0.05) << v;
+  }
+  EXPECT_TRUE(std::filesystem::exists(dir / "reg" / "registered" / "view2.ply"));
+  EXPECT_TRUE(std::filesystem::exists(dir / "reg" / "markers.json"));
+  // An output folder holding an input is refused, the inputs untouched.
+  EXPECT_EQ(
+      RunCli({"register", (dir / "view0.ply").string(), "--out", dir.path().string()}, &out, &err),
+      1);
+  EXPECT_TRUE(std::filesystem::exists(dir / "view0.ply"));
 }
 
 }  // namespace

@@ -1,0 +1,131 @@
+// fringe register: view clouds (sensor frames) -> poses in one world frame, the marker map and
+// the clouds moved into the world (registration/register_views.h).
+#include <CLI/CLI.hpp>
+#include <filesystem>
+#include <iostream>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <set>
+
+#include "fringe/cli/cli.h"
+#include "fringe/io/calibration_io.h"
+#include "fringe/io/ply.h"
+#include "fringe/registration/register_views.h"
+#include "fringe/registration/registration_io.h"
+#include "fringe/util/error.h"
+#include "fringe/util/files.h"
+
+namespace fringe::cli {
+
+namespace fs = std::filesystem;
+
+void AddRegisterCommand(CLI::App& app) {
+  struct Args {
+    std::vector<std::string> clouds;
+    std::string out;
+    std::string initial;
+    std::string units = "mm";
+    bool no_markers = false;
+    bool json = false;
+  };
+  auto a = std::make_shared<Args>();
+  CLI::App* sub = app.add_subcommand(
+      "register",
+      "place view clouds in one world frame (markers by distance invariance, marker-free "
+      "FPFH + RANSAC fallback, global marker adjustment, multi-level multi-view ICP)");
+  sub->add_option("clouds", a->clouds,
+                  "View PLYs in their sensor frames (OUT.markers.json beside "
+                  "each is used when present)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  sub->add_option("--out", a->out,
+                  "Output folder: poses.json, markers.json, registered/NAME.ply, "
+                  "summary.json (created; must not be an input's folder)")
+      ->required();
+  sub->add_option("--initial", a->initial, "Initial poses (poses.json schema), by view name")
+      ->check(CLI::ExistingFile);
+  sub->add_option("--units", a->units, "Units of the input clouds")
+      ->check(CLI::IsMember({"mm", "m"}));
+  sub->add_flag("--no-markers", a->no_markers, "Ignore markers: marker-free path for every view");
+  sub->add_flag("--json", a->json, "Print the summary as JSON");
+  sub->callback([a] {
+    const double scale = a->units == "m" ? 1000.0 : 1.0;
+    const fs::path out_dir = fs::absolute(a->out).lexically_normal();
+    std::vector<registration::RegistrationView> views;
+    std::set<std::string> names;
+    for (const std::string& c : a->clouds) {
+      const fs::path p = fs::absolute(c).lexically_normal();
+      if (p.parent_path() == out_dir) {
+        throw Error(util::StrCat("register: ", c, " lies in the output folder ", a->out,
+                                 ", which is replaced; choose another --out"));
+      }
+      std::string note;
+      registration::RegistrationView v =
+          registration::ReadRegistrationView(p, scale, !a->no_markers, &note);
+      if (!names.insert(v.name).second) {
+        throw Error(util::StrCat("register: two inputs are named '", v.name,
+                                 "' (view names are file stems and must be unique)"));
+      }
+      if (!note.empty() && !a->json) std::cout << c << ": " << note << "\n";
+      views.push_back(std::move(v));
+    }
+    if (!a->initial.empty()) {
+      const auto poses = registration::ReadPoses(a->initial);
+      for (auto& v : views) {
+        auto it = poses.find(v.name);
+        if (it != poses.end()) {
+          Rigid3d t = it->second;
+          if (scale != 1) t = Rigid3d(t.rotation(), t.translation() * scale);
+          v.initial_world_from_sensor = t;
+        }
+      }
+    }
+    registration::RegistrationOptions options;
+    options.use_markers = !a->no_markers;
+    const registration::RegistrationResult r = registration::RegisterViews(views, options);
+
+    std::vector<std::string> placed_names;
+    std::vector<Rigid3d> placed_poses;
+    for (const auto& v : r.views) {
+      if (!v.placed()) continue;
+      placed_names.push_back(v.name);
+      placed_poses.push_back(v.world_from_sensor);
+    }
+    util::WriteFolderAtomically(out_dir, [&](const fs::path& tmp) {
+      registration::WritePoses(tmp / "poses.json", placed_names, placed_poses);
+      registration::WriteMarkerMap(tmp / "markers.json", r, views);
+      io::WriteJson(tmp / "summary.json", registration::SummaryToJson(r));
+      fs::create_directories(tmp / "registered");
+      for (size_t i = 0; i < views.size(); ++i) {
+        if (!r.views[i].placed()) continue;
+        PointCloud moved = views[i].cloud;
+        const Rigid3d& t = r.views[i].world_from_sensor;
+        for (auto& p : moved.points) p = t * p;
+        for (auto& n : moved.normals) n = t.RotateDirection(n);
+        io::WritePly(tmp / "registered" / (views[i].name + ".ply"), moved, {},
+                     io::PlyFormat::kBinaryLittleEndian,
+                     {"fringe register: world frame (first view's sensor frame), mm"});
+      }
+    });
+    if (a->json) {
+      std::cout << registration::SummaryToJson(r).dump(2) << "\n";
+    } else {
+      for (const auto& v : r.views) {
+        std::cout << v.name << ": " << registration::ToString(v.path);
+        if (v.matched_markers > 0) std::cout << ", " << v.matched_markers << " markers";
+        if (!v.message.empty()) std::cout << " (" << v.message << ")";
+        std::cout << "\n";
+      }
+      std::cout << r.summary.adjustment.BriefReport() << "\n"
+                << r.summary.icp.BriefReport() << "\n"
+                << r.summary.BriefReport() << "\nwrote " << a->out << "\n";
+    }
+    if (r.summary.status == registration::RegistrationStatus::kFailed) {
+      throw Error(util::StrCat("register: ", r.summary.message));
+    }
+  });
+}
+
+FRINGE_REGISTER_COMMAND(70, AddRegisterCommand);
+
+}  // namespace fringe::cli

@@ -1,0 +1,181 @@
+#include "fringe/registration/registration_io.h"
+
+#include <open3d/geometry/KDTreeSearchParam.h>
+#include <open3d/geometry/PointCloud.h>
+
+#include <cmath>
+
+#include "fringe/geometry/normals.h"
+#include "fringe/io/calibration_io.h"
+#include "fringe/io/ply.h"
+#include "fringe/registration/json_util.h"
+#include "fringe/util/error.h"
+
+namespace fringe::registration {
+
+using nlohmann::json;
+using util::StrCat;
+
+RegistrationView ReadRegistrationView(const std::filesystem::path& ply, double scale_to_mm,
+                                      bool read_markers, std::string* normals_note) {
+  RegistrationView v;
+  v.name = ply.stem().string();
+  const io::PlyHeader header = io::ReadPlyHeader(ply);
+  std::string note;
+  if (header.grid_width > 0 && header.grid_height > 0) {
+    OrganizedPointCloud grid = io::ReadOrganizedPly(ply);
+    for (auto& p : grid.cloud.points) p *= scale_to_mm;
+    if (!grid.cloud.has_normals()) {
+      EstimateGridNormals(&grid);
+      note = "normals estimated on the grid";
+    }
+    v.cloud = grid.Compact();
+  } else {
+    v.cloud = io::ReadPly(ply).cloud;
+    for (auto& p : v.cloud.points) p *= scale_to_mm;
+    if (!v.cloud.has_normals() && v.cloud.size() >= 10) {
+      open3d::geometry::PointCloud o;
+      o.points_ = v.cloud.points;
+      o.EstimateNormals(open3d::geometry::KDTreeSearchParamKNN(20));
+      o.OrientNormalsTowardsCameraLocation(Eigen::Vector3d::Zero());
+      v.cloud.normals = o.normals_;
+      note = "normals estimated from 20 nearest neighbours";
+    }
+  }
+  if (read_markers) {
+    const std::filesystem::path mp = MarkersPathForCloud(ply);
+    if (std::filesystem::exists(mp)) {
+      v.markers = ReadViewMarkers(mp);
+      if (scale_to_mm != 1) {
+        for (ViewMarker& m : v.markers) {
+          m.centre_in_sensor *= scale_to_mm;
+          m.outer_radius_mm *= scale_to_mm;
+          m.sigma_mm *= scale_to_mm;
+        }
+      }
+    }
+  }
+  if (normals_note) *normals_note = note;
+  return v;
+}
+
+void WritePoses(const std::filesystem::path& path, const std::vector<std::string>& names,
+                const std::vector<Rigid3d>& world_from_sensor) {
+  json views = json::array();
+  for (size_t i = 0; i < names.size(); ++i) {
+    views.push_back(
+        {{"view", names[i]}, {"world_from_sensor", io::RigidToJson(world_from_sensor[i])}});
+  }
+  io::WriteJson(path, {{"format", "fringe-poses"},
+                       {"version", 1},
+                       {"frame", "world_from_sensor (sensor = left camera), mm"},
+                       {"views", views}});
+}
+
+std::map<std::string, Rigid3d> ReadPoses(const std::filesystem::path& path) {
+  const json j = internal::ReadJsonBounded(path);
+  const std::string ctx = path.string();
+  internal::CheckFormat(j, "fringe-poses", ctx);
+  const json& views = internal::BoundedArray(j, "views", internal::kMaxViews, ctx);
+  std::map<std::string, Rigid3d> out;
+  for (size_t k = 0; k < views.size(); ++k) {
+    const std::string c = StrCat(ctx, ": views[", k, "]");
+    const json& e = views[k];
+    if (!e.is_object() || !e.contains("view") || !e["view"].is_string()) {
+      throw Error(c + ".view: expected a name");
+    }
+    if (!e.contains("world_from_sensor")) throw Error(c + ".world_from_sensor: missing");
+    const Rigid3d t = io::WithJsonContext(
+        c, [&] { return io::RigidFromJson(e["world_from_sensor"], c + ".world_from_sensor"); });
+    if (!t.translation().allFinite() || !t.rotation().coeffs().allFinite()) {
+      throw Error(c + ".world_from_sensor: not finite");
+    }
+    if (!out.emplace(e["view"].get<std::string>(), t).second) {
+      throw Error(StrCat(c, ".view: '", e["view"].get<std::string>(), "' appears twice"));
+    }
+  }
+  return out;
+}
+
+void WriteMarkerMap(const std::filesystem::path& path, const RegistrationResult& result,
+                    const std::vector<RegistrationView>& views) {
+  json markers = json::array();
+  std::vector<json> obs(result.views.size(), json::array());
+  for (const MapMarker& m : result.map) {
+    const ViewMarker& first =
+        views[m.sightings.front().view].markers[m.sightings.front().view_marker];
+    const double ratio = 0.6;  // the markers' inner / outer radius (MarkerDetectionOptions)
+    markers.push_back({{"id", m.id},
+                       {"centre_in_world", internal::ToJson(m.centre_in_world)},
+                       {"normal_in_world", internal::ToJson(m.normal_in_world)},
+                       {"inner_radius_mm", ratio * first.outer_radius_mm},
+                       {"outer_radius_mm", m.outer_radius_mm},
+                       {"sightings", m.sightings.size()}});
+    for (const auto& s : m.sightings) {
+      const ViewMarker& vm = views[s.view].markers[s.view_marker];
+      obs[s.view].push_back({{"id", m.id},
+                             {"centre_in_sensor", internal::ToJson(vm.centre_in_sensor)},
+                             {"left_px", internal::ToJson(vm.left_px)},
+                             {"right_px", internal::ToJson(vm.right_px)},
+                             {"visible_left", true},
+                             {"visible_right", true}});
+    }
+  }
+  json vlist = json::array();
+  for (size_t v = 0; v < result.views.size(); ++v) {
+    vlist.push_back({{"view", result.views[v].name}, {"observations", obs[v]}});
+  }
+  io::WriteJson(path, {{"format", "fringe-markers"},
+                       {"version", 1},
+                       {"frame", "world, mm"},
+                       {"markers", markers},
+                       {"views", vlist}});
+}
+
+json SummaryToJson(const RegistrationResult& r) {
+  json views = json::array();
+  for (const ViewRegistration& v : r.views) {
+    views.push_back({{"view", v.name},
+                     {"path", ToString(v.path)},
+                     {"message", v.message},
+                     {"markers", v.markers},
+                     {"matched_markers", v.matched_markers},
+                     {"marker_rms_mm", v.marker_rms_mm},
+                     {"adjusted_rms_mm", v.adjusted_rms_mm},
+                     {"overlap_fraction", v.overlap_fraction}});
+  }
+  json levels = json::array();
+  for (const IcpLevelReport& l : r.summary.icp.levels) {
+    levels.push_back({{"level", l.level},
+                      {"points_per_view", l.points_per_view},
+                      {"threshold_start_mm", l.threshold_start_mm},
+                      {"threshold_end_mm", l.threshold_end_mm},
+                      {"iterations", l.iterations},
+                      {"converged", l.converged},
+                      {"rms_start_mm", l.rms_start_mm},
+                      {"rms_end_mm", l.rms_end_mm},
+                      {"correspondences", l.correspondences},
+                      {"degenerate_directions", l.degenerate_directions}});
+  }
+  const AdjustmentSummary& a = r.summary.adjustment;
+  return {{"status", ToString(r.summary.status)},
+          {"message", r.summary.message},
+          {"placed", r.summary.placed},
+          {"unplaced", r.summary.unplaced},
+          {"bad_input", r.summary.bad_input},
+          {"seconds", r.summary.seconds},
+          {"views", views},
+          {"marker_map", r.map.size()},
+          {"adjustment",
+           {{"status", ToString(a.status)},
+            {"rms_initial_mm", a.rms_initial_mm},
+            {"rms_final_mm", a.rms_final_mm},
+            {"observations", a.observations},
+            {"message", a.message}}},
+          {"icp",
+           {{"status", ToString(r.summary.icp.status)},
+            {"message", r.summary.icp.message},
+            {"levels", levels}}}};
+}
+
+}  // namespace fringe::registration

@@ -1,0 +1,41 @@
+// Files of multi-view registration (docs/formats.md): view clouds in, poses.json, the marker map
+// markers.json and the summary out.
+//
+// poses.json: {"format": "fringe-poses", "version": 1, "frame": "world_from_sensor (sensor =
+// left camera), mm", "views": [{"view": NAME, "world_from_sensor": {"rotation": [[3x3]],
+// "translation_mm": [3]}}]}: the schema of a simulated scan's truth/poses.json plus
+// format/version. markers.json: the schema of truth/markers.json (docs/scan-folder.md).
+#pragma once
+
+#include <filesystem>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "fringe/registration/register_views.h"
+
+namespace fringe::registration {
+
+// A view from a PLY cloud (organized or not) and, when present, the markers file beside it
+// (MarkersPathForCloud). Clouds without normals get them: grid normals for organized clouds,
+// otherwise Open3D's k-nearest-neighbour PCA oriented toward the sensor (the frame's origin);
+// `normals_note` says which. Points are multiplied by `scale_to_mm` (1000 for metres). Throws
+// fringe::Error naming the file for unreadable input.
+RegistrationView ReadRegistrationView(const std::filesystem::path& ply, double scale_to_mm,
+                                      bool read_markers, std::string* normals_note);
+
+// world_from_sensor per view name; readers validate (rotation orthonormal, finite, bounded).
+void WritePoses(const std::filesystem::path& path, const std::vector<std::string>& names,
+                const std::vector<Rigid3d>& world_from_sensor);
+std::map<std::string, Rigid3d> ReadPoses(const std::filesystem::path& path);
+
+// The marker map in truth/markers.json's schema; "views" lists each view's sightings.
+void WriteMarkerMap(const std::filesystem::path& path, const RegistrationResult& result,
+                    const std::vector<RegistrationView>& views);
+
+// The summary as JSON (per view: path, message, markers, matched, residuals, overlap; the
+// adjustment and ICP levels).
+nlohmann::json SummaryToJson(const RegistrationResult& result);
+
+}  // namespace fringe::registration

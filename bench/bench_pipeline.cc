@@ -24,6 +24,7 @@
 
 #include "fringe/eval/deviation.h"
 #include "fringe/io/calibration_io.h"
+#include "fringe/io/mesh_io.h"
 #include "fringe/io/ply.h"
 #include "fringe/pipeline/scan.h"
 #include "fringe/sim/scan.h"
@@ -66,8 +67,7 @@ int main(int argc, char** argv) {
 
     // Accuracy against the truth: each view placed by its true pose.
     const json poses = io::ReadJson(dir / "scan" / "truth" / "poses.json");
-    const io::PlyData mesh = io::ReadPly(dir / "scan" / "truth" / "scene.ply");
-    const eval::MeshDistance distance(mesh.cloud.points, mesh.triangles);
+    const eval::MeshDistance distance(io::ReadMesh(dir / "scan" / "truth" / "scene.ply"));
     double sum_sq = 0;
     int64_t n = 0;
     for (size_t v = 0; v < s.views.size(); ++v) {

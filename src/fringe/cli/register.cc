@@ -102,7 +102,7 @@ void AddRegisterCommand(CLI::App& app) {
         const Rigid3d& t = r.views[i].world_from_sensor;
         for (auto& p : moved.points) p = t * p;
         for (auto& n : moved.normals) n = t.RotateDirection(n);
-        io::WritePly(tmp / "registered" / (views[i].name + ".ply"), moved, {},
+        io::WritePly(tmp / "registered" / (views[i].name + ".ply"), moved,
                      io::PlyFormat::kBinaryLittleEndian,
                      {"fringe register: world frame (first view's sensor frame), mm"});
       }

@@ -176,11 +176,6 @@ StereoRig RigFromJson(const json& j, const std::string& context) {
   if (OptionalString(j, "units", "mm", context) != "mm") {
     throw Error(StrCat(context, ".units: ", Brief(j["units"]), ": only \"mm\" is supported"));
   }
-  if (!j.contains("cameras") && j.contains("camera")) {
-    throw Error(StrCat(context,
-                       ": a single-camera calibration (\"camera\"), not a stereo rig "
-                       "(\"cameras\" with left and right)"));
-  }
   if (j.contains("camera") && !j.contains("cameras")) {
     // A single-camera file (what `fringe calibrate` writes for one camera): the camera is
     // `left`; `right` is a copy at zero baseline, so a stereo consumer's rig.Check() refuses it.

@@ -21,11 +21,11 @@
 // board frame by 180 degrees in its own plane does not change intrinsics.
 //
 // Chessboards: OpenCV's findChessboardCorners + cornerSubPix first, findChessboardCornersSB
-// (exhaustive, accuracy flag) when that finds no complete board. Asymmetric circle grids (CalibrationTarget's layout: odd rows shifted by half
-// a spacing) are grown like symmetric ones and mapped onto the board by the unimodular basis
-// change that covers it completely and right-handed; unique, so no orientation ambiguity.
-// (OpenCV's findCirclesGrid expects its own asymmetric lattice, x = (2 col + row % 2) d,
-// y = row d, and does not find this one.)
+// (exhaustive, accuracy flag) when that finds no complete board. Asymmetric circle grids
+// (CalibrationTarget's layout: odd rows shifted by half a spacing) are grown like symmetric ones
+// and mapped onto the board by the unimodular basis change that covers it completely and
+// right-handed; unique, so no orientation ambiguity. (OpenCV's findCirclesGrid expects its own
+// asymmetric lattice, x = (2 col + row % 2) d, y = row d, and does not find this one.)
 //
 // Thread safety: DetectTarget is reentrant.
 #pragma once

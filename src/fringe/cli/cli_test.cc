@@ -1,8 +1,8 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
-#include <filesystem>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "fringe/calib/calibrate_folder.h"
-#include "fringe/cli/cli.h"
+#include "fringe/cli/run_cli_for_test.h"
 #include "fringe/io/calibration_io.h"
 #include "fringe/io/ply.h"
 #include "fringe/registration/markers.h"
@@ -23,20 +23,6 @@
 
 namespace fringe::cli {
 namespace {
-
-int RunCli(std::vector<std::string> args, std::string* out = nullptr, std::string* err = nullptr) {
-  args.insert(args.begin(), "fringe");
-  std::vector<char*> argv;
-  for (auto& a : args) argv.push_back(a.data());
-  testing::internal::CaptureStdout();
-  testing::internal::CaptureStderr();
-  const int rc = Main(static_cast<int>(argv.size()), argv.data());
-  const std::string o = testing::internal::GetCapturedStdout();
-  const std::string e = testing::internal::GetCapturedStderr();
-  if (out) *out = o;
-  if (err) *err = e;
-  return rc;
-}
 
 TEST(Cli, HelpListsSubcommandsAndVersion) {
   std::string out;

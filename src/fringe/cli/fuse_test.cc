@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "fringe/cli/cli.h"
+#include "fringe/cli/run_cli_for_test.h"
 #include "fringe/io/calibration_io.h"
 #include "fringe/io/ply.h"
 #include "fringe_test.h"
@@ -15,20 +15,6 @@ namespace fringe::cli {
 namespace {
 
 namespace fs = std::filesystem;
-
-int RunCli(std::vector<std::string> args, std::string* out = nullptr, std::string* err = nullptr) {
-  args.insert(args.begin(), "fringe");
-  std::vector<char*> argv;
-  for (auto& a : args) argv.push_back(a.data());
-  testing::internal::CaptureStdout();
-  testing::internal::CaptureStderr();
-  const int rc = Main(static_cast<int>(argv.size()), argv.data());
-  const std::string o = testing::internal::GetCapturedStdout();
-  const std::string e = testing::internal::GetCapturedStderr();
-  if (out) *out = o;
-  if (err) *err = e;
-  return rc;
-}
 
 // A 60 x 40 grid of a fronto-parallel plane 500 mm in front of the sensor, 0.5 mm spacing.
 OrganizedPointCloud PlaneGrid(bool normals = true) {
@@ -63,8 +49,8 @@ TEST(CliFuse, FusesViewsWithPosesAndWritesMesh) {
   WritePoses(dir / "poses.json", {"a", "b"});
   std::string out, err;
   ASSERT_EQ(RunCli({"fuse", (dir / "a.ply").string(), (dir / "b.ply").string(), "--poses",
-                    (dir / "poses.json").string(), "--out", (dir / "fused.ply").string(),
-                    "--mesh", (dir / "mesh.stl").string(), "--poisson-depth", "6", "--json"},
+                    (dir / "poses.json").string(), "--out", (dir / "fused.ply").string(), "--mesh",
+                    (dir / "mesh.stl").string(), "--poisson-depth", "6", "--json"},
                    &out, &err),
             0)
       << err;

@@ -74,8 +74,8 @@ struct MeshResult {
 MeshResult MeshPoisson(const PointCloud& cloud, const MeshOptions& options = {});
 
 // Writes the mesh by extension through io::WriteMesh: .ply (binary little-endian, with vertex
-// normals) or .stl (binary). Atomic (temporary name, then rename). Throws fringe::Error for another extension
-// or a failed write.
+// normals) or .stl (binary). Atomic (temporary name, then rename). Throws fringe::Error for another
+// extension or a failed write.
 void WriteMeshFile(const std::filesystem::path& path, const MeshResult& mesh);
 
 }  // namespace fringe::fusion

@@ -23,7 +23,6 @@ PointCloud VertexCloud(const MeshResult& m) {
   return c;
 }
 
-
 constexpr double kRadiusMm = 30;
 
 // Six noisy views all around a floating sphere (centre at the origin), fused.

@@ -2,9 +2,9 @@
 //
 // Reads ASCII, binary little- and big-endian PLY with any element layout: the vertex element's
 // x y z, nx ny nz, red green blue (or r g b / diffuse_*), intensity, quality (or confidence),
-// residual_px and grid_index are picked up; a face element's vertex_indices (or vertex_index) lists become
-// triangles (polygons are fanned); all other elements and properties (e.g. the Stanford scans'
-// range_grid) are parsed and skipped. Errors name the file and what was wrong (truncation,
+// residual_px and grid_index are picked up; a face element's vertex_indices (or vertex_index) lists
+// become triangles (polygons are fanned); all other elements and properties (e.g. the Stanford
+// scans' range_grid) are parsed and skipped. Errors name the file and what was wrong (truncation,
 // bad header, bad number, index out of range).
 //
 // Writes binary little-endian (default) or ASCII; positions and normals as float (about 6e-5 mm

@@ -6,8 +6,8 @@
 #include <sstream>
 
 #include "fringe/io/calibration_io.h"
-#include "fringe/io/opencv_calibration.h"
 #include "fringe/io/image_io.h"
+#include "fringe/io/opencv_calibration.h"
 #include "fringe/io/ply.h"
 #include "fringe/scan/scan_folder.h"
 #include "fringe/util/error.h"

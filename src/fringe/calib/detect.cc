@@ -129,6 +129,9 @@ class Detector {
   using GridMap = std::map<std::pair<int, int>, int>;
   void Grow(GridMap* grid, bool bounded, int max_extent) const;
   bool Order(GridMap* result);
+  bool OrderByDistinctFeatures(GridMap* result);
+  bool OrderCircleGrid(GridMap* result);
+  bool OrientSymmetricGrid(const GridMap& best, GridMap* result);
   int OrderAsymmetric(const GridMap& grown, GridMap* result) const;
 
   const cv::Mat& gray_;
@@ -550,94 +553,103 @@ int Detector::OrderAsymmetric(const GridMap& grown, GridMap* result) const {
 }
 
 bool Detector::Order(GridMap* result) {
-  const int n = static_cast<int>(cands_.size());
   if (target_.type == TargetType::kConcentricRings && !target_.distinct_features.empty()) {
-    std::vector<int> dots;
-    for (int i = 0; i < n; ++i) {
-      if (cands_[i].has_dot) dots.push_back(i);
-    }
-    const auto& df = target_.distinct_features;
-    if (dots.size() < df.size()) {
-      out_->status = DetectionStatus::kNotFound;
-      out_->message = util::StrCat("found ", dots.size(), " of ", df.size(),
-                                   " distinct (centre-dot) features: orientation unknown");
-      return false;
-    }
-    if (dots.size() > 8) {
-      out_->status = DetectionStatus::kAmbiguous;
-      out_->message =
-          util::StrCat(dots.size(), " features with a centre dot, expected ", df.size());
-      return false;
-    }
-    // Try every assignment of dot features to the distinct positions.
-    std::vector<int> perm(dots.size());
-    for (size_t i = 0; i < perm.size(); ++i) perm[i] = static_cast<int>(i);
-    int best_count = 0, best_mismatches = 2;
-    std::vector<GridMap> best;
-    std::sort(perm.begin(), perm.end());
-    std::set<std::vector<int>> seen;
-    do {
-      std::vector<int> pick(perm.begin(), perm.begin() + df.size());
-      if (!seen.insert(pick).second) continue;
-      GridMap grid;
-      for (size_t k = 0; k < df.size(); ++k) grid[df[k]] = dots[pick[k]];
-      // Handedness and plausibility of the seed: a right-handed, not too sheared lattice.
-      if (df.size() >= 3) {
-        Eigen::Matrix3d a;
-        Eigen::Matrix<double, 3, 2> b;
-        for (int k = 0; k < 3; ++k) {
-          a.row(k) << df[k].first, df[k].second, 1;
-          b.row(k) = cands_[dots[pick[k]]].centre.transpose();
-        }
-        if (std::abs(a.determinant()) < 1e-9) continue;
-        const Eigen::Matrix<double, 3, 2> x = a.inverse() * b;
-        const Vec2 drow = x.row(0).transpose(), dcol = x.row(1).transpose();
-        const double cross = dcol.x() * drow.y() - dcol.y() * drow.x();
-        if (cross <= 0) continue;
-        // Foreshortening up to the steepest accepted view (min_axis_ratio).
-        const double ratio = drow.norm() / dcol.norm();
-        const double limit = 1.2 / opt_.min_axis_ratio;
-        if (ratio < 1 / limit || ratio > limit) continue;
-        const double size = cands_[dots[pick[0]]].size;
-        const double expect = size * target_.spacing_mm / target_.outer_radius_mm;
-        if (std::max(drow.norm(), dcol.norm()) < 0.3 * expect ||
-            std::min(drow.norm(), dcol.norm()) > 3 * expect) {
-          continue;
-        }
-      }
-      Grow(&grid, true, 0);
-      // The centre dots must sit at the distinct positions: a wrongly seeded grid puts the
-      // real dots elsewhere. One disagreement (a dot misread at a steep view) is tolerated;
-      // the ordering with the fewest disagreements, then the most features, wins.
-      int mismatches = 0;
-      for (const auto& [key, idx] : grid) {
-        if (cands_[idx].has_dot != target_.IsDistinct(key.first, key.second)) ++mismatches;
-      }
-      if (mismatches > 1) continue;
-      const int count = static_cast<int>(grid.size());
-      if (mismatches < best_mismatches || (mismatches == best_mismatches && count > best_count)) {
-        best_mismatches = mismatches;
-        best_count = count;
-        best = {grid};
-      } else if (mismatches == best_mismatches && count == best_count && count > 0) {
-        best.push_back(grid);
-      }
-    } while (std::next_permutation(perm.begin(), perm.end()));
-    if (best.empty() || best_count < static_cast<int>(df.size()) + 1) {
-      out_->status = DetectionStatus::kNotFound;
-      out_->message = "the distinct features do not seed a consistent grid";
-      return false;
-    }
-    if (best.size() > 1) {
-      out_->status = DetectionStatus::kAmbiguous;
-      out_->message = "several grid orderings fit equally well; refusing the board";
-      return false;
-    }
-    *result = best[0];
-    return true;
+    return OrderByDistinctFeatures(result);
   }
+  return OrderCircleGrid(result);
+}
 
-  // Circle grids: seed from neighbour triples, grow, keep the complete grid.
+// Ring boards with centre-dot features: the dots seed the lattice at their known positions,
+// which fixes the orientation without needing the whole board in view.
+bool Detector::OrderByDistinctFeatures(GridMap* result) {
+  const int n = static_cast<int>(cands_.size());
+  std::vector<int> dots;
+  for (int i = 0; i < n; ++i) {
+    if (cands_[i].has_dot) dots.push_back(i);
+  }
+  const auto& df = target_.distinct_features;
+  if (dots.size() < df.size()) {
+    out_->status = DetectionStatus::kNotFound;
+    out_->message = util::StrCat("found ", dots.size(), " of ", df.size(),
+                                 " distinct (centre-dot) features: orientation unknown");
+    return false;
+  }
+  if (dots.size() > 8) {
+    out_->status = DetectionStatus::kAmbiguous;
+    out_->message = util::StrCat(dots.size(), " features with a centre dot, expected ", df.size());
+    return false;
+  }
+  // Try every assignment of dot features to the distinct positions.
+  std::vector<int> perm(dots.size());
+  for (size_t i = 0; i < perm.size(); ++i) perm[i] = static_cast<int>(i);
+  int best_count = 0, best_mismatches = 2;
+  std::vector<GridMap> best;
+  std::sort(perm.begin(), perm.end());
+  std::set<std::vector<int>> seen;
+  do {
+    std::vector<int> pick(perm.begin(), perm.begin() + df.size());
+    if (!seen.insert(pick).second) continue;
+    GridMap grid;
+    for (size_t k = 0; k < df.size(); ++k) grid[df[k]] = dots[pick[k]];
+    // Handedness and plausibility of the seed: a right-handed, not too sheared lattice.
+    if (df.size() >= 3) {
+      Eigen::Matrix3d a;
+      Eigen::Matrix<double, 3, 2> b;
+      for (int k = 0; k < 3; ++k) {
+        a.row(k) << df[k].first, df[k].second, 1;
+        b.row(k) = cands_[dots[pick[k]]].centre.transpose();
+      }
+      if (std::abs(a.determinant()) < 1e-9) continue;
+      const Eigen::Matrix<double, 3, 2> x = a.inverse() * b;
+      const Vec2 drow = x.row(0).transpose(), dcol = x.row(1).transpose();
+      const double cross = dcol.x() * drow.y() - dcol.y() * drow.x();
+      if (cross <= 0) continue;
+      // Foreshortening up to the steepest accepted view (min_axis_ratio).
+      const double ratio = drow.norm() / dcol.norm();
+      const double limit = 1.2 / opt_.min_axis_ratio;
+      if (ratio < 1 / limit || ratio > limit) continue;
+      const double size = cands_[dots[pick[0]]].size;
+      const double expect = size * target_.spacing_mm / target_.outer_radius_mm;
+      if (std::max(drow.norm(), dcol.norm()) < 0.3 * expect ||
+          std::min(drow.norm(), dcol.norm()) > 3 * expect) {
+        continue;
+      }
+    }
+    Grow(&grid, true, 0);
+    // The centre dots must sit at the distinct positions: a wrongly seeded grid puts the
+    // real dots elsewhere. One disagreement (a dot misread at a steep view) is tolerated;
+    // the ordering with the fewest disagreements, then the most features, wins.
+    int mismatches = 0;
+    for (const auto& [key, idx] : grid) {
+      if (cands_[idx].has_dot != target_.IsDistinct(key.first, key.second)) ++mismatches;
+    }
+    if (mismatches > 1) continue;
+    const int count = static_cast<int>(grid.size());
+    if (mismatches < best_mismatches || (mismatches == best_mismatches && count > best_count)) {
+      best_mismatches = mismatches;
+      best_count = count;
+      best = {grid};
+    } else if (mismatches == best_mismatches && count == best_count && count > 0) {
+      best.push_back(grid);
+    }
+  } while (std::next_permutation(perm.begin(), perm.end()));
+  if (best.empty() || best_count < static_cast<int>(df.size()) + 1) {
+    out_->status = DetectionStatus::kNotFound;
+    out_->message = "the distinct features do not seed a consistent grid";
+    return false;
+  }
+  if (best.size() > 1) {
+    out_->status = DetectionStatus::kAmbiguous;
+    out_->message = "several grid orderings fit equally well; refusing the board";
+    return false;
+  }
+  *result = best[0];
+  return true;
+}
+
+// Circle grids: seed from neighbour triples, grow, keep the complete grid.
+bool Detector::OrderCircleGrid(GridMap* result) {
+  const int n = static_cast<int>(cands_.size());
   const bool asymmetric = target_.type == TargetType::kAsymmetricCircleGrid;
   bool ambiguous = false;
   const int need = target_.rows * target_.cols;
@@ -714,6 +726,12 @@ bool Detector::Order(GridMap* result) {
                                  " grid features; a symmetric grid must be fully visible");
     return false;
   }
+  return OrientSymmetricGrid(best, result);
+}
+
+// A complete symmetric grid has four candidate orientations; the board convention (columns
+// run to +x in the image) picks one, and a tie means the board cannot be oriented.
+bool Detector::OrientSymmetricGrid(const GridMap& best, GridMap* result) {
   int imin = 1 << 20, jmin = 1 << 20, imax = -(1 << 20), jmax = -(1 << 20);
   for (const auto& [key, idx] : best) {
     imin = std::min(imin, key.first);

@@ -14,7 +14,6 @@ packages=(
   libcli11-dev                          # command line
   nlohmann-json3-dev                    # JSON
   libgtest-dev libgmock-dev             # tests
-  libbenchmark-dev                      # benchmarks
   libceres-dev                          # nonlinear least squares (calibration, marker adjustment)
   libopen3d-dev                         # FPFH + RANSAC coarse alignment, Poisson meshing; peer in benchmarks
   libcgal-dev                           # meshing alternative measured against Open3D

@@ -47,7 +47,8 @@ void AddDecodeCommand(CLI::App& app) {
                   "the image depth)")
       ->capture_default_str();
   sub->add_option("--gamma", a->options.projector_gamma,
-                  "Projector gamma to correct at decode time (patterns not pre-compensated)")
+                  "Measured projector gamma (0: unknown). The decoder corrects only what the "
+                  "scheme's gamma_precompensation did not: gamma / gamma_precompensation")
       ->capture_default_str();
   sub->add_flag("--estimate-gamma", a->estimate_gamma,
                 "Also estimate the projector gamma (stack of a smooth surface, patterns not "

@@ -95,7 +95,8 @@ void AddReconstructCommand(CLI::App& app) {
                   "folder's scan.json, else the image container's (8 or 16)")
       ->check(CLI::Range(1, 16));
   sub->add_option("--gamma", a->options.decode.projector_gamma,
-                  "Projector gamma to correct at decode time (patterns not pre-compensated)")
+                  "Measured projector gamma (0: unknown). The decoder corrects only what the "
+                  "scheme's gamma_precompensation did not: gamma / gamma_precompensation")
       ->capture_default_str();
   sub->add_option("--max-reprojection", a->options.matching.max_reprojection_error_px,
                   "Drop points with a larger reprojection residual (pixels)")

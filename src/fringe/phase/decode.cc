@@ -485,8 +485,13 @@ void DecodeOptions::Check() const {
               max_order_residual, "must be in (0, 0.5]");
   CheckOption(spatial_check_fraction <= 1, o, "spatial_check_fraction", spatial_check_fraction,
               "must be <= 1 (<= 0 disables)");
-  CheckOption(projector_gamma > 0 && projector_gamma <= 10, o, "projector_gamma", projector_gamma,
-              "must be in (0, 10]");
+  CheckOption(projector_gamma == 0 || (projector_gamma > 0 && projector_gamma <= 10), o,
+              "projector_gamma", projector_gamma, "must be 0 (unknown) or in (0, 10]");
+}
+
+double DecodeOptions::ResidualGamma(const PatternScheme& scheme) const {
+  if (projector_gamma <= 0 || scheme.gamma_precompensation <= 0) return 1.0;
+  return projector_gamma / scheme.gamma_precompensation;
 }
 
 const char* ToString(NoiseSource s) {
@@ -700,12 +705,14 @@ void Decode(const PatternScheme& scheme, const std::vector<cv::Mat>& images,
 
   std::vector<SetCoefficients> coeffs;
   std::vector<std::unique_ptr<GammaPhaseCorrection>> gamma(scheme.phase_sets.size());
+  // A relative tolerance: a pre-compensation written with a few digits still counts as exact.
+  const double residual_gamma = options.ResidualGamma(scheme);
   for (size_t s = 0; s < scheme.phase_sets.size(); ++s) {
     coeffs.push_back(LeastSquaresCoefficients(scheme.phase_sets[s]));
-    if (options.projector_gamma != 1.0) {
-      gamma[s] = std::make_unique<GammaPhaseCorrection>(
-          scheme.phase_sets[s].Shifts(), scheme.intensity_mean, scheme.intensity_amplitude,
-          options.projector_gamma);
+    if (std::abs(residual_gamma - 1.0) > 1e-6) {
+      gamma[s] = std::make_unique<GammaPhaseCorrection>(scheme.phase_sets[s].Shifts(),
+                                                        scheme.intensity_mean,
+                                                        scheme.intensity_amplitude, residual_gamma);
     }
   }
   const Chain chain = HeterodyneChain(scheme);

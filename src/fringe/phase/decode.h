@@ -83,9 +83,15 @@ struct DecodeOptions {
   // inverse-variance weighted mean of every set's estimate (weights B_s^2 N_s / P_s^2 for equal
   // shifts) instead of the finest set's alone. false: the finest set alone (as before issue 10).
   bool whole_stack = true;
-  // Gamma of the projector when the patterns were not pre-compensated (1 = none, the default):
-  // the decoder removes the resulting periodic phase error with a look-up table (gamma.h).
-  double projector_gamma = 1.0;
+  // Measured response exponent of the projector (out = in^gamma); 0 = unknown (the default).
+  // What was projected is the scheme's business: PatternScheme::gamma_precompensation. The
+  // decoder removes, with a look-up table (gamma.h), only the part the patterns did not
+  // pre-compensate, exponent projector_gamma / gamma_precompensation; nothing when the two agree
+  // or the gamma is unknown. One source of truth: there is no separate "correct by" knob.
+  double projector_gamma = 0;
+
+  // The exponent left uncorrected in images of `scheme`, 1 when none (see projector_gamma).
+  double ResidualGamma(const PatternScheme& scheme) const;
 
   void Check() const;  // throws fringe::Error naming the field
 };

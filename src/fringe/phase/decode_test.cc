@@ -444,6 +444,47 @@ TEST(Gamma, RippleIsMeasurableAndRemovedByCompensation) {
   }
 }
 
+// Issue 9: one source of truth for gamma. The scheme records what the patterns were
+// pre-compensated for; the decoder corrects only the rest (projector_gamma / precompensation).
+TEST(Gamma, DecoderCorrectsOnlyWhatTheSchemeDidNotPrecompensate) {
+  PatternScheme s = MakeScheme("heterodyne-4x3", 1280, 800);
+  const cv::Mat u = LinearProjectorMap(s, kSize);
+  SyntheticStackOptions so;
+  so.modulation_dn = 90;
+  so.noise_sigma_dn = 0.5;
+  so.projector_gamma = 2.2;
+  // Fully pre-compensated: knowing the projector's gamma changes nothing (bit-identical).
+  so.precompensate_gamma = 2.2;
+  s.gamma_precompensation = 2.2;
+  const auto full = RenderSyntheticStack(s, u, so);
+  DecodeOptions known;
+  known.projector_gamma = 2.2;
+  EXPECT_DOUBLE_EQ(known.ResidualGamma(s), 1.0);
+  const DecodeResult unknown_r = Decode(s, full);
+  const DecodeResult known_r = Decode(s, full, known);
+  EXPECT_EQ(cv::norm(unknown_r.absolute_phase, known_r.absolute_phase, cv::NORM_INF), 0.0);
+  // Partly pre-compensated (1.6 for a 2.2 projector): the residual 2.2 / 1.6 is corrected, and
+  // that beats both no correction and a correction for the whole 2.2 (the old second knob).
+  so.precompensate_gamma = 1.6;
+  s.gamma_precompensation = 1.6;
+  const auto part = RenderSyntheticStack(s, u, so);
+  EXPECT_NEAR(known.ResidualGamma(s), 2.2 / 1.6, 1e-12);
+  const double none_rms = Compare(s, Decode(s, part), u).wrapped_rms_rad;
+  const double residual_rms = Compare(s, Decode(s, part, known), u).wrapped_rms_rad;
+  PatternScheme as_if_raw = s;
+  as_if_raw.gamma_precompensation = 1.0;  // what the decoder did before: correct all of 2.2
+  const double whole_rms = Compare(s, Decode(as_if_raw, part, known), u).wrapped_rms_rad;
+  EXPECT_LT(residual_rms, none_rms);
+  EXPECT_LT(residual_rms, whole_rms);
+  // A gamma estimate from pre-compensated patterns would be the residual, not the projector's.
+  const GammaEstimate est = EstimateGamma(s, part);
+  EXPECT_FALSE(est.success);
+  EXPECT_NE(est.message.find("pre-compensated"), std::string::npos) << est.message;
+  DecodeOptions bad;
+  bad.projector_gamma = -1;
+  EXPECT_THROW(bad.Check(), Error);
+}
+
 TEST(Gamma, EstimatedFromAFlatSurface) {
   constexpr double kGammaTolerance = 0.1;
   const PatternScheme s = MakeScheme("heterodyne-4x3", 1280, 800);

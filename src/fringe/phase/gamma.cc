@@ -93,9 +93,18 @@ std::string GammaEstimate::BriefReport() const {
 GammaEstimate EstimateGamma(const PatternScheme& scheme, const std::vector<cv::Mat>& images,
                             const GammaEstimateOptions& options) {
   options.Check();
+  GammaEstimate est;
+  // Pre-compensated patterns leave (almost) no ripple to fit: what could be measured is the
+  // residual exponent, not the projector's, and reporting it as the gamma would make the
+  // decoder's correction (projector_gamma / gamma_precompensation) wrong.
+  if (scheme.gamma_precompensation != 1.0) {
+    est.message =
+        util::StrCat("the patterns were pre-compensated for gamma ", scheme.gamma_precompensation,
+                     ": estimating the projector gamma needs uncompensated patterns");
+    return est;
+  }
   DecodeOptions dopt;
   const DecodeResult dec = Decode(scheme, images, dopt);
-  GammaEstimate est;
   // Runs of consecutive valid pixels along the image axis that follows the fringe direction.
   // Per phase set, the measured coordinate minus its running mean (a window longer than the
   // ripple period) keeps the ripple and the noise; the model's ripple, filtered the same way, is

@@ -9,7 +9,8 @@
 // compensation for nonsinusoidal waveforms in phase-shifting digital fringe projection
 // profilometry", Opt. Lett. 34, 2009). Two remedies: pre-compensate the patterns
 // (GeneratePatterns(scheme, gamma)), or invert delta with a look-up table (GammaPhaseCorrection,
-// DecodeOptions::projector_gamma). EstimateGamma finds gamma from images of a smooth surface.
+// DecodeOptions::projector_gamma, which corrects only what the scheme's gamma_precompensation
+// left). EstimateGamma finds gamma from images of a smooth surface.
 //
 // Thread safety: GammaPhaseCorrection is immutable after construction; EstimateGamma is pure.
 #pragma once

@@ -320,24 +320,35 @@ CameraImages Renderer::RenderCamera(const CameraModel& camera, const Rigid3d& wo
     double weight;       // albedo * brightness * cos * lit
     bool lit;
   };
-  // Shades one hit: albedo, projector coordinate, cosine and shadow.
-  auto shade = [&](const Hit& hit, const Eigen::Vector3d& d_world, double* albedo, Sample* s) {
+  // Shading of one hit up to the shadow test: albedo, projector coordinate and the lit weight
+  // albedo * brightness * cos. Returns false when the projector cannot light the point (behind
+  // it, outside its image, facing away); the caller tests the shadow (alone or batched).
+  auto illuminate = [&](const Hit& hit, const Eigen::Vector3d& d_world, double* albedo,
+                        Eigen::Vector2d* uv, double* weight, Eigen::Vector3d* shadow_from) {
     Eigen::Vector3d normal = hit.normal;
     if (normal.dot(d_world) > 0) normal = -normal;  // two-sided: face the camera
     *albedo = impl_->caster.Albedo(hit);
+    *uv = Eigen::Vector2d(kNaN, kNaN);
+    const Eigen::Vector3d p_in_projector = projector_from_world * hit.point;
+    if (p_in_projector.z() <= 0) return false;
+    *uv = projector.Project(p_in_projector);
+    if (!projector.InImage(*uv)) return false;
+    const double cos_term = normal.dot((projector_centre - hit.point).normalized());
+    if (cos_term <= 0) return false;
+    *weight = *albedo * popt.brightness * cos_term;
+    *shadow_from = hit.point + shadow_offset * normal;
+    return true;
+  };
+  // Shades one hit completely (with its own shadow ray).
+  auto shade = [&](const Hit& hit, const Eigen::Vector3d& d_world, double* albedo, Sample* s) {
     s->weight = 0;
     s->lit = false;
-    s->uv = Eigen::Vector2d(kNaN, kNaN);
-    const Eigen::Vector3d p_in_projector = projector_from_world * hit.point;
-    if (p_in_projector.z() <= 0) return;
-    s->uv = projector.Project(p_in_projector);
-    if (!projector.InImage(s->uv)) return;
-    const Eigen::Vector3d to_projector = (projector_centre - hit.point).normalized();
-    const double cos_term = normal.dot(to_projector);
-    if (cos_term <= 0) return;
-    if (impl_->caster.Occluded(hit.point + shadow_offset * normal, projector_centre)) return;
+    double weight = 0;
+    Eigen::Vector3d from;
+    if (!illuminate(hit, d_world, albedo, &s->uv, &weight, &from)) return;
+    if (impl_->caster.Occluded(from, projector_centre)) return;
     s->lit = true;
-    s->weight = *albedo * popt.brightness * cos_term;
+    s->weight = weight;
   };
   auto WriteTruth = [&](const std::optional<Hit>& ch, const Eigen::Vector3d& dc, const Sample& cs,
                         int r, int c) {
@@ -414,19 +425,13 @@ CameraImages Renderer::RenderCamera(const CameraModel& camera, const Rigid3d& wo
           lit[j] = 0;
           uv[j] = Eigen::Vector2d(kNaN, kNaN);
           if (!hits[j]) continue;
-          const Hit& hit = *hits[j];
-          Eigen::Vector3d normal = hit.normal;
-          if (normal.dot(d_world[j]) > 0) normal = -normal;  // two-sided: face the camera
-          const double albedo = impl_->caster.Albedo(hit);
+          double albedo = 0;
+          Eigen::Vector3d from;
+          const bool candidate =
+              illuminate(*hits[j], d_world[j], &albedo, &uv[j], &candidate_weight[j], &from);
           ambient[c] += albedo * popt.ambient;
-          const Eigen::Vector3d p_in_projector = projector_from_world * hit.point;
-          if (p_in_projector.z() <= 0) continue;
-          uv[j] = projector.Project(p_in_projector);
-          if (!projector.InImage(uv[j])) continue;
-          const double cos_term = normal.dot((projector_centre - hit.point).normalized());
-          if (cos_term <= 0) continue;
-          candidate_weight[j] = albedo * popt.brightness * cos_term;
-          shadow_from.push_back(hit.point + shadow_offset * normal);
+          if (!candidate) continue;
+          shadow_from.push_back(from);
           shadow_index.push_back(j);
         }
         impl_->caster.OccludedBatch(shadow_from, projector_centre, &occluded);

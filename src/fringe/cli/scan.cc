@@ -19,8 +19,9 @@ void AddScanCommand(CLI::App& app) {
   auto a = std::make_shared<Args>();
   CLI::App* sub = app.add_subcommand(
       "scan",
-      "The whole scanner: calibrate if needed, reconstruct every view of a scan folder, and "
-      "write the clouds, summary.json and report.html (docs/scan-folder.md)");
+      "The whole scanner: calibrate if needed, reconstruct every view of a scan folder, detect "
+      "markers, register, fuse and mesh; writes the clouds, poses, marker map, fused cloud, "
+      "mesh, summary.json and report.html (docs/scan-folder.md)");
   sub->add_option("project", a->project,
                   "Scan folder: scheme.json, views/NNN/{left,right}/, and rig.json or "
                   "calibration/ board images")
@@ -44,6 +45,12 @@ void AddScanCommand(CLI::App& app) {
   sub->add_option("--noise-sigma", a->options.reconstruction.decode.noise_sigma_dn,
                   "Camera noise in DN (sets the decoder's modulation threshold)")
       ->capture_default_str();
+  sub->add_option("--poisson-depth", a->options.mesh.poisson_depth,
+                  "Poisson octree depth of the mesh (10: ~0.3 mm cells on 300 mm)")
+      ->capture_default_str();
+  sub->add_flag(
+      "--no-markers", [a](int64_t) { a->options.registration.use_markers = false; },
+      "Register without markers (marker-free coarse alignment + ICP)");
   sub->add_flag(
       "--no-report", [a](int64_t) { a->options.write_report = false; }, "Do not write report.html");
   sub->add_flag("--json", a->json, "Print the summary as one JSON object");

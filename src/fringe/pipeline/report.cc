@@ -110,6 +110,37 @@ std::array<double, 2> DisplayRange(const cv::Mat& values, double p) {
   return {lo, hi};
 }
 
+cv::Mat ColourBar(int width_px, double lo, double hi, const std::string& unit) {
+  CV_Assert(width_px > 24 && hi > lo);
+  // A gradient strip and five labelled ticks, white background.
+  const int width = width_px, margin = 12, strip_h = 14, bar_h = 52;
+  cv::Mat bar(bar_h, width, CV_8UC3, cv::Scalar(255, 255, 255));
+  cv::Mat ramp(1, width - 2 * margin, CV_8U);
+  for (int c = 0; c < ramp.cols; ++c) {
+    ramp.at<uint8_t>(0, c) = static_cast<uint8_t>(255.0 * c / std::max(1, ramp.cols - 1));
+  }
+  cv::Mat ramp_colour;
+  cv::applyColorMap(ramp, ramp_colour, cv::COLORMAP_TURBO);
+  cv::resize(ramp_colour, ramp_colour, cv::Size(ramp.cols, strip_h), 0, 0, cv::INTER_NEAREST);
+  ramp_colour.copyTo(bar(cv::Rect(margin, 4, ramp.cols, strip_h)));
+  const double font = 0.4;
+  for (int k = 0; k <= 4; ++k) {
+    const int x = margin + static_cast<int>(std::lround(k * (ramp.cols - 1) / 4.0));
+    cv::line(bar, {x, 4 + strip_h}, {x, 4 + strip_h + 4}, cv::Scalar(0, 0, 0));
+    const std::string label = FormatTick(lo + (hi - lo) * k / 4.0);
+    int baseline = 0;
+    const cv::Size ts = cv::getTextSize(label, cv::FONT_HERSHEY_SIMPLEX, font, 1, &baseline);
+    const int tx = std::clamp(x - ts.width / 2, 0, std::max(0, width - ts.width));
+    cv::putText(bar, label, {tx, 4 + strip_h + 6 + ts.height}, cv::FONT_HERSHEY_SIMPLEX, font,
+                cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+  }
+  int baseline = 0;
+  const cv::Size us = cv::getTextSize(unit, cv::FONT_HERSHEY_SIMPLEX, font, 1, &baseline);
+  cv::putText(bar, unit, {std::max(0, (width - us.width) / 2), bar_h - 4}, cv::FONT_HERSHEY_SIMPLEX,
+              font, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+  return bar;
+}
+
 cv::Mat ColourMapWithBar(const cv::Mat& values, double lo, double hi, const std::string& unit,
                          int max_width_px) {
   CV_Assert(values.type() == CV_32F && !values.empty() && hi > lo && max_width_px > 0);
@@ -147,47 +178,23 @@ cv::Mat ColourMapWithBar(const cv::Mat& values, double lo, double hi, const std:
       if (small_mask.at<float>(r, c) <= 0.5f) colour.at<cv::Vec3b>(r, c) = cv::Vec3b(48, 48, 48);
     }
   }
-  // Colour bar: a gradient strip and five labelled ticks, white background.
-  const int width = colour.cols, margin = 12, strip_h = 14, bar_h = 52;
-  cv::Mat bar(bar_h, width, CV_8UC3, cv::Scalar(255, 255, 255));
-  cv::Mat ramp(1, width - 2 * margin, CV_8U);
-  for (int c = 0; c < ramp.cols; ++c) {
-    ramp.at<uint8_t>(0, c) = static_cast<uint8_t>(255.0 * c / std::max(1, ramp.cols - 1));
-  }
-  cv::Mat ramp_colour;
-  cv::applyColorMap(ramp, ramp_colour, cv::COLORMAP_TURBO);
-  cv::resize(ramp_colour, ramp_colour, cv::Size(ramp.cols, strip_h), 0, 0, cv::INTER_NEAREST);
-  ramp_colour.copyTo(bar(cv::Rect(margin, 4, ramp.cols, strip_h)));
-  const double font = 0.4;
-  for (int k = 0; k <= 4; ++k) {
-    const int x = margin + static_cast<int>(std::lround(k * (ramp.cols - 1) / 4.0));
-    cv::line(bar, {x, 4 + strip_h}, {x, 4 + strip_h + 4}, cv::Scalar(0, 0, 0));
-    const std::string label = FormatTick(lo + (hi - lo) * k / 4.0);
-    int baseline = 0;
-    const cv::Size ts = cv::getTextSize(label, cv::FONT_HERSHEY_SIMPLEX, font, 1, &baseline);
-    const int tx = std::clamp(x - ts.width / 2, 0, std::max(0, width - ts.width));
-    cv::putText(bar, label, {tx, 4 + strip_h + 6 + ts.height}, cv::FONT_HERSHEY_SIMPLEX, font,
-                cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
-  }
-  int baseline = 0;
-  const cv::Size us = cv::getTextSize(unit, cv::FONT_HERSHEY_SIMPLEX, font, 1, &baseline);
-  cv::putText(bar, unit, {std::max(0, (width - us.width) / 2), bar_h - 4}, cv::FONT_HERSHEY_SIMPLEX,
-              font, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+  const cv::Mat bar = ColourBar(colour.cols, lo, hi, unit);
   cv::Mat out;
   cv::vconcat(colour, bar, out);
   return out;
 }
 
-cv::Mat RenderMesh(const std::vector<Eigen::Vector3d>& vertices,
-                   const std::vector<std::array<int32_t, 3>>& triangles,
-                   const Eigen::Vector3d& view_dir, int width_px, int height_px) {
-  CV_Assert(width_px > 0 && height_px > 0);
-  cv::Mat image(height_px, width_px, CV_8U, cv::Scalar(0));
-  if (vertices.empty() || triangles.empty()) return image;
+namespace {
+
+// Casts one orthographic ray per pixel at the mesh (its bounding sphere fills the shorter side)
+// and hands each hit with its Lambert shade in [0, 1] to `paint`.
+template <typename Paint>
+void CastMesh(const TriangleMesh& mesh, const Eigen::Vector3d& view_dir, int width_px,
+              int height_px, Paint paint) {
   sim::SceneObject object;
   object.name = "mesh";
-  object.mesh.vertices = vertices;
-  object.mesh.triangles = triangles;
+  object.mesh.vertices = mesh.vertices;
+  object.mesh.triangles = mesh.triangles;
   sim::Scene scene;
   scene.AddObject(std::move(object));
   const sim::RayCaster caster(scene);
@@ -195,8 +202,8 @@ cv::Mat RenderMesh(const std::vector<Eigen::Vector3d>& vertices,
   scene.Bounds(&lo, &hi);
   const Eigen::Vector3d centre = 0.5 * (lo + hi);
   const double radius = std::max(1e-9, 0.5 * (hi - lo).norm());
-  // Camera frame: d forward, u right, v down (image rows), with world z up on the picture
-  // unless the view looks along z.
+  // Camera frame: d forward, u right, v down (image rows), with the mesh frame's z up on the
+  // picture unless the view looks along z.
   const Eigen::Vector3d d = view_dir.normalized();
   const Eigen::Vector3d up =
       std::abs(d.z()) < 0.9 ? Eigen::Vector3d::UnitZ() : Eigen::Vector3d::UnitY();
@@ -214,11 +221,120 @@ cv::Mat RenderMesh(const std::vector<Eigen::Vector3d>& vertices,
       if (!hit) continue;
       Eigen::Vector3d n = hit->normal;
       if (n.dot(d) > 0) n = -n;  // both faces lit: open meshes show their inside as well
-      const double shade = 0.15 + 0.85 * std::max(0.0, n.dot(to_light));
-      image.at<uint8_t>(r, c) = static_cast<uint8_t>(std::lround(40 + 215 * shade));
+      paint(r, c, *hit, 0.15 + 0.85 * std::max(0.0, n.dot(to_light)));
     }
   }
+}
+
+}  // namespace
+
+cv::Mat RenderMesh(const TriangleMesh& mesh, const Eigen::Vector3d& view_dir, int width_px,
+                   int height_px) {
+  CV_Assert(width_px > 0 && height_px > 0);
+  cv::Mat image(height_px, width_px, CV_8U, cv::Scalar(0));
+  if (mesh.vertices.empty() || mesh.triangles.empty()) return image;
+  CastMesh(mesh, view_dir, width_px, height_px, [&](int r, int c, const sim::Hit&, double shade) {
+    image.at<uint8_t>(r, c) = static_cast<uint8_t>(std::lround(40 + 215 * shade));
+  });
   return image;
+}
+
+cv::Mat RenderMeshColoured(const TriangleMesh& mesh, const std::vector<double>& vertex_values,
+                           double lo, double hi, const std::string& unit,
+                           const Eigen::Vector3d& view_dir, int width_px, int height_px) {
+  CV_Assert(width_px > 24 && height_px > 0 && hi > lo);
+  if (vertex_values.size() != mesh.vertices.size()) {
+    throw Error(util::StrCat("report: ", vertex_values.size(), " vertex values for a mesh of ",
+                             mesh.vertices.size(), " vertices"));
+  }
+  cv::Mat image(height_px, width_px, CV_8UC3, cv::Scalar(0, 0, 0));
+  if (!mesh.vertices.empty() && !mesh.triangles.empty()) {
+    // The colour of a value: one turbo lookup table, applied per hit.
+    cv::Mat ramp(1, 256, CV_8U), lut;
+    for (int i = 0; i < 256; ++i) ramp.at<uint8_t>(0, i) = static_cast<uint8_t>(i);
+    cv::applyColorMap(ramp, lut, cv::COLORMAP_TURBO);
+    CastMesh(
+        mesh, view_dir, width_px, height_px, [&](int r, int c, const sim::Hit& hit, double shade) {
+          // Barycentric interpolation of the hit triangle's vertex values.
+          const auto& t = mesh.triangles[static_cast<size_t>(hit.triangle)];
+          const Eigen::Vector3d &a = mesh.vertices[t[0]], &b = mesh.vertices[t[1]],
+                                &p = mesh.vertices[t[2]];
+          const Eigen::Vector3d n = (b - a).cross(p - a);
+          const double area = n.squaredNorm();
+          double value = std::numeric_limits<double>::quiet_NaN();
+          if (area > 0) {
+            const double wb = (hit.point - a).cross(p - a).dot(n) / area;
+            const double wc = (b - a).cross(hit.point - a).dot(n) / area;
+            value = (1 - wb - wc) * vertex_values[t[0]] + wb * vertex_values[t[1]] +
+                    wc * vertex_values[t[2]];
+          }
+          cv::Vec3b colour(150, 150, 150);
+          if (std::isfinite(value)) {
+            const int k = static_cast<int>(std::clamp((value - lo) / (hi - lo), 0.0, 1.0) * 255);
+            colour = lut.at<cv::Vec3b>(0, k);
+          }
+          const double s = 0.35 + 0.65 * shade;
+          image.at<cv::Vec3b>(r, c) = cv::Vec3b(cv::saturate_cast<uint8_t>(colour[0] * s),
+                                                cv::saturate_cast<uint8_t>(colour[1] * s),
+                                                cv::saturate_cast<uint8_t>(colour[2] * s));
+        });
+  }
+  cv::Mat out;
+  cv::vconcat(image, ColourBar(width_px, lo, hi, unit), out);
+  return out;
+}
+
+cv::Mat HistogramImage(const std::vector<double>& values, double lo, double hi, int bins,
+                       const std::string& unit, const std::vector<double>& marks, int width_px,
+                       int height_px) {
+  CV_Assert(hi > lo && bins >= 1 && width_px > 60 && height_px > 60);
+  std::vector<int64_t> count(static_cast<size_t>(bins), 0);
+  int64_t below = 0, above = 0, n = 0;
+  for (double v : values) {
+    if (!std::isfinite(v)) continue;
+    ++n;
+    below += v < lo;
+    above += v > hi;
+    const int k = static_cast<int>(std::floor((v - lo) / (hi - lo) * bins));
+    ++count[static_cast<size_t>(std::clamp(k, 0, bins - 1))];
+  }
+  cv::Mat img(height_px, width_px, CV_8UC3, cv::Scalar(255, 255, 255));
+  const int left = 10, right = width_px - 10, top = 18, bottom = height_px - 36;
+  const int64_t peak = std::max<int64_t>(1, *std::max_element(count.begin(), count.end()));
+  const double bar_w = double(right - left) / bins;
+  for (int k = 0; k < bins; ++k) {
+    const int h = static_cast<int>(std::lround(double(count[size_t(k)]) / peak * (bottom - top)));
+    const int x0 = left + static_cast<int>(std::lround(k * bar_w));
+    const int x1 = left + static_cast<int>(std::lround((k + 1) * bar_w)) - 1;
+    if (h > 0) {
+      cv::rectangle(img, {x0, bottom - h}, {std::max(x0, x1), bottom}, cv::Scalar(180, 110, 40),
+                    cv::FILLED);
+    }
+  }
+  cv::line(img, {left, bottom}, {right, bottom}, cv::Scalar(0, 0, 0));
+  for (double m : marks) {
+    if (!(m >= lo && m <= hi)) continue;
+    const int x = left + static_cast<int>(std::lround((m - lo) / (hi - lo) * (right - left)));
+    cv::line(img, {x, top}, {x, bottom}, cv::Scalar(0, 0, 220), 1, cv::LINE_AA);
+  }
+  const double font = 0.4;
+  for (int k = 0; k <= 4; ++k) {
+    const int x = left + static_cast<int>(std::lround(k * (right - left) / 4.0));
+    cv::line(img, {x, bottom}, {x, bottom + 4}, cv::Scalar(0, 0, 0));
+    const std::string label = FormatTick(lo + (hi - lo) * k / 4.0);
+    int baseline = 0;
+    const cv::Size ts = cv::getTextSize(label, cv::FONT_HERSHEY_SIMPLEX, font, 1, &baseline);
+    const int tx = std::clamp(x - ts.width / 2, 0, std::max(0, width_px - ts.width));
+    cv::putText(img, label, {tx, bottom + 6 + ts.height}, cv::FONT_HERSHEY_SIMPLEX, font,
+                cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+  }
+  const std::string caption = util::StrCat(
+      unit, "   (n = ", n, ", peak bin ", peak, below + above > 0 ? ", " : "",
+      below + above > 0 ? util::StrCat(below + above, " outside, in the end bins") : std::string(),
+      ")");
+  cv::putText(img, caption, {left, height_px - 6}, cv::FONT_HERSHEY_SIMPLEX, font,
+              cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+  return img;
 }
 
 std::string Report::ToHtml() const {

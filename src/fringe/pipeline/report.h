@@ -15,6 +15,8 @@
 #include <string>
 #include <vector>
 
+#include "fringe/geometry/triangle_mesh.h"
+
 namespace fringe::pipeline {
 
 struct ReportImage {
@@ -56,11 +58,29 @@ cv::Mat ColourMapWithBar(const cv::Mat& values, double lo, double hi, const std:
 // Robust display range: the p and 1 - p quantiles of the finite values (lo == hi widened by 1).
 std::array<double, 2> DisplayRange(const cv::Mat& values, double p = 0.01);
 
+// The colour bar ColourMapWithBar puts under its map: a turbo gradient from lo to hi, five
+// labelled ticks and `unit` below, width_px wide (CV_8UC3, white background).
+cv::Mat ColourBar(int width_px, double lo, double hi, const std::string& unit);
+
 // Lambert-shaded rendering of a triangle mesh seen from `view_dir` (unit vector from the eye
-// toward the mesh, world frame), orthographic, fitted to the mesh's bounding sphere, on a
-// width_px x height_px image (CV_8UC1; background black). Embree ray casting.
-cv::Mat RenderMesh(const std::vector<Eigen::Vector3d>& vertices,
-                   const std::vector<std::array<int32_t, 3>>& triangles,
-                   const Eigen::Vector3d& view_dir, int width_px = 480, int height_px = 360);
+// toward the mesh, the mesh's frame; the frame's z is up on the picture unless the view looks
+// along z), orthographic, fitted to the mesh's bounding sphere, on a width_px x height_px image
+// (CV_8UC1; background black). Embree ray casting (sim::RayCaster).
+cv::Mat RenderMesh(const TriangleMesh& mesh, const Eigen::Vector3d& view_dir, int width_px = 480,
+                   int height_px = 360);
+// The same rendering coloured by a per-vertex value (turbo colour map from lo to hi, shaded;
+// NaN values grey), with a colour bar labelled `unit` below (CV_8UC3). vertex_values has one
+// entry per vertex; a hit takes the value of the hit triangle's vertices, interpolated.
+cv::Mat RenderMeshColoured(const TriangleMesh& mesh, const std::vector<double>& vertex_values,
+                           double lo, double hi, const std::string& unit,
+                           const Eigen::Vector3d& view_dir, int width_px = 480,
+                           int height_px = 360);
+
+// Histogram of `values` in [lo, hi] (values outside are counted in the end bins and the counts
+// noted), `bins` bars, x axis labelled `unit`, a vertical marker line at each of `marks` (e.g.
+// a threshold); CV_8UC3 on white, width_px x height_px.
+cv::Mat HistogramImage(const std::vector<double>& values, double lo, double hi, int bins,
+                       const std::string& unit, const std::vector<double>& marks = {},
+                       int width_px = 420, int height_px = 220);
 
 }  // namespace fringe::pipeline

@@ -50,7 +50,7 @@ TEST(Report, RenderedBoxFillsItsSilhouette) {
   // 2.1 x the bounding radius (17.3 mm) on the shorter side.
   const TriangleMesh box =
       sim::MakeBoxMesh(Eigen::Vector3d(-10, -10, -10), Eigen::Vector3d(10, 10, 10));
-  const cv::Mat img = RenderMesh(box.vertices, box.triangles, Eigen::Vector3d(-1, 0, 0), 200, 200);
+  const cv::Mat img = RenderMesh(box, Eigen::Vector3d(-1, 0, 0), 200, 200);
   const double mm_per_px = 2.1 * std::sqrt(300.0) / 200;
   const double expected_px = std::pow(20 / mm_per_px, 2);
   EXPECT_NEAR(cv::countNonZero(img), expected_px, 0.05 * expected_px);

@@ -2,6 +2,8 @@
 
 #include <tbb/parallel_pipeline.h>
 
+#include <nanoflann.hpp>
+
 #include <algorithm>
 #include <atomic>
 #include <cmath>
@@ -14,13 +16,17 @@
 #include <sstream>
 
 #include "fringe/calib/calibrate_folder.h"
+#include "fringe/eval/deviation.h"
+#include "fringe/geometry/align.h"
 #include "fringe/io/calibration_io.h"
 #include "fringe/io/image_io.h"
 #include "fringe/io/ply.h"
+#include "fringe/phase/decode.h"
 #include "fringe/phase/pattern_scheme.h"
-#include "fringe/phase/stack_io.h"
 #include "fringe/pipeline/report.h"
 #include "fringe/registration/markers.h"
+#include "fringe/registration/registration_io.h"
+#include "fringe/scan/scan_folder.h"
 #include "fringe/util/error.h"
 #include "fringe/util/files.h"
 #include "fringe/util/log.h"
@@ -49,6 +55,8 @@ struct Calibration {
   std::optional<calib::FolderCalibration> folder;  // when calibrated from board images here
 };
 
+constexpr int kPictureWidthPx = 480;
+
 std::string Fixed(double v, int digits) {
   std::ostringstream os;
   os << std::fixed << std::setprecision(digits) << v;
@@ -56,8 +64,9 @@ std::string Fixed(double v, int digits) {
 }
 
 // The rig: options first, then PROJECT/rig.json, then PROJECT/calibration/ board images.
-Calibration ResolveCalibration(const fs::path& project, const ScanOptions& options, int width,
-                               int height) {
+Calibration ResolveCalibration(const scan::ScanFolder& folder, const ScanOptions& options,
+                               int width, int height) {
+  const fs::path& project = folder.root();
   Calibration c;
   if (!options.opencv_intrinsics.empty()) {
     c.rig =
@@ -75,14 +84,13 @@ Calibration ResolveCalibration(const fs::path& project, const ScanOptions& optio
     c.source = (project / "rig.json").string();
     return c;
   }
-  const fs::path cal_dir = project / "calibration";
-  if (!fs::is_directory(cal_dir)) {
+  const fs::path cal_dir = folder.layout().CalibrationDir();
+  if (!folder.has_calibration()) {
     throw Error(StrCat("scan: ", project.string(),
                        ": no calibration: give --calib, or put rig.json or calibration/ board "
                        "images (with target.json) in the scan folder"));
   }
-  util::RequireFile(cal_dir / "target.json", "calibration target");
-  const CalibrationTarget target = io::ReadTarget(cal_dir / "target.json");
+  const CalibrationTarget target = folder.ReadTarget();
   util::LogInfo("scan: calibrating from " + cal_dir.string());
   calib::FolderCalibration cal = calib::CalibrateFolder(cal_dir, target);
   if (!cal.stereo) {
@@ -98,19 +106,6 @@ Calibration ResolveCalibration(const fs::path& project, const ScanOptions& optio
   c.source = StrCat(cal_dir.string(), " (", cal.names.size(), " board pairs)");
   c.folder = std::move(cal);
   return c;
-}
-
-// View folders PROJECT/views/*, in name order.
-std::vector<std::string> DiscoverViews(const fs::path& project) {
-  const fs::path dir = project / "views";
-  util::RequireDirectory(dir, "scan views folder");
-  std::vector<std::string> names;
-  for (const auto& e : fs::directory_iterator(dir)) {
-    if (e.is_directory()) names.push_back(e.path().filename().string());
-  }
-  std::sort(names.begin(), names.end());
-  if (names.empty()) throw Error(StrCat("scan: ", dir.string(), ": no view folders"));
-  return names;
 }
 
 cv::Mat GridChannel(const OrganizedPointCloud& cloud, const std::vector<float>* attribute,
@@ -149,6 +144,31 @@ cv::Mat TextureWithMarkers(const cv::Mat& texture_left,
   return colour;
 }
 
+// The absolute phase of the left camera for the report, decoded from the stack shrunk to the
+// picture's width (area averaging): the reconstruction drops its full-size phase maps, and
+// decoding a 480-pixel-wide copy costs a few milliseconds. Phase unwrapping is per pixel, so the
+// picture shows the same absolute phase, slightly smoothed.
+ReportImage PhasePicture(const std::string& name, const std::vector<cv::Mat>& left,
+                         const phase::PatternScheme& scheme, const phase::DecodeOptions& decode,
+                         int max_width_px) {
+  const double scale = std::min(1.0, double(max_width_px) / left.front().cols);
+  std::vector<cv::Mat> small(left.size());
+  for (size_t i = 0; i < left.size(); ++i) {
+    if (scale < 1) {
+      cv::resize(left[i], small[i], cv::Size(), scale, scale, cv::INTER_AREA);
+    } else {
+      small[i] = left[i];
+    }
+  }
+  const phase::DecodeResult d = phase::Decode(scheme, small, decode);
+  const auto range = DisplayRange(d.absolute_phase, 0.0);
+  return {
+      StrCat("view ", name, ": absolute phase of the left camera (projector column), decoded at ",
+             small.front().cols, " x ", small.front().rows, " px for this picture"),
+      ColourMapWithBar(d.absolute_phase, range[0], range[1], "absolute phase, projector px",
+                       max_width_px)};
+}
+
 std::vector<ReportImage> ViewPictures(const std::string& name, const OrganizedPointCloud& cloud) {
   std::vector<ReportImage> out;
   const cv::Mat depth = GridChannel(cloud, nullptr, 2);
@@ -167,23 +187,27 @@ std::vector<ReportImage> ViewPictures(const std::string& name, const OrganizedPo
 
 // Reads, reconstructs and writes one view. Data failures come back in the summary (ok = false,
 // the stage and the reason); nothing is thrown for them so that other views go on.
-ViewResult ProcessView(const fs::path& project, const std::string& name,
+ViewResult ProcessView(const scan::ScanFolder& folder, const std::string& name,
                        const phase::PatternScheme& scheme, const StereoRig& rig,
                        const stereo::ViewReconstructor& reconstructor, const ScanOptions& options,
                        const fs::path& out_dir) {
   ViewResult v;
   ScanViewSummary& s = v.summary;
   s.name = name;
-  const fs::path view_dir = project / "views" / name;
+  const fs::path view_dir = folder.layout().ViewDir(name);
   std::string stage = "read";
   try {
     util::Timer timer;
     std::vector<cv::Mat> left, right;
-    left = phase::ReadStack(view_dir / "left", scheme);
-    right = phase::ReadStack(view_dir / "right", scheme);
+    left = folder.ReadStack(name, scan::Camera::kLeft, scheme);
+    right = folder.ReadStack(name, scan::Camera::kRight, scheme);
     s.read_s = timer.ElapsedSeconds();
     stage = "reconstruct";
     stereo::ViewReconstruction rec = reconstructor.Reconstruct(left, right);
+    if (rec.summary.ok() && options.write_report) {
+      v.pictures.push_back(
+          PhasePicture(name, left, scheme, options.reconstruction.decode, kPictureWidthPx));
+    }
     left.clear();
     right.clear();
     s.decode_s = rec.summary.decode_s;
@@ -197,7 +221,7 @@ ViewResult ProcessView(const fs::path& project, const std::string& name,
     }
     s.points = rec.summary.points;
     s.valid_fraction = s.points / std::max(1.0, pixels);
-    v.pictures = ViewPictures(name, rec.cloud);
+    for (ReportImage& p : ViewPictures(name, rec.cloud)) v.pictures.push_back(std::move(p));
     if (options.detect_markers) {
       stage = "markers";
       timer.Restart();
@@ -250,8 +274,406 @@ ReportTable ViewTable(const std::vector<ScanViewSummary>& views) {
   return t;
 }
 
+// Everything registration, fusion, meshing and the truth comparison hand to the report.
+struct Model {
+  std::vector<int> view_of;    // per registration input: index into the scan's views
+  std::vector<int> fusion_of;  // per registration input: index of its fusion view, or -1
+  std::vector<std::vector<uint8_t>> grid_valid;  // per registration input: its grid's mask
+  std::vector<registration::RegistrationView> inputs;
+  registration::RegistrationResult registration;
+  fusion::FusionResult fused;
+  fusion::MeshResult mesh;
+  // Pictures are drawn in a display frame with z up: the truth's world when there is one (via
+  // the gauge), else the frame whose z is opposite the views' mean viewing direction.
+  Rigid3d display_from_world;
+  // Point-to-plane residuals between overlapping views (sampled), at the poses after the global
+  // marker adjustment and after ICP, and the marker sightings' distances to the map.
+  std::vector<double> residuals_adjusted_mm, residuals_final_mm, marker_residuals_mm;
+  double residual_threshold_mm = 0;
+  std::vector<double> mesh_deviation_mm;  // per mesh vertex, signed, vs truth (empty without)
+};
+
+// Nearest-neighbour search over a point set (nanoflann k-d tree).
+class PointIndex {
+ public:
+  explicit PointIndex(std::vector<Eigen::Vector3d> points)
+      : adaptor_{std::move(points)},
+        tree_(3, adaptor_, nanoflann::KDTreeSingleIndexAdaptorParams(16)) {}
+  // Index of the nearest point and its squared distance.
+  std::pair<size_t, double> Nearest(const Eigen::Vector3d& p) const {
+    unsigned index = 0;  // the tree's default index type
+    double d2 = 0;
+    tree_.knnSearch(p.data(), 1, &index, &d2);
+    return {static_cast<size_t>(index), d2};
+  }
+
+ private:
+  struct Adaptor {
+    std::vector<Eigen::Vector3d> points;
+    size_t kdtree_get_point_count() const { return points.size(); }
+    double kdtree_get_pt(size_t i, size_t dim) const { return points[i][static_cast<int>(dim)]; }
+    template <class Box>
+    bool kdtree_get_bbox(Box&) const {
+      return false;
+    }
+  };
+  using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, Adaptor>,
+                                                   Adaptor, 3>;
+  Adaptor adaptor_;
+  Tree tree_;
+};
+
+// Every k-th index so that at most max_count of n remain (deterministic, spread over the grid).
+std::vector<size_t> Stride(size_t n, size_t max_count) {
+  const size_t step = std::max<size_t>(1, (n + max_count - 1) / std::max<size_t>(1, max_count));
+  std::vector<size_t> out;
+  for (size_t i = 0; i < n; i += step) out.push_back(i);
+  return out;
+}
+
+// Signed point-to-plane distances of sampled points of every placed view to the nearest point of
+// every other placed view (its normal), kept within threshold_mm: the residuals ICP minimises.
+std::vector<double> OverlapResiduals(const std::vector<const PointCloud*>& clouds,
+                                     const std::vector<Rigid3d>& world_from_sensor,
+                                     double threshold_mm) {
+  constexpr size_t kTargetPoints = 150000, kSamples = 3000;
+  std::vector<std::unique_ptr<PointIndex>> index(clouds.size());
+  std::vector<std::vector<size_t>> target_ids(clouds.size());
+  for (size_t v = 0; v < clouds.size(); ++v) {
+    target_ids[v] = Stride(clouds[v]->size(), kTargetPoints);
+    std::vector<Eigen::Vector3d> p;
+    p.reserve(target_ids[v].size());
+    for (size_t i : target_ids[v]) p.push_back(world_from_sensor[v] * clouds[v]->points[i]);
+    index[v] = std::make_unique<PointIndex>(std::move(p));
+  }
+  std::vector<double> out;
+  for (size_t v = 0; v < clouds.size(); ++v) {
+    for (size_t i : Stride(clouds[v]->size(), kSamples)) {
+      const Eigen::Vector3d p = world_from_sensor[v] * clouds[v]->points[i];
+      for (size_t u = 0; u < clouds.size(); ++u) {
+        if (u == v) continue;
+        const auto [k, d2] = index[u]->Nearest(p);
+        if (d2 > threshold_mm * threshold_mm) continue;
+        const size_t j = target_ids[u][k];
+        const Eigen::Vector3d n = world_from_sensor[u].RotateDirection(clouds[u]->normals[j]);
+        if (!n.allFinite()) continue;
+        out.push_back((p - world_from_sensor[u] * clouds[u]->points[j]).dot(n));
+      }
+    }
+  }
+  return out;
+}
+
+// z opposite the views' mean viewing direction (the sensors look down at the part).
+Rigid3d DisplayFromViews(const std::vector<Rigid3d>& world_from_sensor) {
+  Eigen::Vector3d look = Eigen::Vector3d::Zero();
+  for (const Rigid3d& t : world_from_sensor) look += t.RotateDirection(Eigen::Vector3d::UnitZ());
+  if (look.norm() < 1e-6) return Rigid3d();
+  const Eigen::Vector3d z = -look.normalized();
+  const Eigen::Vector3d helper =
+      std::abs(z.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
+  const Eigen::Vector3d x = (helper - helper.dot(z) * z).normalized();
+  Eigen::Matrix3d world_from_display;
+  world_from_display << x, z.cross(x), z;
+  return Rigid3d(Eigen::Matrix3d(world_from_display.transpose()), Eigen::Vector3d::Zero());
+}
+
+// Top view of the marker map over the fused cloud, in the display frame.
+cv::Mat MarkerMapPicture(const Model& m, int size_px) {
+  cv::Mat img(size_px, size_px, CV_8UC3, cv::Scalar(255, 255, 255));
+  std::vector<Eigen::Vector3d> markers, points;
+  for (const registration::MapMarker& k : m.registration.map) {
+    markers.push_back(m.display_from_world * k.centre_in_world);
+  }
+  for (size_t i : Stride(m.fused.fused.size(), 200000)) {
+    points.push_back(m.display_from_world * m.fused.fused.points[i]);
+  }
+  Eigen::Vector2d lo(1e30, 1e30), hi(-1e30, -1e30);
+  for (const auto* set : {&markers, &points}) {
+    for (const Eigen::Vector3d& p : *set) {
+      lo = lo.cwiseMin(p.head<2>());
+      hi = hi.cwiseMax(p.head<2>());
+    }
+  }
+  if (!(hi.x() > lo.x()) || !(hi.y() > lo.y())) return img;
+  const double scale = 0.9 * size_px / std::max(hi.x() - lo.x(), hi.y() - lo.y());
+  const Eigen::Vector2d centre = 0.5 * (lo + hi);
+  auto pixel = [&](const Eigen::Vector3d& p) {
+    // Image rows grow downward: display y up on the picture.
+    return cv::Point(static_cast<int>(std::lround(0.5 * size_px + scale * (p.x() - centre.x()))),
+                     static_cast<int>(std::lround(0.5 * size_px - scale * (p.y() - centre.y()))));
+  };
+  for (const Eigen::Vector3d& p : points) {
+    const cv::Point q = pixel(p);
+    if (q.x >= 0 && q.y >= 0 && q.x < size_px && q.y < size_px) {
+      img.at<cv::Vec3b>(q) = cv::Vec3b(190, 190, 190);
+    }
+  }
+  for (size_t k = 0; k < markers.size(); ++k) {
+    const registration::MapMarker& mk = m.registration.map[k];
+    const cv::Point q = pixel(markers[k]);
+    const int r = std::max(3, static_cast<int>(std::lround(scale * mk.outer_radius_mm)));
+    // Colour by the number of views that saw the marker: red 1, orange 2, green 3 or more.
+    const cv::Scalar colour = mk.sightings.size() >= 3   ? cv::Scalar(0, 150, 0)
+                              : mk.sightings.size() == 2 ? cv::Scalar(0, 140, 255)
+                                                         : cv::Scalar(0, 0, 220);
+    cv::circle(img, q, r, colour, 2, cv::LINE_AA);
+    cv::putText(img, StrCat(mk.id, " (", mk.sightings.size(), ")"), q + cv::Point(r + 2, -r),
+                cv::FONT_HERSHEY_SIMPLEX, 0.35, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+  }
+  return img;
+}
+
+double Rms(const std::vector<double>& v) {
+  double sum = 0;
+  int64_t n = 0;
+  for (double x : v) {
+    if (!std::isfinite(x)) continue;
+    sum += x * x;
+    ++n;
+  }
+  return n ? std::sqrt(sum / static_cast<double>(n)) : std::numeric_limits<double>::quiet_NaN();
+}
+
+// The comparison with the scan folder's truth (ScanSummary's truth figures).
+void EvaluateAgainstTruth(const scan::ScanFolder& folder, Model* m, ScanSummary* s) {
+  const scan::TruthPoses truth = folder.ReadTruthPoses();
+  const size_t n = m->inputs.size();
+  std::vector<Rigid3d> true_pose(n), est(n);
+  std::vector<bool> use(n, false);
+  std::vector<Eigen::Vector3d> a, b;  // gauge pairs: estimated world, true world
+  for (size_t k = 0; k < n; ++k) {
+    const registration::ViewRegistration& r = m->registration.views[k];
+    const scan::ViewPose* p = truth.Find(r.name);
+    if (!r.placed() || !p) continue;
+    use[k] = true;
+    true_pose[k] = p->world_from_sensor;
+    est[k] = r.world_from_sensor;
+    for (size_t i : Stride(m->inputs[k].cloud.size(), 2000)) {
+      const Eigen::Vector3d& q = m->inputs[k].cloud.points[i];
+      a.push_back(est[k] * q);
+      b.push_back(true_pose[k] * q);
+    }
+  }
+  const RigidAlignment gauge = AlignRigid(a, b);
+  if (!gauge.ok()) throw Error("scan: truth comparison: no gauge: " + gauge.message);
+  const Rigid3d& true_from_est = gauge.b_from_a;
+  m->display_from_world = true_from_est;  // the truth's world has z up
+  const eval::MeshDistance distance(folder.ReadTruthMesh());
+  s->pose_rot_err_deg = s->pose_trans_err_mm = 0;
+  std::vector<double> single_all, single_overlap;
+  for (size_t k = 0; k < n; ++k) {
+    if (!use[k]) continue;
+    ScanViewSummary& vs = s->views[static_cast<size_t>(m->view_of[k])];
+    const PointCloud& cloud = m->inputs[k].cloud;
+    Eigen::Vector3d c = Eigen::Vector3d::Zero();
+    for (const Eigen::Vector3d& q : cloud.points) c += q;
+    c /= static_cast<double>(std::max<size_t>(1, cloud.size()));
+    const Rigid3d placed = true_from_est * est[k];
+    vs.rot_err_deg = (true_pose[k].rotation().inverse() * placed.rotation())
+                         .angularDistance(Eigen::Quaterniond::Identity()) *
+                     180 / M_PI;
+    vs.trans_err_mm = (placed * c - true_pose[k] * c).norm();
+    s->pose_rot_err_deg = std::max(s->pose_rot_err_deg, vs.rot_err_deg);
+    s->pose_trans_err_mm = std::max(s->pose_trans_err_mm, vs.trans_err_mm);
+    // The sensor alone: the view's points by their true pose (sampled, grid order), and which
+    // of them fusion found in an overlap (the grid slots of the fusion view).
+    PointCloud sample;
+    std::vector<size_t> ids = Stride(cloud.size(), 100000);
+    for (size_t i : ids) sample.points.push_back(true_pose[k] * cloud.points[i]);
+    std::vector<double> d;
+    eval::DeviationFromMesh(sample, distance, {}, &d);
+    vs.truth_rms_mm = Rms(d);
+    single_all.insert(single_all.end(), d.begin(), d.end());
+    const int f = m->fusion_of[k];
+    if (f >= 0 && !m->fused.overlap[static_cast<size_t>(f)].empty()) {
+      // overlap is per grid slot; the compact cloud lists the valid slots in grid order.
+      const std::vector<uint8_t>& overlap = m->fused.overlap[static_cast<size_t>(f)];
+      const std::vector<uint8_t>& valid = m->grid_valid[k];
+      std::vector<uint8_t> in_overlap;
+      in_overlap.reserve(cloud.size());
+      for (size_t g = 0; g < overlap.size() && g < valid.size(); ++g) {
+        if (valid[g]) in_overlap.push_back(overlap[g]);
+      }
+      for (size_t j = 0; j < ids.size(); ++j) {
+        if (ids[j] < in_overlap.size() && in_overlap[ids[j]]) single_overlap.push_back(d[j]);
+      }
+    }
+  }
+  s->single_view_rms_mm = Rms(single_all);
+  s->single_view_overlap_rms_mm = Rms(single_overlap);
+  // Fused cloud and mesh, moved into the truth's world by the gauge.
+  {
+    PointCloud sample;
+    std::vector<size_t> ids = Stride(m->fused.fused.size(), 800000);
+    for (size_t i : ids) sample.points.push_back(true_from_est * m->fused.fused.points[i]);
+    std::vector<double> d;
+    eval::DeviationFromMesh(sample, distance, {}, &d);
+    s->fused_rms_mm = Rms(d);
+    std::vector<double> merged;
+    for (size_t j = 0; j < ids.size(); ++j) {
+      if (m->fused.support[ids[j]] >= 2) merged.push_back(d[j]);
+    }
+    s->fused_overlap_rms_mm = Rms(merged);
+  }
+  {
+    PointCloud vertices;
+    for (const Eigen::Vector3d& q : m->mesh.mesh.vertices) {
+      vertices.points.push_back(true_from_est * q);
+    }
+    eval::DeviationFromMesh(vertices, distance, {}, &m->mesh_deviation_mm);
+    s->mesh_rms_mm = Rms(m->mesh_deviation_mm);
+  }
+}
+
+// After a stage: without keep_going (or when no view is left) any failed view fails the scan,
+// the error naming every failed view, its stage and why, and the views that worked; with
+// keep_going the scan goes on without them and is partial.
+void HandleFailures(const fs::path& project, const fs::path& out, bool keep_going, ScanSummary* s) {
+  std::vector<std::string> failed, worked;
+  s->views_ok = 0;
+  s->points = 0;
+  for (const ScanViewSummary& v : s->views) {
+    if (v.ok) {
+      ++s->views_ok;
+      s->points += v.points;
+      worked.push_back(v.name);
+    } else {
+      failed.push_back(
+          StrCat("view ", v.name, " failed in stage '", v.failed_stage, "': ", v.message));
+    }
+  }
+  if (failed.empty()) return;
+  std::string list;
+  for (const std::string& f : failed) list += (list.empty() ? "" : "; ") + f;
+  if (!keep_going || worked.empty()) {
+    std::string ok_list;
+    for (const std::string& w : worked) ok_list += (ok_list.empty() ? "" : ", ") + w;
+    throw Error(StrCat("scan: ", project.string(), ": ", list,
+                       worked.empty() ? std::string("; no view worked")
+                                      : StrCat("; views that worked: ", ok_list,
+                                               " (--keep-going finishes without the failed "
+                                               "ones)"),
+                       "; nothing was written to ", out.string()));
+  }
+  if (s->message != StrCat(failed.size(), " view(s) left out: ", list)) {
+    s->status = ScanStatus::kPartial;
+    s->message = StrCat(failed.size(), " view(s) left out: ", list);
+    util::LogWarning(s->message);
+  }
+}
+
+ReportSection RegistrationSection(const ScanSummary& s, const Model& m) {
+  ReportSection sec;
+  sec.title = "Registration";
+  sec.paragraphs.push_back(m.registration.summary.BriefReport());
+  sec.paragraphs.push_back(m.registration.summary.adjustment.BriefReport());
+  ReportTable t;
+  t.caption = "Views (world = the first view's sensor frame)";
+  t.header = {
+      "view",    "path",        "markers",      "matched", "marker fit RMS mm", "adjusted RMS mm",
+      "overlap", "rot err deg", "trans err mm", "message"};
+  for (size_t k = 0; k < m.inputs.size(); ++k) {
+    const registration::ViewRegistration& r = m.registration.views[k];
+    const ScanViewSummary& vs = s.views[static_cast<size_t>(m.view_of[k])];
+    t.rows.push_back({r.name, registration::ToString(r.path), std::to_string(r.markers),
+                      std::to_string(r.matched_markers), Fixed(r.marker_rms_mm, 4),
+                      Fixed(r.adjusted_rms_mm, 4), Fixed(100 * r.overlap_fraction, 1) + " %",
+                      std::isfinite(vs.rot_err_deg) ? Fixed(vs.rot_err_deg, 4) : "-",
+                      std::isfinite(vs.trans_err_mm) ? Fixed(vs.trans_err_mm, 4) : "-", r.message});
+  }
+  sec.tables.push_back(t);
+  ReportTable levels;
+  levels.caption = "Multi-view ICP, per level";
+  levels.header = {"level",        "points/view", "iterations", "threshold mm",
+                   "RMS start mm", "RMS end mm",  "pairs",      "converged"};
+  for (const registration::IcpLevelReport& l : m.registration.summary.icp.levels) {
+    levels.rows.push_back({std::to_string(l.level), std::to_string(l.points_per_view),
+                           std::to_string(l.iterations),
+                           Fixed(l.threshold_start_mm, 3) + " -> " + Fixed(l.threshold_end_mm, 3),
+                           Fixed(l.rms_start_mm, 4), Fixed(l.rms_end_mm, 4),
+                           std::to_string(l.correspondences), l.converged ? "yes" : "no"});
+  }
+  sec.tables.push_back(levels);
+  const double lim = m.residual_threshold_mm;
+  if (!m.residuals_final_mm.empty() || !m.residuals_adjusted_mm.empty()) {
+    sec.paragraphs.push_back(
+        StrCat("Point-to-plane residuals between overlapping views (", Fixed(lim, 3),
+               " mm search radius = ICP's first threshold; the per-level RMS above is ICP's own "
+               "figure, the registration module does not hand out per-level residual sets): "
+               "RMS ",
+               Fixed(Rms(m.residuals_adjusted_mm), 4), " mm at the marker-adjusted poses, ",
+               Fixed(Rms(m.residuals_final_mm), 4), " mm after ICP."));
+    sec.images.push_back(
+        {"residuals at the marker-adjusted poses (before ICP), mm",
+         HistogramImage(m.residuals_adjusted_mm, -lim, lim, 60, "point-to-plane residual, mm")});
+    std::vector<double> marks;
+    for (const auto& l : m.registration.summary.icp.levels) {
+      marks.push_back(l.threshold_end_mm);
+      marks.push_back(-l.threshold_end_mm);
+    }
+    sec.images.push_back({"residuals after multi-level ICP, mm (red: the levels' final thresholds)",
+                          HistogramImage(m.residuals_final_mm, -lim, lim, 60,
+                                         "point-to-plane residual, mm", marks)});
+  }
+  if (!m.marker_residuals_mm.empty()) {
+    const double hi = std::max(
+        0.05, 1.2 * *std::max_element(m.marker_residuals_mm.begin(), m.marker_residuals_mm.end()));
+    sec.images.push_back(
+        {"marker sightings: distance to the marker map after registration, mm",
+         HistogramImage(m.marker_residuals_mm, 0, hi, 30, "marker centre to map, mm")});
+  }
+  if (!m.registration.map.empty()) {
+    sec.images.push_back(
+        {StrCat("marker map (", m.registration.map.size(),
+                " markers, top view over the fused cloud; label: id (views that saw it); green 3+, "
+                "orange 2, red 1 view)"),
+         MarkerMapPicture(m, 560)});
+  }
+  return sec;
+}
+
+ReportSection ModelSection(const ScanSummary& s, const Model& m) {
+  ReportSection sec;
+  sec.title = "Fused cloud and mesh";
+  sec.paragraphs.push_back(m.fused.summary.BriefReport());
+  sec.paragraphs.push_back(m.mesh.summary.BriefReport());
+  TriangleMesh display = m.mesh.mesh;
+  display.Transform(m.display_from_world);
+  const std::vector<std::pair<std::string, Eigen::Vector3d>> directions = {
+      {"from above", Eigen::Vector3d(0, 0, -1)},
+      {"from the front, 45 degrees down", Eigen::Vector3d(0, 1, -1)},
+      {"from the side, 45 degrees down", Eigen::Vector3d(-1, 0, -1)},
+      {"from the back, 30 degrees down", Eigen::Vector3d(0, -1.7, -1)}};
+  for (const auto& [label, d] : directions) {
+    sec.images.push_back({"mesh " + label, RenderMesh(display, d.normalized())});
+  }
+  if (s.has_truth && !m.mesh_deviation_mm.empty()) {
+    ReportTable t;
+    t.caption = "Against the truth (simulated scan; fused cloud and mesh placed by the gauge)";
+    t.header = {"figure", "mm"};
+    t.rows = {{"single-view RMS (true poses, all points)", Fixed(s.single_view_rms_mm, 4)},
+              {"single-view RMS in the overlaps", Fixed(s.single_view_overlap_rms_mm, 4)},
+              {"fused RMS (all points)", Fixed(s.fused_rms_mm, 4)},
+              {"fused RMS (points merged from 2+ views)", Fixed(s.fused_overlap_rms_mm, 4)},
+              {"mesh vertices RMS", Fixed(s.mesh_rms_mm, 4)},
+              {"max pose rotation error, deg", Fixed(s.pose_rot_err_deg, 4)},
+              {"max pose centroid displacement", Fixed(s.pose_trans_err_mm, 4)}};
+    sec.tables.push_back(t);
+    // Symmetric range: three RMS, at least 0.05 mm, so noise reads as noise and faults stand out.
+    const double range = std::max(0.05, 3 * s.mesh_rms_mm);
+    for (const auto& [label, d] : {directions[0], directions[1]}) {
+      sec.images.push_back(
+          {"mesh deviation from the truth " + label + " (signed, mm; grey: farther than 2 mm)",
+           RenderMeshColoured(display, m.mesh_deviation_mm, -range, range,
+                              "signed deviation from truth, mm", d.normalized(), 560, 420)});
+    }
+  }
+  return sec;
+}
+
 Report BuildReport(const fs::path& project, const ScanSummary& s, const Calibration& cal,
-                   const std::vector<ViewResult>& views) {
+                   const std::vector<ViewResult>& views, const Model& model) {
   Report r;
   r.title = "fringe scan of " + project.filename().string();
   {
@@ -271,7 +693,9 @@ Report BuildReport(const fs::path& project, const ScanSummary& s, const Calibrat
              {"register", s.register_s},
              {"fuse", s.fuse_s},
              {"mesh", s.mesh_s},
-             {"total (wall, without calibration)", s.total_s}}) {
+             {"report", s.report_s},
+             {"total (wall, without calibration)", s.total_s},
+             {"truth comparison (not in the total)", s.evaluate_s}}) {
       t.rows.push_back({name, Fixed(value, 3)});
     }
     sec.tables.push_back(t);
@@ -280,7 +704,19 @@ Report BuildReport(const fs::path& project, const ScanSummary& s, const Calibrat
     m.header = {"figure", "value"};
     m.rows = {{"views measured", StrCat(s.views_ok, " of ", s.views.size())},
               {"points", std::to_string(s.points)},
+              {"registration", s.registration_status},
+              {"marker adjustment RMS", Fixed(s.marker_adjusted_rms_mm, 4) + " mm"},
+              {"ICP RMS (last level)", Fixed(s.icp_rms_mm, 4) + " mm"},
+              {"fused points", std::to_string(s.fused_points)},
+              {"mesh", StrCat(s.mesh_vertices, " vertices, ", s.mesh_triangles, " triangles")},
               {"peak memory", Fixed(s.peak_mem_gib, 2) + " GiB"}};
+    if (s.has_truth) {
+      m.rows.push_back({"pose error (max over views)", Fixed(s.pose_rot_err_deg, 4) + " deg, " +
+                                                           Fixed(s.pose_trans_err_mm, 4) + " mm"});
+      m.rows.push_back({"single-view RMS vs truth", Fixed(s.single_view_rms_mm, 4) + " mm"});
+      m.rows.push_back({"fused RMS vs truth", Fixed(s.fused_rms_mm, 4) + " mm"});
+      m.rows.push_back({"mesh RMS vs truth", Fixed(s.mesh_rms_mm, 4) + " mm"});
+    }
     sec.tables.push_back(m);
     for (const ScanViewSummary& v : s.views) {
       if (!v.ok) {
@@ -324,6 +760,8 @@ Report BuildReport(const fs::path& project, const ScanSummary& s, const Calibrat
     }
     r.sections.push_back(std::move(sec));
   }
+  r.sections.push_back(RegistrationSection(s, model));
+  r.sections.push_back(ModelSection(s, model));
   return r;
 }
 
@@ -338,6 +776,9 @@ void ScanOptions::Check() const {
   util::CheckOption(calib.empty() || opencv_intrinsics.empty(), "ScanOptions", "calib",
                     calib.string(), "give a rig JSON or OpenCV files, not both");
   reconstruction.Check();
+  registration.Check();
+  fusion.Check();
+  mesh.Check();
 }
 
 const char* ToString(ScanStatus s) {
@@ -351,13 +792,20 @@ const char* ToString(ScanStatus s) {
 }
 
 std::string ScanSummary::BriefReport() const {
-  std::string s =
-      StrCat("scan: ", ToString(status), ", ", views_ok, " of ", views.size(), " views, ", points,
-             " points in ", Fixed(total_s, 2), " s (read ", Fixed(read_s, 2), " s, decode ",
-             Fixed(decode_s, 2), " s, reconstruct ", Fixed(reconstruct_s, 2),
-             " s summed over views; "
-             "views ",
-             Fixed(views_s, 2), " s wall), peak memory ", Fixed(peak_mem_gib, 2), " GiB");
+  std::string s = StrCat(
+      "scan: ", ToString(status), ", ", views_ok, " of ", views.size(), " views, ", points,
+      " points in ", Fixed(total_s, 2), " s (read ", Fixed(read_s, 2), " s, decode ",
+      Fixed(decode_s, 2), " s, reconstruct ", Fixed(reconstruct_s, 2),
+      " s summed over views; "
+      "views ",
+      Fixed(views_s, 2), " s wall; register ", Fixed(register_s, 2), " s, fuse ", Fixed(fuse_s, 2),
+      " s, mesh ", Fixed(mesh_s, 2), " s), ", fused_points, " fused points, mesh of ",
+      mesh_triangles, " triangles, peak memory ", Fixed(peak_mem_gib, 2), " GiB");
+  if (has_truth) {
+    s += StrCat("; against the truth: pose error max ", Fixed(pose_rot_err_deg, 4), " deg / ",
+                Fixed(pose_trans_err_mm, 4), " mm, single-view RMS ", Fixed(single_view_rms_mm, 4),
+                " mm, fused RMS ", Fixed(fused_rms_mm, 4), " mm");
+  }
   if (!message.empty()) s += ": " + message;
   return s;
 }
@@ -380,7 +828,30 @@ json ScanSummary::ToJson() const {
          {"mesh_s", mesh_s},
          {"report_s", report_s},
          {"total_s", total_s},
-         {"peak_mem_gib", peak_mem_gib}};
+         {"evaluate_s", evaluate_s},
+         {"peak_mem_gib", peak_mem_gib},
+         {"registration_status", registration_status},
+         {"marker_adjusted_rms_mm", marker_adjusted_rms_mm},
+         {"icp_rms_mm", icp_rms_mm},
+         {"fused_points", fused_points},
+         {"overlap_points", overlap_points},
+         {"clusters", clusters},
+         {"mesh_vertices", mesh_vertices},
+         {"mesh_triangles", mesh_triangles},
+         {"mesh_watertight", mesh_watertight},
+         {"has_truth", has_truth},
+         {"registration", registration},
+         {"fusion", fusion},
+         {"mesh", meshing}};
+  // Truth figures: null without truth (a real scan).
+  auto figure = [](double v) { return std::isfinite(v) ? json(v) : json(nullptr); };
+  j["pose_rot_err_deg"] = figure(pose_rot_err_deg);
+  j["pose_trans_err_mm"] = figure(pose_trans_err_mm);
+  j["single_view_rms_mm"] = figure(single_view_rms_mm);
+  j["fused_rms_mm"] = figure(fused_rms_mm);
+  j["single_view_overlap_rms_mm"] = figure(single_view_overlap_rms_mm);
+  j["fused_overlap_rms_mm"] = figure(fused_overlap_rms_mm);
+  j["mesh_rms_mm"] = figure(mesh_rms_mm);
   if (calibration_rms_left_px > 0) {
     j["calibration_rms_left_px"] = calibration_rms_left_px;
     j["calibration_rms_right_px"] = calibration_rms_right_px;
@@ -397,7 +868,15 @@ json ScanSummary::ToJson() const {
            {"decode_s", e.decode_s},
            {"reconstruct_s", e.reconstruct_s},
            {"markers", e.markers},
-           {"markers_s", e.markers_s}};
+           {"markers_s", e.markers_s},
+           {"registration_path", e.registration_path},
+           {"matched_markers", e.matched_markers},
+           {"marker_rms_mm", e.marker_rms_mm},
+           {"adjusted_rms_mm", e.adjusted_rms_mm},
+           {"overlap_fraction", e.overlap_fraction},
+           {"rot_err_deg", figure(e.rot_err_deg)},
+           {"trans_err_mm", figure(e.trans_err_mm)},
+           {"truth_rms_mm", figure(e.truth_rms_mm)}};
     if (!e.ok) {
       o["failed_stage"] = e.failed_stage;
       o["message"] = e.message;
@@ -411,10 +890,11 @@ json ScanSummary::ToJson() const {
 ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOptions& options) {
   options.Check();
   util::RequireDirectory(project, "scan folder");
-  // Inputs are checked before anything is computed: the scheme and the view list.
-  util::RequireFile(project / "scheme.json", "pattern scheme manifest");
-  const phase::PatternScheme scheme = phase::ReadScheme(project / "scheme.json");
-  const std::vector<std::string> names = DiscoverViews(project);
+  // Inputs are checked before anything is computed: the manifest, the scheme and the views.
+  const scan::ScanFolder folder = scan::ScanFolder::Open(project);
+  if (!folder.has_views()) throw Error(StrCat("scan: ", project.string(), ": no views"));
+  const phase::PatternScheme scheme = folder.ReadScheme();
+  const std::vector<std::string>& names = folder.views();
 
   ScanSummary s;
   // The output folder must neither be the scan folder nor hold it (replacing it would delete the
@@ -428,8 +908,9 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
     // 1. Calibration (its time is reported apart: a rig is calibrated once, not per scan).
     util::Timer timer;
     const cv::Mat first =
-        io::ReadGrayImage(project / "views" / names.front() / "left" / scheme.ImageNames().front());
-    const Calibration cal = ResolveCalibration(project, options, first.cols, first.rows);
+        io::ReadGrayImage(folder.layout().CameraDir(names.front(), scan::Camera::kLeft) /
+                          scheme.ImageNames().front());
+    const Calibration cal = ResolveCalibration(folder, options, first.cols, first.rows);
     s.calibration_source = cal.source;
     if (cal.folder) {
       s.calibration_rms_left_px = cal.folder->pair.left.summary.final_rms_px;
@@ -461,53 +942,196 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
                                          }) &
               tbb::make_filter<size_t, void>(tbb::filter_mode::parallel, [&](size_t i) {
                 results[i] =
-                    ProcessView(project, names[i], scheme, cal.rig, reconstructor, options, dir);
+                    ProcessView(folder, names[i], scheme, cal.rig, reconstructor, options, dir);
                 progress.Advance();
               }));
     }
     s.views_s = timer.ElapsedSeconds();
-    std::vector<std::string> failed, worked;
     for (const ViewResult& v : results) {
       s.views.push_back(v.summary);
       s.read_s += v.summary.read_s;
       s.decode_s += v.summary.decode_s;
       s.reconstruct_s += v.summary.reconstruct_s;
       s.markers_s += v.summary.markers_s;
-      if (v.summary.ok) {
-        ++s.views_ok;
-        s.points += v.summary.points;
-        worked.push_back(v.summary.name);
-      } else {
-        failed.push_back(StrCat("view ", v.summary.name, " failed in stage '",
-                                v.summary.failed_stage, "': ", v.summary.message));
+    }
+    HandleFailures(project, out, options.keep_going, &s);
+
+    // 3. Registration of the views that worked.
+    util::Progress progress("scan: register, fuse, mesh", 3);
+    timer.Restart();
+    Model m;
+    for (size_t i = 0; i < results.size(); ++i) {
+      if (!results[i].summary.ok) continue;
+      registration::RegistrationView rv;
+      rv.name = names[i];
+      rv.cloud = results[i].cloud.Compact();
+      rv.markers = results[i].markers;
+      m.view_of.push_back(static_cast<int>(i));
+      m.grid_valid.push_back(results[i].cloud.valid);
+      m.inputs.push_back(std::move(rv));
+    }
+    m.registration = registration::RegisterViews(m.inputs, options.registration);
+    const registration::RegistrationSummary& rs = m.registration.summary;
+    s.registration_status = registration::ToString(rs.status);
+    s.registration = registration::SummaryToJson(m.registration);
+    s.marker_adjusted_rms_mm = rs.adjustment.rms_final_mm;
+    if (!rs.icp.levels.empty()) s.icp_rms_mm = rs.icp.levels.back().rms_end_mm;
+    for (size_t k = 0; k < m.inputs.size(); ++k) {
+      const registration::ViewRegistration& r = m.registration.views[k];
+      ScanViewSummary& vs = s.views[static_cast<size_t>(m.view_of[k])];
+      vs.registration_path = registration::ToString(r.path);
+      vs.matched_markers = r.matched_markers;
+      vs.marker_rms_mm = r.marker_rms_mm;
+      vs.adjusted_rms_mm = r.adjusted_rms_mm;
+      vs.overlap_fraction = r.overlap_fraction;
+      if (r.placed()) continue;
+      vs.ok = false;
+      vs.failed_stage = "register";
+      vs.message = StrCat("could not be registered (", registration::ToString(r.path),
+                          "): ", r.message, "; ", vs.markers, " markers measured in the view, ",
+                          r.matched_markers, " matched to the marker map");
+    }
+    HandleFailures(project, out, options.keep_going, &s);
+    std::vector<std::string> placed_names;
+    std::vector<Rigid3d> placed_poses;
+    fs::create_directories(dir / "registered");
+    m.fusion_of.assign(m.inputs.size(), -1);
+    std::vector<fusion::FusionView> fusion_views;
+    for (size_t k = 0; k < m.inputs.size(); ++k) {
+      const registration::ViewRegistration& r = m.registration.views[k];
+      if (!r.placed()) continue;
+      placed_names.push_back(r.name);
+      placed_poses.push_back(r.world_from_sensor);
+      // The organized cloud moved into the world, so that `fringe fuse OUT` can re-run fusion
+      // from OUT/poses.json and OUT/registered/ (it moves them back by the inverse poses).
+      OrganizedPointCloud& grid = results[static_cast<size_t>(m.view_of[k])].cloud;
+      OrganizedPointCloud world = grid;
+      for (size_t i = 0; i < world.valid.size(); ++i) {
+        if (!world.valid[i]) continue;
+        world.cloud.points[i] = r.world_from_sensor * world.cloud.points[i];
+        if (world.cloud.has_normals()) {
+          world.cloud.normals[i] = r.world_from_sensor.RotateDirection(world.cloud.normals[i]);
+        }
+      }
+      io::WritePly(dir / "registered" / (r.name + ".ply"), world,
+                   io::PlyFormat::kBinaryLittleEndian,
+                   {StrCat("fringe scan: view ", r.name,
+                           " registered, world frame (the first view's sensor frame), mm")});
+      m.fusion_of[k] = static_cast<int>(fusion_views.size());
+      fusion_views.push_back({r.name, std::move(grid), r.world_from_sensor});
+    }
+    registration::WritePoses(dir / "poses.json", placed_names, placed_poses);
+    registration::WriteMarkerMap(dir / "markers.json", m.registration, m.inputs);
+    s.register_s = timer.ElapsedSeconds();
+    progress.Advance();
+
+    // 4. Fusion and mesh.
+    timer.Restart();
+    fusion::FusionOptions fusion_options = options.fusion;
+    fusion_options.registration_rms_mm =
+        s.icp_rms_mm > 0 ? s.icp_rms_mm : std::max(s.marker_adjusted_rms_mm, 0.0);
+    m.fused = fusion::FuseViews(fusion_views, fusion_options);
+    const fusion::FusionSummary& fs_ = m.fused.summary;
+    s.fusion = {{"status", fusion::ToString(fs_.status)},
+                {"message", fs_.message},
+                {"input_points", fs_.input_points},
+                {"overlap_points", fs_.overlap_points},
+                {"clusters", fs_.clusters},
+                {"passed_through", fs_.passed_through},
+                {"unassigned", fs_.unassigned},
+                {"disagreeing_clusters", fs_.disagreeing_clusters},
+                {"fused_points", fs_.fused_points},
+                {"iterations", fs_.iterations},
+                {"median_spacing_mm", fs_.median_spacing_mm},
+                {"registration_rms_mm", fusion_options.registration_rms_mm},
+                {"time_s", fs_.time_s}};
+    if (!fs_.has_output()) {
+      throw Error(StrCat("scan: ", project.string(),
+                         ": stage 'fuse' failed: ", fusion::ToString(fs_.status), ": ", fs_.message,
+                         "; nothing was written to ", out.string()));
+    }
+    s.fused_points = fs_.fused_points;
+    s.overlap_points = fs_.overlap_points;
+    s.clusters = fs_.clusters;
+    io::WritePly(dir / "fused.ply", m.fused.fused, io::PlyFormat::kBinaryLittleEndian,
+                 {"fringe scan: fused views, world frame (the first view's sensor frame), mm; "
+                  "intensity = texture, quality = weighted modulation"});
+    fusion_views.clear();  // the grids are no longer needed
+    s.fuse_s = timer.ElapsedSeconds();
+    progress.Advance();
+    timer.Restart();
+    m.mesh = fusion::MeshPoisson(m.fused.fused, options.mesh);
+    const fusion::MeshSummary& ms = m.mesh.summary;
+    s.meshing = {{"status", fusion::ToString(ms.status)},
+                 {"message", ms.message},
+                 {"input_points", ms.input_points},
+                 {"poisson_triangles", ms.poisson_triangles},
+                 {"trimmed_vertices", ms.trimmed_vertices},
+                 {"vertices", ms.vertices},
+                 {"triangles", ms.triangles},
+                 {"watertight", ms.watertight},
+                 {"decimated", ms.decimated},
+                 {"decimation_rms_mm", ms.decimation_rms_mm},
+                 {"poisson_s", ms.poisson_s},
+                 {"total_s", ms.total_s}};
+    if (!ms.ok()) {
+      throw Error(StrCat("scan: ", project.string(),
+                         ": stage 'mesh' failed: ", fusion::ToString(ms.status), ": ", ms.message,
+                         "; nothing was written to ", out.string()));
+    }
+    s.mesh_vertices = ms.vertices;
+    s.mesh_triangles = ms.triangles;
+    s.mesh_watertight = ms.watertight;
+    fusion::WriteMeshFile(dir / "mesh.ply", m.mesh);
+    fusion::WriteMeshFile(dir / "mesh.stl", m.mesh);
+    s.mesh_s = timer.ElapsedSeconds();
+    progress.Advance();
+
+    // Residuals for the report (before and after ICP) and the display frame.
+    std::vector<const PointCloud*> placed_clouds;
+    std::vector<Rigid3d> adjusted, final_poses;
+    for (size_t k = 0; k < m.inputs.size(); ++k) {
+      const registration::ViewRegistration& r = m.registration.views[k];
+      if (!r.placed()) continue;
+      placed_clouds.push_back(&m.inputs[k].cloud);
+      adjusted.push_back(r.path == registration::ViewPath::kMarkers ||
+                                 r.path == registration::ViewPath::kWorld
+                             ? r.world_from_sensor_adjusted
+                             : r.world_from_sensor);
+      final_poses.push_back(r.world_from_sensor);
+      for (const registration::MapMarker& mk : m.registration.map) {
+        for (const auto& sighting : mk.sightings) {
+          if (static_cast<size_t>(sighting.view) != k) continue;
+          const auto& vm = m.inputs[k].markers[static_cast<size_t>(sighting.view_marker)];
+          m.marker_residuals_mm.push_back(
+              (r.world_from_sensor * vm.centre_in_sensor - mk.centre_in_world).norm());
+        }
       }
     }
-    if (!failed.empty()) {
-      std::string list;
-      for (const std::string& f : failed) list += (list.empty() ? "" : "; ") + f;
-      if (!options.keep_going || worked.empty()) {
-        std::string ok_list;
-        for (const std::string& w : worked) ok_list += (ok_list.empty() ? "" : ", ") + w;
-        throw Error(StrCat("scan: ", project.string(), ": ", list,
-                           worked.empty() ? std::string("; no view worked")
-                                          : StrCat("; views that worked: ", ok_list,
-                                                   " (--keep-going finishes without the failed "
-                                                   "ones)"),
-                           "; nothing was written to ", out.string()));
-      }
-      s.status = ScanStatus::kPartial;
-      s.message = StrCat(failed.size(), " view(s) left out: ", list);
-      util::LogWarning(s.message);
+    m.display_from_world = DisplayFromViews(final_poses);
+    if (options.write_report) {
+      m.residual_threshold_mm =
+          rs.icp.levels.empty() ? 1.0 : std::max(rs.icp.levels.front().threshold_start_mm, 0.05);
+      m.residuals_adjusted_mm = OverlapResiduals(placed_clouds, adjusted, m.residual_threshold_mm);
+      m.residuals_final_mm = OverlapResiduals(placed_clouds, final_poses, m.residual_threshold_mm);
     }
 
-    // 4. Summary and report.
     s.total_s = total.ElapsedSeconds();
+    // 5. Truth (simulated scans): not part of a real scan, timed apart.
+    if (options.evaluate_truth && folder.has_truth()) {
+      timer.Restart();
+      s.has_truth = true;
+      EvaluateAgainstTruth(folder, &m, &s);
+      s.evaluate_s = timer.ElapsedSeconds();
+    }
+
+    // 6. Summary and report.
     s.peak_mem_gib = util::PeakMemoryGiB();
     if (options.write_report) {
       timer.Restart();
-      BuildReport(project, s, cal, results).Write(dir / "report.html");
+      BuildReport(project, s, cal, results, m).Write(dir / "report.html");
       s.report_s = timer.ElapsedSeconds();
-      s.total_s = total.ElapsedSeconds();
+      s.total_s += s.report_s;
     }
     io::WriteJson(dir / "summary.json", s.ToJson());
   });

@@ -10,8 +10,14 @@
 //      OUT/views/NNN.markers.json (sensor frame); views run in
 //      parallel, at most `views_in_flight` at a time so that peak memory stays bounded (the
 //      images of a view are dropped as soon as its cloud exists);
-//   3. registration, fusion and meshing of the reconstructed views (as the modules exist);
-//   4. OUT/summary.json with every figure and OUT/report.html (pipeline/report.h).
+//   3. registration (registration::RegisterViews: markers, global marker adjustment, multi-view
+//      ICP, marker-free fallback): OUT/poses.json, OUT/markers.json (the marker map) and
+//      OUT/registered/NNN.ply (organized, world frame);
+//   4. fusion (fusion::FuseViews) into OUT/fused.ply and screened Poisson meshing
+//      (fusion::MeshPoisson) into OUT/mesh.ply and OUT/mesh.stl;
+//   5. when the scan folder has truth (a simulated scan): pose errors, single-view and fused
+//      RMS deviation from the truth mesh, a deviation colour map;
+//   6. OUT/summary.json with every figure and OUT/report.html (pipeline/report.h).
 //
 // OUT is written atomically: everything goes to a temporary folder beside OUT that is renamed
 // at the end, so a failure leaves no partial result; an existing OUT is replaced only when
@@ -27,13 +33,18 @@
 // the number of threads (each stage is deterministic; views are collected in name order).
 #pragma once
 
+#include <cstdint>
 #include <filesystem>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
+#include "fringe/fusion/fuse.h"
+#include "fringe/fusion/mesh.h"
 #include "fringe/geometry/stereo_rig.h"
 #include "fringe/registration/markers.h"
+#include "fringe/registration/register_views.h"
 #include "fringe/stereo/reconstruct_view.h"
 
 namespace fringe::pipeline {
@@ -52,6 +63,11 @@ struct ScanOptions {
   // Sticky markers of every view (registration/markers.h), written as OUT/views/NNN.markers.json.
   bool detect_markers = true;
   registration::MarkerDetectionOptions markers;
+  registration::RegistrationOptions registration;
+  fusion::FusionOptions fusion;  // registration_rms_mm is set from the registration's ICP RMS
+  fusion::MeshOptions mesh;
+  // Compare with the scan folder's truth/ when it has one (simulated scans).
+  bool evaluate_truth = true;
   bool write_report = true;  // OUT/report.html
 
   void Check() const;
@@ -75,6 +91,15 @@ struct ScanViewSummary {
   double decode_valid_left = 0, decode_valid_right = 0;  // decoded pixel fractions
   double read_s = 0, decode_s = 0, reconstruct_s = 0;    // reconstruct_s: match to normals
   double markers_s = 0;
+  // Registration (when the view got that far).
+  std::string registration_path;  // "world", "markers", "marker-free", ...
+  int matched_markers = 0;
+  double marker_rms_mm = 0, adjusted_rms_mm = 0, overlap_fraction = 0;
+  // Against the truth (NaN without): pose error after removing the gauge, and the RMS distance
+  // of the view's points placed by their TRUE pose to the truth mesh.
+  double rot_err_deg = std::numeric_limits<double>::quiet_NaN();
+  double trans_err_mm = std::numeric_limits<double>::quiet_NaN();
+  double truth_rms_mm = std::numeric_limits<double>::quiet_NaN();
 };
 
 struct ScanSummary {
@@ -89,8 +114,35 @@ struct ScanSummary {
   // run at once, so they can exceed views_s, the wall time of the view stage); the others are wall.
   double calibrate_s = 0, read_s = 0, decode_s = 0, reconstruct_s = 0, markers_s = 0, views_s = 0;
   double register_s = 0, fuse_s = 0, mesh_s = 0, report_s = 0;
-  double total_s = 0;  // wall, calibration excluded (a rig is calibrated once, not per scan)
+  double total_s = 0;     // wall, calibration excluded (a rig is calibrated once, not per scan)
+  double evaluate_s = 0;  // truth comparison (not in total_s: a real scan has no truth)
   double peak_mem_gib = 0;
+  // Registration.
+  std::string registration_status;
+  double marker_adjusted_rms_mm = 0;  // marker sightings after the global adjustment
+  double icp_rms_mm = 0;              // point-to-plane RMS after the last ICP level
+  nlohmann::json registration;        // registration::SummaryToJson of the result
+  // Fusion and mesh.
+  int64_t fused_points = 0, overlap_points = 0, clusters = 0;
+  int64_t mesh_vertices = 0, mesh_triangles = 0;
+  bool mesh_watertight = false;
+  nlohmann::json fusion, meshing;  // their summaries
+  // Against the truth (has_truth; NaN otherwise). Pose errors as issue 11 defines them: the
+  // gauge G (one rigid transform minimising, over all views, the squared displacement of each
+  // view's points between G * estimated world_from_sensor and the true pose) removed, rotation
+  // error = angle of R_true^T R_est, translation error = displacement of the view's centroid;
+  // max over views. single_view_rms_mm: every view's points placed by their TRUE pose, RMS
+  // signed distance to the truth mesh (the sensor alone); fused_rms_mm: the fused cloud mapped
+  // by G, the same (registration and fusion included); the *_overlap_ figures restrict both to
+  // the overlap regions fusion merged; mesh_rms_mm: the mesh vertices mapped by G.
+  bool has_truth = false;
+  double pose_rot_err_deg = std::numeric_limits<double>::quiet_NaN();
+  double pose_trans_err_mm = std::numeric_limits<double>::quiet_NaN();
+  double single_view_rms_mm = std::numeric_limits<double>::quiet_NaN();
+  double fused_rms_mm = std::numeric_limits<double>::quiet_NaN();
+  double single_view_overlap_rms_mm = std::numeric_limits<double>::quiet_NaN();
+  double fused_overlap_rms_mm = std::numeric_limits<double>::quiet_NaN();
+  double mesh_rms_mm = std::numeric_limits<double>::quiet_NaN();
 
   bool partial() const { return status == ScanStatus::kPartial; }
   std::string BriefReport() const;

@@ -17,6 +17,7 @@ void AddConvertCalibCommand(CLI::App& app) {
     std::vector<std::string> files;
     std::string out;
     int width = 0, height = 0;
+    int projector_width = 0, projector_height = 0;
   };
   auto a = std::make_shared<Args>();
   CLI::App* sub = app.add_subcommand(
@@ -30,11 +31,19 @@ void AddConvertCalibCommand(CLI::App& app) {
       ->check(CLI::Range(1, 1 << 15));
   sub->add_option("--height", a->height, "Camera image height when the file does not store it")
       ->check(CLI::Range(1, 1 << 15));
+  sub->add_option("--projector-width", a->projector_width,
+                  "Projector width when the file does not store it (e.g. SLMaster's caliInfo.yml)")
+      ->check(CLI::Range(1, 1 << 15));
+  sub->add_option("--projector-height", a->projector_height,
+                  "Projector height when the file does not store it")
+      ->check(CLI::Range(1, 1 << 15));
   sub->callback([a] {
     const std::vector<std::filesystem::path> files(a->files.begin(), a->files.end());
     util::CheckOutputFile(a->out, files);
-    const io::OpenCvCalibration cv = io::ReadOpenCvCalibration(files, a->width, a->height);
-    io::WriteRig(a->out, cv.ToRig(a->files[0]));
+    const io::OpenCvCalibration cv = io::ReadOpenCvCalibration(
+        files, a->width, a->height, a->projector_width, a->projector_height);
+    // One camera + projector (camera-projector systems) gives a rig without a right camera.
+    io::WriteRig(a->out, cv.right ? cv.ToRig(a->files[0]) : cv.ToCameraProjectorRig(a->files[0]));
     std::cout << cv.Describe() << "wrote " << a->out << "\n";
   });
 }

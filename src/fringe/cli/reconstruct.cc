@@ -1,4 +1,5 @@
-// fringe reconstruct: one view (left/ and right/ fringe image stacks) -> organized point cloud.
+// fringe reconstruct: one view (left/ and right/ fringe image stacks, or one camera's stack with a
+// calibrated projector) -> organized point cloud.
 #include <CLI/CLI.hpp>
 #include <cmath>
 #include <filesystem>
@@ -16,6 +17,7 @@
 #include "fringe/phase/stack_io.h"
 #include "fringe/registration/markers.h"
 #include "fringe/scan/scan_folder.h"
+#include "fringe/stereo/camera_projector.h"
 #include "fringe/stereo/reconstruct_view.h"
 #include "fringe/util/error.h"
 #include "fringe/util/files.h"
@@ -47,6 +49,7 @@ void AddReconstructCommand(CLI::App& app) {
     std::string scheme;
     std::string out;
     std::string residuals;
+    std::string mode = "auto";
     std::string cv_intrinsics, cv_extrinsics;
     std::vector<std::string> opencv;
     bool ascii = false;
@@ -61,9 +64,19 @@ void AddReconstructCommand(CLI::App& app) {
   CLI::App* sub = app.add_subcommand(
       "reconstruct",
       "Reconstruct one view: decode left/ and right/ fringe images, match the absolute phase, "
-      "triangulate to an organized point cloud (left camera frame, PLY) with normals");
-  sub->add_option("view", a->view, "View folder with left/ and right/ (or L/ and R/) image stacks")
+      "triangulate to an organized point cloud (left camera frame, PLY) with normals; or, with "
+      "one camera's images and a calibrated projector, triangulate camera against projector");
+  sub->add_option("view", a->view,
+                  "View folder with left/ and right/ (or L/ and R/) image stacks; left/ (or L/) "
+                  "alone in camera-projector mode")
       ->required();
+  sub->add_option("--mode", a->mode,
+                  "stereo (two cameras), camera-projector (left camera + the rig's projector: "
+                  "the camera ray meets the projector's column, or row for horizontal fringes, "
+                  "in the distorted projector model), or auto: stereo when the view has right/ "
+                  "images and the rig a right camera, else camera-projector")
+      ->check(CLI::IsMember({"stereo", "camera-projector", "auto"}))
+      ->capture_default_str();
   sub->add_option("--calib", a->calib,
                   "Rig calibration (rig JSON); default VIEW/rig.json or VIEW/../rig.json");
   sub->add_option("--opencv", a->opencv,
@@ -118,9 +131,11 @@ void AddReconstructCommand(CLI::App& app) {
       left_dir = view / "L";
       right_dir = view / "R";
     }
-    if (!fs::is_directory(left_dir) || !fs::is_directory(right_dir)) {
-      throw Error(util::StrCat("reconstruct: ", view.string(),
-                               " must contain left/ and right/ (or L/ and R/) image folders"));
+    const bool have_right_dir = fs::is_directory(right_dir);
+    if (!fs::is_directory(left_dir) || (a->mode == "stereo" && !have_right_dir)) {
+      throw Error(util::StrCat(
+          "reconstruct: ", view.string(), " must contain left/ ",
+          a->mode == "stereo" ? "and right/ (or L/ and R/) image folders" : "(or L/) images"));
     }
     // In a scan folder (ROOT/views/NNN) the scheme is the one its manifest names; elsewhere a
     // manifest beside the images.
@@ -163,22 +178,43 @@ void AddReconstructCommand(CLI::App& app) {
       util::CheckDistinctOutputs({a->out, a->residuals});
     }
     const fs::path markers_path = registration::MarkersPathForCloud(a->out);
+    if (a->mode == "camera-projector") a->no_markers = true;  // (markers need two cameras)
     if (!a->no_markers) {
       util::CheckOutputFile(markers_path, inputs);
       util::CheckDistinctOutputs({a->out, a->residuals, markers_path});
     }
     const phase::PatternScheme scheme = phase::SchemeFromArgument(scheme_arg, a->parameters);
     const auto left = phase::ReadStack(left_dir, scheme);
-    const auto right = phase::ReadStack(right_dir, scheme);
     StereoRig rig;
     if (opencv) {
+      // The scheme's projector size stands in when the file does not hold it (SLMaster).
       const io::OpenCvCalibration cv =
-          io::ReadOpenCvCalibration(opencv_files, left.at(0).cols, left.at(0).rows);
+          io::ReadOpenCvCalibration(opencv_files, left.at(0).cols, left.at(0).rows,
+                                    scheme.projector_width, scheme.projector_height);
       util::LogInfo("OpenCV calibration:\n" + cv.Describe());
-      rig = cv.ToRig(opencv_files[0].string());
+      const bool stereo_file = cv.right && cv.right_from_left;
+      rig = a->mode == "stereo" || (a->mode == "auto" && stereo_file && have_right_dir)
+                ? cv.ToRig(opencv_files[0].string())
+                : cv.ToCameraProjectorRig(opencv_files[0].string());
     } else {
       rig = io::ReadRig(calib_path);
     }
+    const std::string rig_name = opencv ? opencv_files[0].string() : calib_path.string();
+    const bool camera_projector = a->mode == "camera-projector" ||
+                                  (a->mode == "auto" && !(have_right_dir && rig.BaselineMm() > 0));
+    if (camera_projector && !rig.projector) {
+      throw Error(util::StrCat("reconstruct: ", rig_name,
+                               a->mode == "auto" ? ": the view has no right/ images or the rig "
+                                                   "no right camera, and"
+                                                 : ":",
+                               " the rig has no calibrated projector for camera-projector mode"));
+    }
+    if (camera_projector) {
+      std::cout << "camera-projector mode: " << left_dir.string() << " against the projector of "
+                << rig_name << "\n";
+    }
+    const auto right =
+        camera_projector ? std::vector<cv::Mat>{} : phase::ReadStack(right_dir, scheme);
     // In a scan folder the full scale follows the bit depth its manifest states.
     if (a->bit_depth == 0 && scan_root) {
       a->bit_depth = scan::ScanFolder::Open(*scan_root).manifest().bit_depth;
@@ -186,13 +222,24 @@ void AddReconstructCommand(CLI::App& app) {
     if (a->bit_depth > 0) a->options.decode.full_scale_dn = std::ldexp(1.0, a->bit_depth) - 1;
     a->options.compute_normals = !a->no_normals;
     a->options.remove_outliers = !a->keep_outliers;
-    const stereo::ViewReconstruction rec =
-        stereo::ReconstructView(rig, scheme, left, right, a->options);
-    std::cout << rec.summary.decode_left.BriefReport() << " (left)\n"
-              << rec.summary.decode_right.BriefReport() << " (right)\n"
-              << rec.summary.matching.BriefReport() << "\n";
-    WarnIfSchemeMismatch(rec.summary.decode_left, scheme.name, left_dir.string());
-    WarnIfSchemeMismatch(rec.summary.decode_right, scheme.name, right_dir.string());
+    stereo::ViewReconstruction rec;
+    if (camera_projector) {
+      stereo::CameraProjectorOptions cp;
+      cp.reconstruction = a->options;
+      rec = stereo::CameraProjectorReconstructor(stereo::CameraProjectorRig::FromLeftCamera(rig),
+                                                 {scheme}, cp)
+                .Reconstruct({left});
+      std::cout << rec.summary.decode_left.BriefReport() << " (camera)\n"
+                << rec.summary.matching.BriefReport() << "\n";
+      WarnIfSchemeMismatch(rec.summary.decode_left, scheme.name, left_dir.string());
+    } else {
+      rec = stereo::ReconstructView(rig, scheme, left, right, a->options);
+      std::cout << rec.summary.decode_left.BriefReport() << " (left)\n"
+                << rec.summary.decode_right.BriefReport() << " (right)\n"
+                << rec.summary.matching.BriefReport() << "\n";
+      WarnIfSchemeMismatch(rec.summary.decode_left, scheme.name, left_dir.string());
+      WarnIfSchemeMismatch(rec.summary.decode_right, scheme.name, right_dir.string());
+    }
     if (a->options.remove_outliers) std::cout << rec.summary.outliers.BriefReport() << "\n";
     if (a->options.compute_normals) std::cout << rec.summary.normals.BriefReport() << "\n";
     std::cout << rec.summary.BriefReport() << "\n";
@@ -204,13 +251,18 @@ void AddReconstructCommand(CLI::App& app) {
     util::OutputTransaction outputs;
     io::WritePly(outputs.Stage(a->out), rec.cloud,
                  a->ascii ? io::PlyFormat::kAscii : io::PlyFormat::kBinaryLittleEndian,
-                 {"fringe reconstruct: left camera frame, mm; quality = fringe modulation (DN), "
-                  "intensity = texture, residual_px = reprojection residual (px)"});
+                 {camera_projector
+                      ? "fringe reconstruct (camera-projector): camera frame, mm; quality = "
+                        "fringe modulation (DN), intensity = texture, residual_px = round trip "
+                        "into the projector (px)"
+                      : "fringe reconstruct: left camera frame, mm; quality = fringe modulation "
+                        "(DN), intensity = texture, residual_px = reprojection residual (px)"});
     if (!a->residuals.empty()) {
       io::WriteImage(outputs.Stage(a->residuals), rec.reprojection_error_px);
     }
     std::optional<registration::ViewMarkers> markers;
-    if (!a->no_markers) {
+    // Markers are measured in both cameras' textures; one camera has no second view.
+    if (!a->no_markers && !camera_projector) {
       markers =
           registration::DetectViewMarkers(rig, rec.texture_left, rec.texture_right, rec.cloud);
       registration::WriteViewMarkers(outputs.Stage(markers_path), markers->markers);

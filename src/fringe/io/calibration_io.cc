@@ -147,11 +147,15 @@ Rigid3d RigidFromJson(const json& j, const std::string& context) {
 }
 
 json RigToJson(const StereoRig& rig) {
-  json j{{"format", "fringe-rig"},
-         {"version", 1},
-         {"units", "mm"},
-         {"cameras", {{"left", CameraToJson(rig.left)}, {"right", CameraToJson(rig.right)}}},
-         {"right_from_left", RigidToJson(rig.right_from_left)}};
+  json j{{"format", "fringe-rig"}, {"version", 1}, {"units", "mm"}};
+  // A camera-projector rig (right = copy of left at zero baseline, as RigFromJson reads a file
+  // without a right camera) is written without the copy.
+  if (rig.projector && rig.BaselineMm() == 0 && rig.right == rig.left) {
+    j["cameras"] = {{"left", CameraToJson(rig.left)}};
+  } else {
+    j["cameras"] = {{"left", CameraToJson(rig.left)}, {"right", CameraToJson(rig.right)}};
+    j["right_from_left"] = RigidToJson(rig.right_from_left);
+  }
   if (rig.projector) {
     j["cameras"]["projector"] = CameraToJson(*rig.projector);
     j["projector_from_left"] = RigidToJson(rig.projector_from_left);

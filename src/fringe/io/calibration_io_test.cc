@@ -24,6 +24,44 @@ TEST(CalibrationIo, RigRoundTrip) {
   EXPECT_LT(Difference(r.projector_from_left, rig.projector_from_left).translation_mm, 1e-12);
 }
 
+// A camera + projector rig (camera-projector mode) is written without a right camera and reads
+// back as one: right = copy of the left at zero baseline.
+TEST(CalibrationIo, CameraProjectorRigRoundTrip) {
+  test::TempDir dir;
+  StereoRig rig = StereoRig::Reference();
+  rig.right = rig.left;
+  rig.right_from_left = Rigid3d();
+  WriteRig(dir / "cp.json", rig);
+  EXPECT_FALSE(ReadJson(dir / "cp.json")["cameras"].contains("right"));
+  EXPECT_FALSE(ReadJson(dir / "cp.json").contains("right_from_left"));
+  const StereoRig r = ReadRig(dir / "cp.json");
+  EXPECT_EQ(r.BaselineMm(), 0.0);
+  ASSERT_TRUE(r.projector.has_value());
+  EXPECT_TRUE(*r.projector == *rig.projector);
+  EXPECT_LT(Difference(r.projector_from_left, rig.projector_from_left).translation_mm, 1e-12);
+}
+
+// A rig file as the first versions wrote it (two cameras, rotation matrices, no projector)
+// still loads.
+TEST(CalibrationIo, OldStereoRigFileLoads) {
+  test::TempDir dir;
+  {
+    std::ofstream f(dir / "old.json");
+    f << R"({"format": "fringe-rig", "version": 1, "units": "mm",
+  "cameras": {
+    "left": {"width": 1280, "height": 1024, "fx": 2500, "fy": 2500, "cx": 639.5, "cy": 511.5,
+             "distortion": [0, 0, 0, 0, 0]},
+    "right": {"width": 1280, "height": 1024, "fx": 2506, "fy": 2505, "cx": 635.4, "cy": 513.4,
+              "distortion": [-0.075, 0.1, -6e-5, 8e-5, 0]}},
+  "right_from_left": {"rotation": [[0.6, 0, 0.8], [0, 1, 0], [-0.8, 0, 0.6]],
+                      "translation_mm": [-200, 0, 0]}})";
+  }
+  const StereoRig r = ReadRig(dir / "old.json");
+  EXPECT_FALSE(r.projector.has_value());
+  EXPECT_DOUBLE_EQ(r.right.fx, 2506);
+  EXPECT_NEAR(r.BaselineMm(), 200, 1e-12);
+}
+
 TEST(CalibrationIo, ErrorsNameFileAndField) {
   test::TempDir dir;
   nlohmann::json j = RigToJson(StereoRig::Reference());

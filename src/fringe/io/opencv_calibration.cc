@@ -371,7 +371,8 @@ void CheckOpenCvFileBounds(const fs::path& path) {
 }
 
 OpenCvCalibration ReadOpenCvCalibration(const std::vector<fs::path>& paths, int camera_width,
-                                        int camera_height) {
+                                        int camera_height, int projector_width,
+                                        int projector_height) {
   if (paths.empty()) throw Error("no OpenCV calibration file given");
   const Files files(paths);
   OpenCvCalibration out;
@@ -437,10 +438,15 @@ OpenCvCalibration ReadOpenCvCalibration(const std::vector<fs::path>& paths, int 
   }
   if (pk) {
     std::string psource;
-    const auto [pw, ph] = files.Size({{"projector_width", "projector_height"},
-                                      {"projectorWidth", "projectorHeight"},
-                                      {"proj_width", "proj_height"}},
-                                     {"projectorSize", "projector_size", "projSize"}, &psource);
+    auto [pw, ph] = files.Size({{"projector_width", "projector_height"},
+                                {"projectorWidth", "projectorHeight"},
+                                {"proj_width", "proj_height"}},
+                               {"projectorSize", "projector_size", "projSize"}, &psource);
+    if (!(pw > 0 && ph > 0) && projector_width > 0 && projector_height > 0) {
+      pw = projector_width;
+      ph = projector_height;
+      psource = "given (not in the file)";
+    }
     if (pw > 0 && ph > 0) {
       util::CheckRange(pw, 1, util::kMaxImageSidePx, names, "projector width");
       util::CheckRange(ph, 1, util::kMaxImageSidePx, names, "projector height");
@@ -487,15 +493,24 @@ OpenCvCalibration ReadOpenCvCalibration(const std::vector<fs::path>& paths, int 
   return out;
 }
 
+namespace {
+
+// The devices read, for the error messages of ToRig / ToCameraProjectorRig.
+std::string Holdings(const OpenCvCalibration& c) {
+  std::string have = c.left ? "left camera" : "";
+  if (c.right) have += ", right camera";
+  if (c.projector) have += ", projector";
+  return have.empty() ? "nothing usable" : have;
+}
+
+}  // namespace
+
 StereoRig OpenCvCalibration::ToRig(const std::string& context) const {
   if (!left || !right || !right_from_left) {
-    std::string have = left ? "left camera" : "";
-    if (right) have += ", right camera";
-    if (projector) have += ", projector";
     throw Error(StrCat(context,
                        ": fringe reconstructs with two cameras and their extrinsics "
                        "(R/T); the file holds: ",
-                       have.empty() ? "nothing usable" : have));
+                       Holdings(*this)));
   }
   StereoRig rig;
   rig.left = *left;
@@ -505,6 +520,22 @@ StereoRig OpenCvCalibration::ToRig(const std::string& context) const {
     rig.projector = *projector;
     rig.projector_from_left = *projector_from_left;
   }
+  return rig;
+}
+
+StereoRig OpenCvCalibration::ToCameraProjectorRig(const std::string& context) const {
+  if (!left || !projector || !projector_from_left) {
+    throw Error(StrCat(context,
+                       ": camera-projector mode needs a camera, the projector (with its size) and "
+                       "their extrinsics (Rlp/Tlp or similar); the file holds: ",
+                       Holdings(*this)));
+  }
+  StereoRig rig;
+  rig.left = *left;
+  rig.right = right ? *right : *left;
+  if (right && right_from_left) rig.right_from_left = *right_from_left;
+  rig.projector = *projector;
+  rig.projector_from_left = *projector_from_left;
   return rig;
 }
 

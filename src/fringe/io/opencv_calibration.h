@@ -37,6 +37,10 @@ struct OpenCvCalibration {
   // kept when present with projector_from_left). Throws fringe::Error naming `context` and what
   // is missing.
   StereoRig ToRig(const std::string& context) const;
+  // The rig of camera-projector mode (stereo/camera_projector.h): needs the left camera, the
+  // projector and projector_from_left; a right camera is kept when present, else `right` is a
+  // copy of the left at zero baseline (as a single-camera rig file reads, io/calibration_io.h).
+  StereoRig ToCameraProjectorRig(const std::string& context) const;
   // Devices and keys, one per line (for `fringe info` and the reconstruct log).
   std::string Describe() const;
 };
@@ -46,9 +50,11 @@ struct OpenCvCalibration {
 // hold them (image_width/image_height, imageSize, image_size, width/height; the projector's
 // from projector_width/projector_height, projectorSize, projector_size), else from
 // camera_width/height (> 0; -1: assume twice the principal point, for descriptions only); a
-// projector of unknown size is dropped with a note.
+// projector of unknown size takes projector_width/height when given (> 0: e.g. the pattern
+// scheme's projector size), else it is dropped with a note.
 OpenCvCalibration ReadOpenCvCalibration(const std::vector<std::filesystem::path>& files,
-                                        int camera_width = 0, int camera_height = 0);
+                                        int camera_width = 0, int camera_height = 0,
+                                        int projector_width = 0, int projector_height = 0);
 
 // Throws fringe::Error naming the file when it is larger than 16 MiB, nests deeper than
 // util::kMaxNestingDepth (flow brackets, "- " sequences, XML elements) or indents more than 512

@@ -79,6 +79,33 @@ TEST(OpenCvCalibration, CameraProjectorFileAndSizeFromTheFile) {
   // fringe reconstructs with two cameras: the error says what the file holds.
   const std::string msg = ErrorOf([&] { cv.ToRig("cp.yml"); });
   EXPECT_NE(msg.find("the file holds: left camera, projector"), std::string::npos) << msg;
+  // Camera-projector mode takes it: zero-baseline copy for `right`, the projector as read.
+  const StereoRig cp = cv.ToCameraProjectorRig("cp.yml");
+  EXPECT_EQ(cp.BaselineMm(), 0.0);
+  ASSERT_TRUE(cp.projector);
+  EXPECT_EQ(cp.projector->width, 1920);
+  EXPECT_NEAR(cp.projector_from_left.translation().x(), 100.0, 1e-12);
+}
+
+// A projector whose size the file does not hold (SLMaster's caliInfo.yml) is dropped unless the
+// caller gives the size (the scheme's projector size in `fringe reconstruct`).
+TEST(OpenCvCalibration, ProjectorSizeGivenByTheCaller) {
+  test::TempDir dir;
+  const fs::path f = Yaml(dir, "cp.yml",
+                          Matrix("S", 2, 1, "1280., 1024.") + Matrix("M1", 3, 3, kK) +
+                              Matrix("M4", 3, 3, kK) + Matrix("D4", 1, 5, kD) +
+                              Matrix("Rlp", 3, 3, kR) + Matrix("Tlp", 3, 1, "100., 0., 0."));
+  const OpenCvCalibration dropped = ReadOpenCvCalibration({f});
+  EXPECT_FALSE(dropped.projector);
+  const std::string msg = ErrorOf([&] { dropped.ToCameraProjectorRig("cp.yml"); });
+  EXPECT_NE(msg.find("camera-projector mode needs"), std::string::npos) << msg;
+  const OpenCvCalibration given = ReadOpenCvCalibration({f}, 0, 0, 1920, 1024);
+  ASSERT_TRUE(given.projector && given.projector_from_left);
+  EXPECT_EQ(given.projector->width, 1920);
+  EXPECT_EQ(given.projector->height, 1024);
+  EXPECT_NE(given.Describe().find("given (not in the file) -> projector size 1920x1024"),
+            std::string::npos)
+      << given.Describe();
 }
 
 TEST(OpenCvCalibration, LongDistortionAndBadRotationsAreErrors) {

@@ -108,35 +108,41 @@ ViewReconstruction ViewReconstructor::Reconstruct(const std::vector<cv::Mat>& le
   s.match_s = timer.ElapsedSeconds();
   out.cloud = std::move(m.cloud);
   out.reprojection_error_px = m.reprojection_error_px;
+  FinishViewReconstruction(rig_.left.fx, options_, &out);
+  s.total_s = total.ElapsedSeconds();
+  return out;
+}
 
-  if (options_.remove_outliers) {
+void FinishViewReconstruction(double focal_px, const ReconstructionOptions& options,
+                              ViewReconstruction* out) {
+  ReconstructionSummary& s = out->summary;
+  util::Timer timer;
+  if (options.remove_outliers) {
     timer.Restart();
-    s.outliers = RemoveOrganizedOutliers(&out.cloud, rig_.left.fx, options_.outliers);
+    s.outliers = RemoveOrganizedOutliers(&out->cloud, focal_px, options.outliers);
     s.outliers_s = timer.ElapsedSeconds();
-    for (size_t i = 0; i < out.cloud.valid.size(); ++i) {
-      if (!out.cloud.valid[i]) {
-        out.reprojection_error_px.at<float>(static_cast<int>(i / out.cloud.width),
-                                            static_cast<int>(i % out.cloud.width)) =
+    for (size_t i = 0; i < out->cloud.valid.size(); ++i) {
+      if (!out->cloud.valid[i]) {
+        out->reprojection_error_px.at<float>(static_cast<int>(i / out->cloud.width),
+                                             static_cast<int>(i % out->cloud.width)) =
             std::numeric_limits<float>::quiet_NaN();
       }
     }
   }
   // The residual travels with each point (PLY property residual_px) so that later stages
   // (fusion) can weigh points without the image beside the cloud.
-  out.cloud.cloud.residual_px.assign(out.reprojection_error_px.begin<float>(),
-                                     out.reprojection_error_px.end<float>());
-  if (options_.compute_normals) {
+  out->cloud.cloud.residual_px.assign(out->reprojection_error_px.begin<float>(),
+                                      out->reprojection_error_px.end<float>());
+  if (options.compute_normals) {
     timer.Restart();
-    s.normals = EstimateGridNormals(&out.cloud, options_.normals);
+    s.normals = EstimateGridNormals(&out->cloud, options.normals);
     s.normals_s = timer.ElapsedSeconds();
   }
-  s.points = static_cast<int>(out.cloud.NumValid());
+  s.points = static_cast<int>(out->cloud.NumValid());
   if (s.points == 0) {
     s.status = ReconstructionStatus::kNoPoints;
     s.message = s.matching.BriefReport();
   }
-  s.total_s = total.ElapsedSeconds();
-  return out;
 }
 
 ViewReconstruction ReconstructView(const StereoRig& rig, const phase::PatternScheme& scheme,

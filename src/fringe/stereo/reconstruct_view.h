@@ -10,7 +10,9 @@
 //
 // Only vertical fringes (absolute phase = projector column) can be matched along epipolar rows
 // of a horizontal-baseline rig; other schemes are rejected with fringe::Error. The single-camera
-// (camera + calibrated projector) mode is not implemented yet.
+// mode (one camera + the calibrated projector, either fringe direction or both) is
+// stereo/camera_projector.h; both modes share the stages after correspondence
+// (FinishViewReconstruction below), so their outputs mean the same.
 //
 // Thread safety: a ViewReconstructor is immutable after construction; Reconstruct() may be
 // called concurrently. Results do not depend on the number of threads.
@@ -82,6 +84,15 @@ class ViewReconstructor {
   ReconstructionOptions options_;
   PhaseMatcher matcher_;
 };
+
+// The stages after correspondence, shared by every correspondence kind (stereo matching,
+// camera-projector): on entry out->cloud, out->reprojection_error_px and
+// out->summary.matching hold the correspondence's result; removes organized outliers (footprints
+// from focal_px, the camera's focal length), sets the residual of removed points to NaN, copies
+// the residual into the cloud (PLY residual_px), estimates normals per `options`, and sets
+// summary.points / status.
+void FinishViewReconstruction(double focal_px, const ReconstructionOptions& options,
+                              ViewReconstruction* out);
 
 // One-off convenience.
 ViewReconstruction ReconstructView(const StereoRig& rig, const phase::PatternScheme& scheme,

@@ -1,0 +1,275 @@
+// bench_camera_projector: VDI/VDE 2634-2 figures in camera-projector mode (issue 14) on the
+// simulator's reference rig (../shared/SPEC.md): the LEFT camera against the projector
+// (stereo/camera_projector.h), sigma 1.5 DN, heterodyne-4x3 with gamma 2.2 pre-compensated, and
+// the same figures in stereo mode beside them, on the same rendered views.
+//
+//   Artefacts and positions as bench_reconstruction (sphere d = 30 mm in 10 positions, ball bar
+//   200 mm in 7, plate in 6 across the measuring volume; the pose formulas are copied from there
+//   so the two benchmarks measure the same views).
+//   Calibration: the TRUE rig (camera, projector with its model, extrinsics). The projector
+//   calibration of the issue (proj_* keys, figures with the estimated calibration) is not
+//   implemented yet; the JSON says so.
+//   Floors cp_PF_floor / cp_F_floor: the same figures from TRUE correspondences in
+//   camera-projector mode: every pixel that gave a point, its true projector column (simulator
+//   truth at the pixel centre) plus Gaussian noise of the decoder's phase-noise limit
+//   (phase::AbsolutePhaseSigmaPx at the pixel's modulation), triangulated with the same
+//   function. cp_*_over_floor = max over positions of figure / floor (targets <= 1.3).
+//
+// Usage: bench_camera_projector [--json] [--quick]   (--quick: 3 spheres, 2 bars, 2 plates)
+#include <CLI/CLI.hpp>
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "fringe/eval/vdi2634.h"
+#include "fringe/phase/decode.h"
+#include "fringe/sim/poses.h"
+#include "fringe/sim/renderer.h"
+#include "fringe/sim/scene.h"
+#include "fringe/stereo/camera_projector.h"
+#include "fringe/stereo/reconstruct_view.h"
+#include "fringe/util/random.h"
+#include "fringe/util/timer.h"
+
+namespace fringe {
+namespace {
+
+constexpr double kSphereRadiusMm = 15;
+constexpr double kBarRadiusMm = 12.5;
+constexpr double kBarDistanceMm = 200;
+
+struct Bench {
+  StereoRig rig = StereoRig::Reference();
+  stereo::CameraProjectorRig cp = stereo::CameraProjectorRig::FromLeftCamera(rig);
+  phase::PatternScheme scheme = phase::MakeScheme("heterodyne-4x3");
+  sim::RenderOptions render;
+  std::vector<cv::Mat> patterns = phase::GeneratePatterns(scheme, render.projector.gamma);
+  double sigma_dn = std::sqrt(std::pow(render.sensor.read_noise_dn, 2) + 1.0 / 12);
+  stereo::ReconstructionOptions options = [this] {
+    stereo::ReconstructionOptions o;
+    o.decode.noise_sigma_dn = sigma_dn;
+    return o;
+  }();
+  stereo::CameraProjectorReconstructor cp_recon{cp, {scheme}, {options}};
+  stereo::ViewReconstructor stereo_recon{rig, scheme, options};
+  double cp_s = 0, stereo_s = 0;
+  int views = 0;
+
+  struct Reconstructions {
+    sim::ViewImages view;
+    stereo::ViewReconstruction cp, stereo;
+  };
+  Reconstructions Run(const sim::Scene& scene, const Rigid3d& pose, uint64_t index) {
+    Reconstructions r;
+    r.view = sim::Renderer(scene, rig, render).RenderView(pose, patterns, index);
+    util::Timer t;
+    r.cp = cp_recon.Reconstruct({r.view.left.images});
+    cp_s += t.ElapsedSeconds();
+    t.Restart();
+    r.stereo = stereo_recon.Reconstruct(r.view.left.images, r.view.right.images);
+    stereo_s += t.ElapsedSeconds();
+    ++views;
+    return r;
+  }
+
+  // The floor points: true correspondences + phase noise, over the cloud's points that `select`
+  // keeps (true point in the camera frame).
+  template <typename Select>
+  std::vector<Eigen::Vector3d> Floor(const Reconstructions& r, Select select, uint64_t seed) const {
+    std::vector<Eigen::Vector3d> out;
+    util::Rng rng(seed);
+    std::normal_distribution<double> gauss(0, 1);
+    const sim::CameraTruth& t = r.view.left.truth;
+    const OrganizedPointCloud& cloud = r.cp.cloud;
+    for (int row = 0; row < cloud.height; ++row) {
+      for (int c = 0; c < cloud.width; ++c) {
+        const size_t i = cloud.index(c, row);
+        if (!cloud.valid[i] || !t.valid.at<uint8_t>(row, c)) continue;
+        const cv::Vec3d tp = t.points.at<cv::Vec3d>(row, c);
+        if (!select(Eigen::Vector3d(tp[0], tp[1], tp[2]))) continue;
+        const double sigma_u =
+            phase::AbsolutePhaseSigmaPx(scheme, sigma_dn, cloud.cloud.quality[i], true);
+        const double u = t.projector.at<cv::Vec2d>(row, c)[0] + sigma_u * gauss(rng);
+        const auto p = stereo::TriangulateCameraProjector(cp, Eigen::Vector2d(c, row), u,
+                                                          phase::FringeDirection::kVertical);
+        if (p.ok()) out.push_back(p.p_in_left);
+      }
+    }
+    return out;
+  }
+};
+
+double MaxAbs(double a, double b) { return std::max(std::abs(a), std::abs(b)); }
+
+}  // namespace
+}  // namespace fringe
+
+int main(int argc, char** argv) {
+  using namespace fringe;
+  bool json_out = false, quick = false;
+  CLI::App app("bench_camera_projector: VDI/VDE 2634-2 figures in camera-projector mode");
+  app.add_flag("--json", json_out, "Print one JSON object");
+  app.add_flag("--quick", quick, "Fewer positions");
+  CLI11_PARSE(app, argc, argv);
+  util::Timer total;
+  Bench b;
+  const eval::VdiOptions vdi;
+  nlohmann::json j;
+  j["rig"] =
+      "reference: left camera 1280x1024 + projector 1280x800 (camera-projector), "
+      "both cameras (stereo); gamma 2.2 pre-compensated";
+  j["scheme"] = b.scheme.name;
+  j["noise_sigma_dn"] = b.render.sensor.read_noise_dn;
+  j["camera_projector_baseline_mm"] = b.cp.projector_from_camera.Inverse().translation().norm();
+  j["stereo_baseline_mm"] = b.rig.BaselineMm();
+  j["calibration"] = "true rig (projector calibration not implemented yet: no proj_* keys)";
+
+  // ---- Spheres (positions of bench_reconstruction) ----
+  const sim::Scene sphere_scene = sim::MakeSphereScene(kSphereRadiusMm);
+  const int n_sphere = quick ? 3 : 10;
+  double cp_ps = 0, cp_pf = 0, cp_pf_floor = 0, cp_pf_ratio = 0, st_ps = 0, st_pf = 0;
+  nlohmann::json spheres = nlohmann::json::array();
+  for (int k = 0; k < n_sphere; ++k) {
+    const double ax = -70 + 140.0 * (k % 5) / 4, ay = (k / 5 % 2 ? 45 : -45);
+    const double standoff = -60 + 120.0 * k / std::max(1, n_sphere - 1);
+    const Eigen::Vector3d centre(0, 0, kSphereRadiusMm);
+    const Rigid3d pose = sim::SensorPoseLookingAt(
+        b.rig, centre + Eigen::Vector3d(ax, ay, 0),
+        Eigen::Vector3d(0.1 * (k % 3 - 1), -0.45, 1).normalized(), 0.2 * k, standoff);
+    const auto r = b.Run(sphere_scene, pose, 100 + k);
+    const Eigen::Vector3d c_in_sensor = pose.Inverse() * centre;
+    const eval::SphereResult s =
+        eval::EvaluateSphere(r.cp.cloud.Compact(), 2 * kSphereRadiusMm, vdi);
+    const eval::SphereResult f = eval::SphereFigures(
+        b.Floor(
+            r,
+            [&](const Eigen::Vector3d& p) {
+              return std::abs((p - c_in_sensor).norm() - kSphereRadiusMm) < 1e-3;
+            },
+            util::MixSeed(7, k)),
+        2 * kSphereRadiusMm);
+    const eval::SphereResult st =
+        eval::EvaluateSphere(r.stereo.cloud.Compact(), 2 * kSphereRadiusMm, vdi);
+    spheres.push_back({{"position", k},
+                       {"distance_mm", c_in_sensor.norm()},
+                       {"cp_points", r.cp.summary.points},
+                       {"cp_status", eval::ToString(s.status)},
+                       {"cp_PS_mm", s.PS_mm},
+                       {"cp_PF_mm", s.PF_mm},
+                       {"cp_PF_floor_mm", f.PF_mm},
+                       {"stereo_points", r.stereo.summary.points},
+                       {"stereo_PS_mm", st.PS_mm},
+                       {"stereo_PF_mm", st.PF_mm}});
+    if (s.ok()) {
+      cp_ps = MaxAbs(cp_ps, s.PS_mm);
+      cp_pf = std::max(cp_pf, s.PF_mm);
+      if (f.ok()) {
+        cp_pf_floor = std::max(cp_pf_floor, f.PF_mm);
+        cp_pf_ratio = std::max(cp_pf_ratio, s.PF_mm / f.PF_mm);
+      }
+    }
+    if (st.ok()) {
+      st_ps = MaxAbs(st_ps, st.PS_mm);
+      st_pf = std::max(st_pf, st.PF_mm);
+    }
+  }
+
+  // ---- Ball bar ----
+  const sim::Scene bar_scene = sim::MakeBallBarScene(kBarRadiusMm, kBarDistanceMm);
+  const int n_bar = quick ? 2 : 7;
+  double cp_sd = 0, st_sd = 0;
+  nlohmann::json bars = nlohmann::json::array();
+  for (int k = 0; k < n_bar; ++k) {
+    const double roll = M_PI * k / n_bar;
+    const Eigen::Vector3d from = Eigen::Vector3d(0.35 * std::sin(1.3 * k), -0.4, 1).normalized();
+    const Rigid3d pose =
+        sim::SensorPoseLookingAt(b.rig, Eigen::Vector3d(0, 0, 40), from, roll, -40 + 15.0 * k);
+    const auto r = b.Run(bar_scene, pose, 200 + k);
+    const eval::BallBarResult s =
+        eval::EvaluateBallBar(r.cp.cloud.Compact(), 2 * kBarRadiusMm, kBarDistanceMm, vdi);
+    const eval::BallBarResult st =
+        eval::EvaluateBallBar(r.stereo.cloud.Compact(), 2 * kBarRadiusMm, kBarDistanceMm, vdi);
+    bars.push_back({{"position", k},
+                    {"cp_status", eval::ToString(s.status)},
+                    {"cp_SD_mm", s.SD_mm},
+                    {"stereo_SD_mm", st.SD_mm}});
+    if (s.ok()) cp_sd = MaxAbs(cp_sd, s.SD_mm);
+    if (st.ok()) st_sd = MaxAbs(st_sd, st.SD_mm);
+  }
+
+  // ---- Plate ----
+  const sim::Scene plate_scene = sim::MakePlateScene();
+  const int n_plate = quick ? 2 : 6;
+  double cp_f = 0, cp_f_floor = 0, cp_f_ratio = 0, st_f = 0;
+  nlohmann::json plates = nlohmann::json::array();
+  for (int k = 0; k < n_plate; ++k) {
+    const double roll = M_PI * k / n_plate;
+    const Eigen::Vector3d from = Eigen::Vector3d(0.3 * std::cos(1.7 * k), -0.3, 1).normalized();
+    const Rigid3d pose =
+        sim::SensorPoseLookingAt(b.rig, Eigen::Vector3d::Zero(), from, roll, -50 + 20.0 * k);
+    const auto r = b.Run(plate_scene, pose, 300 + k);
+    const eval::PlaneResult s = eval::EvaluatePlane(r.cp.cloud.Compact(), vdi);
+    const eval::PlaneResult f = eval::PlaneFigures(b.Floor(
+        r, [&](const Eigen::Vector3d& q) { return std::abs((pose * q).z()) < 1e-6; },
+        util::MixSeed(11, k)));
+    const eval::PlaneResult st = eval::EvaluatePlane(r.stereo.cloud.Compact(), vdi);
+    plates.push_back({{"position", k},
+                      {"cp_status", eval::ToString(s.status)},
+                      {"cp_F_mm", s.F_mm},
+                      {"cp_F_floor_mm", f.F_mm},
+                      {"stereo_F_mm", st.F_mm}});
+    if (s.ok()) {
+      cp_f = std::max(cp_f, s.F_mm);
+      if (f.ok()) {
+        cp_f_floor = std::max(cp_f_floor, f.F_mm);
+        cp_f_ratio = std::max(cp_f_ratio, s.F_mm / f.F_mm);
+      }
+    }
+    if (st.ok()) st_f = std::max(st_f, st.F_mm);
+  }
+
+  j["spheres"] = spheres;
+  j["ball_bars"] = bars;
+  j["plates"] = plates;
+  j["cp_PS_mm"] = cp_ps;
+  j["cp_SD_mm"] = cp_sd;
+  j["cp_PF_mm"] = cp_pf;
+  j["cp_F_mm"] = cp_f;
+  j["cp_PF_floor_mm"] = cp_pf_floor;
+  j["cp_F_floor_mm"] = cp_f_floor;
+  j["cp_PF_over_floor"] = cp_pf_ratio;
+  j["cp_F_over_floor"] = cp_f_ratio;
+  j["stereo_PS_mm"] = st_ps;
+  j["stereo_SD_mm"] = st_sd;
+  j["stereo_PF_mm"] = st_pf;
+  j["stereo_F_mm"] = st_f;
+  j["figures"] = "max |.| (PS, SD) or max (PF, F) over positions, true calibration";
+  j["cp_time_per_view_s"] = b.views ? b.cp_s / b.views : 0.0;
+  j["stereo_time_per_view_s"] = b.views ? b.stereo_s / b.views : 0.0;
+  j["total_s"] = total.ElapsedSeconds();
+  if (json_out) {
+    std::cout << j.dump() << "\n";
+    return 0;
+  }
+  std::printf("bench_camera_projector (reference rig, %s, sigma %.1f DN, true calibration)\n",
+              b.scheme.name.c_str(), b.render.sensor.read_noise_dn);
+  std::printf("%-30s %14s %14s %14s %10s\n", "figure", "camera-proj.", "cp floor", "stereo",
+              "target");
+  std::printf("%-30s %14.4f %14s %14.4f %10s\n", "PS max |.| (mm)", cp_ps, "", st_ps, "0.02");
+  std::printf("%-30s %14.4f %14s %14.4f %10s\n", "SD max |.| (mm)", cp_sd, "", st_sd, "0.02");
+  std::printf("%-30s %14.4f %14.4f %14.4f %10s\n", "PF max (mm)", cp_pf, cp_pf_floor, st_pf,
+              "1.3 floor");
+  std::printf("%-30s %14.4f %14.4f %14.4f %10s\n", "F max (mm)", cp_f, cp_f_floor, st_f,
+              "1.3 floor");
+  std::printf(
+      "PF / floor max %.2f, F / floor max %.2f; time per view: camera-projector %.3f s, "
+      "stereo %.3f s\n",
+      cp_pf_ratio, cp_f_ratio, j["cp_time_per_view_s"].get<double>(),
+      j["stereo_time_per_view_s"].get<double>());
+  return 0;
+}

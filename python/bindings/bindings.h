@@ -13,6 +13,7 @@ void BindCalib(pybind11::module_& m);
 void BindStereo(pybind11::module_& m);
 void BindEval(pybind11::module_& m);
 void BindSim(pybind11::module_& m);
+void BindPipeline(pybind11::module_& m);
 
 // A PointCloud from numpy arrays (geometry_io.cc); None for absent attributes.
 PointCloud CloudFromArrays(const pybind11::handle& points, const pybind11::handle& normals,

@@ -136,8 +136,8 @@ py::array ViewVec3(std::vector<Eigen::Vector3d>& v, const std::vector<py::ssize_
     strides[i] = stride;
     stride *= full[i];
   }
-  return py::array(py::dtype::of<double>(), full, strides,
-                   v.empty() ? nullptr : v.front().data(), owner);
+  return py::array(py::dtype::of<double>(), full, strides, v.empty() ? nullptr : v.front().data(),
+                   owner);
 }
 
 py::array MatrixFromRigid(const Rigid3d& t) {
@@ -214,8 +214,8 @@ void ApplyOptions(py::object options, const py::dict& values, const std::string&
     } catch (py::error_already_set& e) {
       if (!e.matches(PyExc_TypeError)) throw;
       throw py::type_error(path + "." + key + ": expected " +
-                           std::string(py::str(py::type::of(current).attr("__name__"))) +
-                           ", got " + std::string(py::str(item.second.get_type().attr("__name__"))));
+                           std::string(py::str(py::type::of(current).attr("__name__"))) + ", got " +
+                           std::string(py::str(item.second.get_type().attr("__name__"))));
     }
   }
 }

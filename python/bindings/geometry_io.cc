@@ -96,7 +96,9 @@ void BindGeometryIo(py::module_& m) {
   py::class_<CameraModel>(m, "Camera", R"doc(
 Pinhole camera with OpenCV lens distortion (k1 k2 p1 p2 k3); also the projector model.
 Frames: x right, y down, z forward, millimetres; pixel (0, 0) is the centre of the top-left pixel.)doc")
-      .def(py::init([](py::kwargs kwargs) { return MakeOptions<CameraModel>(py::none(), kwargs, "Camera"); }),
+      .def(py::init([](py::kwargs kwargs) {
+             return MakeOptions<CameraModel>(py::none(), kwargs, "Camera");
+           }),
            "Camera(**fields): the C++ defaults (1280x1024, f = 2500 px) with the given fields.")
       .def_readwrite("width", &CameraModel::width)
       .def_readwrite("height", &CameraModel::height)
@@ -109,46 +111,54 @@ Frames: x right, y down, z forward, millimetres; pixel (0, 0) is the centre of t
       .def_readwrite("p1", &CameraModel::p1)
       .def_readwrite("p2", &CameraModel::p2)
       .def_readwrite("k3", &CameraModel::k3)
-      .def_property_readonly("K", [](const CameraModel& c) {
-        const Eigen::Matrix3d k = c.K();
-        py::array_t<double> out({3, 3});
-        for (int i = 0; i < 3; ++i)
-          for (int j = 0; j < 3; ++j) out.mutable_at(i, j) = k(i, j);
-        return out;
-      }, "3x3 intrinsic matrix.")
+      .def_property_readonly(
+          "K",
+          [](const CameraModel& c) {
+            const Eigen::Matrix3d k = c.K();
+            py::array_t<double> out({3, 3});
+            for (int i = 0; i < 3; ++i)
+              for (int j = 0; j < 3; ++j) out.mutable_at(i, j) = k(i, j);
+            return out;
+          },
+          "3x3 intrinsic matrix.")
       .def_static("reference_camera", &CameraModel::ReferenceCamera,
                   "The reference rig camera (1280x1024, 4.8 um pixels, 12 mm lens).")
       .def_static("reference_projector", &CameraModel::ReferenceProjector,
                   "The reference projector (1280x800).")
       .def("check", &CameraModel::Check, "Raises fringe.Error naming a field out of range.")
-      .def("project",
-           [](const CameraModel& c, const py::handle& p) {
-             return MapRows<3>(p, "project: points", 2, [&c](const double* in, double* out) {
-               const Eigen::Vector2d px = c.Project(Eigen::Vector3d(in[0], in[1], in[2]));
-               out[0] = px.x();
-               out[1] = px.y();
-             });
-           },
-           py::arg("points_in_camera"), "Pixels (N, 2) of points (N, 3) in the camera frame (Z > 0).")
-      .def("unproject",
-           [](const CameraModel& c, const py::handle& p) {
-             return MapRows<2>(p, "unproject: pixels", 2, [&c](const double* in, double* out) {
-               const Eigen::Vector2d xy = c.Unproject(Eigen::Vector2d(in[0], in[1]));
-               out[0] = xy.x();
-               out[1] = xy.y();
-             });
-           },
-           py::arg("pixels"), "Undistorted normalized coordinates (N, 2) of pixels (N, 2).")
-      .def("ray",
-           [](const CameraModel& c, const py::handle& p) {
-             return MapRows<2>(p, "ray: pixels", 3, [&c](const double* in, double* out) {
-               const Eigen::Vector3d r = c.Ray(Eigen::Vector2d(in[0], in[1]));
-               out[0] = r.x();
-               out[1] = r.y();
-               out[2] = r.z();
-             });
-           },
-           py::arg("pixels"), "Unit ray directions (N, 3) in the camera frame through pixels (N, 2).")
+      .def(
+          "project",
+          [](const CameraModel& c, const py::handle& p) {
+            return MapRows<3>(p, "project: points", 2, [&c](const double* in, double* out) {
+              const Eigen::Vector2d px = c.Project(Eigen::Vector3d(in[0], in[1], in[2]));
+              out[0] = px.x();
+              out[1] = px.y();
+            });
+          },
+          py::arg("points_in_camera"),
+          "Pixels (N, 2) of points (N, 3) in the camera frame (Z > 0).")
+      .def(
+          "unproject",
+          [](const CameraModel& c, const py::handle& p) {
+            return MapRows<2>(p, "unproject: pixels", 2, [&c](const double* in, double* out) {
+              const Eigen::Vector2d xy = c.Unproject(Eigen::Vector2d(in[0], in[1]));
+              out[0] = xy.x();
+              out[1] = xy.y();
+            });
+          },
+          py::arg("pixels"), "Undistorted normalized coordinates (N, 2) of pixels (N, 2).")
+      .def(
+          "ray",
+          [](const CameraModel& c, const py::handle& p) {
+            return MapRows<2>(p, "ray: pixels", 3, [&c](const double* in, double* out) {
+              const Eigen::Vector3d r = c.Ray(Eigen::Vector2d(in[0], in[1]));
+              out[0] = r.x();
+              out[1] = r.y();
+              out[2] = r.z();
+            });
+          },
+          py::arg("pixels"),
+          "Unit ray directions (N, 3) in the camera frame through pixels (N, 2).")
       .def(py::self == py::self)
       .def("__repr__", [](const CameraModel& c) {
         return util::StrCat("fringe.Camera(", c.width, "x", c.height, ", fx=", c.fx, ", fy=", c.fy,
@@ -164,7 +174,9 @@ is the left camera frame; transforms are 4x4 matrices b_from_a, millimetres.)doc
       .def_readwrite("projector", &StereoRig::projector, "Camera or None.")
       .def_property(
           "right_from_left", [](const StereoRig& r) { return MatrixFromRigid(r.right_from_left); },
-          [](StereoRig& r, const py::handle& t) { r.right_from_left = RigidFromPython(t, "right_from_left"); },
+          [](StereoRig& r, const py::handle& t) {
+            r.right_from_left = RigidFromPython(t, "right_from_left");
+          },
           "4x4 transform from the left to the right camera frame.")
       .def_property(
           "projector_from_left",
@@ -174,21 +186,25 @@ is the left camera frame; transforms are 4x4 matrices b_from_a, millimetres.)doc
           },
           "4x4 transform from the left camera to the projector frame.")
       .def_property_readonly("baseline_mm", &StereoRig::BaselineMm)
-      .def_static("reference", &StereoRig::Reference,
-                  "The reference rig of SPEC.md (200 mm baseline, converging at 500 mm, projector).")
-      .def_static("load", [](const std::filesystem::path& p) { return io::ReadRig(p); }, py::arg("path"),
-                  "Reads a rig JSON file (or a single-camera calibration file).")
-      .def("save", [](const StereoRig& r, const std::filesystem::path& p) { io::WriteRig(p, r); },
-           py::arg("path"), "Writes the rig JSON file atomically.")
-      .def_static("from_opencv",
-                  [](const std::filesystem::path& intrinsics, const std::filesystem::path& extrinsics,
-                     int width, int height) {
-                    return io::ImportOpenCvStereo(intrinsics, extrinsics, width, height);
-                  },
-                  py::arg("intrinsics"), py::arg("extrinsics"), py::arg("width"), py::arg("height"),
-                  "Imports OpenCV stereo calibration files (M1 D1 M2 D2; R T in millimetres).")
-      .def("to_dict", [](const StereoRig& r) { return FromJson(io::RigToJson(r)); },
-           "The rig JSON of docs/formats.md as a dict.")
+      .def_static(
+          "reference", &StereoRig::Reference,
+          "The reference rig of SPEC.md (200 mm baseline, converging at 500 mm, projector).")
+      .def_static(
+          "load", [](const std::filesystem::path& p) { return io::ReadRig(p); }, py::arg("path"),
+          "Reads a rig JSON file (or a single-camera calibration file).")
+      .def(
+          "save", [](const StereoRig& r, const std::filesystem::path& p) { io::WriteRig(p, r); },
+          py::arg("path"), "Writes the rig JSON file atomically.")
+      .def_static(
+          "from_opencv",
+          [](const std::filesystem::path& intrinsics, const std::filesystem::path& extrinsics,
+             int width,
+             int height) { return io::ImportOpenCvStereo(intrinsics, extrinsics, width, height); },
+          py::arg("intrinsics"), py::arg("extrinsics"), py::arg("width"), py::arg("height"),
+          "Imports OpenCV stereo calibration files (M1 D1 M2 D2; R T in millimetres).")
+      .def(
+          "to_dict", [](const StereoRig& r) { return FromJson(io::RigToJson(r)); },
+          "The rig JSON of docs/formats.md as a dict.")
       .def("check", &StereoRig::Check)
       .def("__repr__", [](const StereoRig& r) {
         return util::StrCat("fringe.Rig(", r.left.width, "x", r.left.height, ", baseline ",
@@ -211,8 +227,10 @@ float32, quality (N,) float32. Assigning an attribute copies the array in.)doc")
           },
           [](PointCloud& c, const py::handle& a) {
             auto p = PointsFromPython(a, "points", false);
-            if (p.size() != c.size() && (c.has_normals() || c.has_colors() || c.has_intensity() || c.has_quality())) {
-              throw py::value_error("points: the cloud has attributes for " + std::to_string(c.size()) + " points");
+            if (p.size() != c.size() &&
+                (c.has_normals() || c.has_colors() || c.has_intensity() || c.has_quality())) {
+              throw py::value_error("points: the cloud has attributes for " +
+                                    std::to_string(c.size()) + " points");
             }
             c.points = std::move(p);
           })
@@ -226,7 +244,8 @@ float32, quality (N,) float32. Assigning an attribute copies the array in.)doc")
           [](PointCloud& c, const py::handle& a) {
             if (a.is_none()) return c.normals.clear();
             auto n = PointsFromPython(a, "normals", false);
-            if (n.size() != c.size()) throw py::value_error("normals: expected one normal per point");
+            if (n.size() != c.size())
+              throw py::value_error("normals: expected one normal per point");
             c.normals = std::move(n);
           })
       .def_property(
@@ -234,7 +253,8 @@ float32, quality (N,) float32. Assigning an attribute copies the array in.)doc")
           [](py::object self) -> py::object {
             auto& c = self.cast<PointCloud&>();
             if (!c.has_colors()) return py::none();
-            return py::array(py::dtype::of<uint8_t>(), {static_cast<py::ssize_t>(c.size()), py::ssize_t{3}},
+            return py::array(py::dtype::of<uint8_t>(),
+                             {static_cast<py::ssize_t>(c.size()), py::ssize_t{3}},
                              {py::ssize_t{3}, py::ssize_t{1}}, c.colors.front().data(), self);
           },
           [](PointCloud& c, const py::handle& a) {
@@ -250,7 +270,9 @@ float32, quality (N,) float32. Assigning an attribute copies the array in.)doc")
             if (!c.has_intensity()) return py::none();
             return ViewVector(c.intensity, {static_cast<py::ssize_t>(c.size())}, self);
           },
-          [](PointCloud& c, const py::handle& a) { SetAttribute(c.intensity, a, c.size(), "intensity"); })
+          [](PointCloud& c, const py::handle& a) {
+            SetAttribute(c.intensity, a, c.size(), "intensity");
+          })
       .def_property(
           "quality",
           [](py::object self) -> py::object {
@@ -258,10 +280,13 @@ float32, quality (N,) float32. Assigning an attribute copies the array in.)doc")
             if (!c.has_quality()) return py::none();
             return ViewVector(c.quality, {static_cast<py::ssize_t>(c.size())}, self);
           },
-          [](PointCloud& c, const py::handle& a) { SetAttribute(c.quality, a, c.size(), "quality"); })
+          [](PointCloud& c, const py::handle& a) {
+            SetAttribute(c.quality, a, c.size(), "quality");
+          })
       .def("__repr__", [](const PointCloud& c) {
-        return util::StrCat("fringe.PointCloud(", c.size(), " points", c.has_normals() ? ", normals" : "",
-                            c.has_colors() ? ", colors" : "", c.has_intensity() ? ", intensity" : "",
+        return util::StrCat("fringe.PointCloud(", c.size(), " points",
+                            c.has_normals() ? ", normals" : "", c.has_colors() ? ", colors" : "",
+                            c.has_intensity() ? ", intensity" : "",
                             c.has_quality() ? ", quality" : "", ")");
       });
 
@@ -284,12 +309,13 @@ clouds written by fringe (None otherwise), and the header comments.)doc")
                                                 {py::ssize_t{12}, py::ssize_t{4}},
                                                 n ? d.triangles.front().data() : nullptr, self);
                              })
-      .def_property_readonly("grid_index",
-                             [](py::object self) -> py::object {
-                               auto& d = self.cast<io::PlyData&>();
-                               if (d.grid_index.empty()) return py::none();
-                               return ViewVector(d.grid_index, {static_cast<py::ssize_t>(d.grid_index.size())}, self);
-                             })
+      .def_property_readonly(
+          "grid_index",
+          [](py::object self) -> py::object {
+            auto& d = self.cast<io::PlyData&>();
+            if (d.grid_index.empty()) return py::none();
+            return ViewVector(d.grid_index, {static_cast<py::ssize_t>(d.grid_index.size())}, self);
+          })
       .def_property_readonly("grid_shape",
                              [](const io::PlyData& d) -> py::object {
                                if (d.header.grid_width <= 0) return py::none();
@@ -298,61 +324,66 @@ clouds written by fringe (None otherwise), and the header comments.)doc")
       .def_property_readonly("comments", [](const io::PlyData& d) { return d.header.comments; })
       .def_property_readonly("format", [](const io::PlyData& d) { return d.header.format; });
 
-  m.def("read_image",
-        [](const std::filesystem::path& path, bool float32) {
-          cv::Mat image;
-          {
-            py::gil_scoped_release release;
-            image = float32 ? io::ReadFloatImage(path) : io::ReadGrayImage(path);
-          }
-          return ArrayFromMat(image);
-        },
-        py::arg("path"), py::arg("float32") = false,
-        "Reads a grey image (uint8 or uint16; colour converted to grey), or with float32=True a\n"
-        "single-channel float TIFF (the maps `fringe decode` writes).");
-  m.def("write_image",
-        [](const std::filesystem::path& path, const py::array& image) {
-          ImageStack stack = ImagesFromPython(py::make_tuple(image), "image");
+  m.def(
+      "read_image",
+      [](const std::filesystem::path& path, bool float32) {
+        cv::Mat image;
+        {
           py::gil_scoped_release release;
-          io::WriteImage(path, stack.mats[0]);
-        },
-        py::arg("path"), py::arg("image"),
-        "Writes a uint8/uint16 image atomically; the format follows the extension.");
-  m.def("read_ply",
-        [](const std::filesystem::path& path) {
-          auto data = std::make_shared<io::PlyData>();
-          {
-            py::gil_scoped_release release;
-            *data = io::ReadPly(path);
-          }
-          return data;
-        },
-        py::arg("path"),
-        "Reads an ASCII or binary PLY file (vertices with their attributes, faces, fringe's grid).");
-  m.def("write_ply",
-        [](const std::filesystem::path& path, const PointCloud& cloud, const py::object& triangles,
-           bool ascii, const std::vector<std::string>& comments) {
-          auto tris = TrianglesFromPython(triangles);
+          image = float32 ? io::ReadFloatImage(path) : io::ReadGrayImage(path);
+        }
+        return ArrayFromMat(image);
+      },
+      py::arg("path"), py::arg("float32") = false,
+      "Reads a grey image (uint8 or uint16; colour converted to grey), or with float32=True a\n"
+      "single-channel float TIFF (the maps `fringe decode` writes).");
+  m.def(
+      "write_image",
+      [](const std::filesystem::path& path, const py::array& image) {
+        ImageStack stack = ImagesFromPython(py::make_tuple(image), "image");
+        py::gil_scoped_release release;
+        io::WriteImage(path, stack.mats[0]);
+      },
+      py::arg("path"), py::arg("image"),
+      "Writes a uint8/uint16 image atomically; the format follows the extension.");
+  m.def(
+      "read_ply",
+      [](const std::filesystem::path& path) {
+        auto data = std::make_shared<io::PlyData>();
+        {
           py::gil_scoped_release release;
-          io::WritePly(path, cloud, tris, PlyFormatOf(ascii), comments);
-        },
-        py::arg("path"), py::arg("cloud"), py::arg("triangles") = py::none(), py::arg("ascii") = false,
-        py::arg("comments") = std::vector<std::string>{},
-        "Writes a PointCloud (and optional triangles) atomically, binary little-endian or ASCII.");
-  m.def("write_ply",
-        [](const std::filesystem::path& path, const py::array& points, const py::object& normals,
-           const py::object& colors, const py::object& intensity, const py::object& quality,
-           const py::object& triangles, bool ascii, const std::vector<std::string>& comments) {
-          PointCloud cloud = CloudFromArrays(points, normals, colors, intensity, quality);
-          auto tris = TrianglesFromPython(triangles);
-          py::gil_scoped_release release;
-          io::WritePly(path, cloud, tris, PlyFormatOf(ascii), comments);
-        },
-        py::arg("path"), py::arg("points"), py::arg("normals") = py::none(),
-        py::arg("colors") = py::none(), py::arg("intensity") = py::none(),
-        py::arg("quality") = py::none(), py::arg("triangles") = py::none(), py::arg("ascii") = false,
-        py::arg("comments") = std::vector<std::string>{},
-        "Writes points (N, 3) with optional per-point attributes as a PLY file.");
+          *data = io::ReadPly(path);
+        }
+        return data;
+      },
+      py::arg("path"),
+      "Reads an ASCII or binary PLY file (vertices with their attributes, faces, fringe's grid).");
+  m.def(
+      "write_ply",
+      [](const std::filesystem::path& path, const PointCloud& cloud, const py::object& triangles,
+         bool ascii, const std::vector<std::string>& comments) {
+        auto tris = TrianglesFromPython(triangles);
+        py::gil_scoped_release release;
+        io::WritePly(path, cloud, tris, PlyFormatOf(ascii), comments);
+      },
+      py::arg("path"), py::arg("cloud"), py::arg("triangles") = py::none(),
+      py::arg("ascii") = false, py::arg("comments") = std::vector<std::string>{},
+      "Writes a PointCloud (and optional triangles) atomically, binary little-endian or ASCII.");
+  m.def(
+      "write_ply",
+      [](const std::filesystem::path& path, const py::array& points, const py::object& normals,
+         const py::object& colors, const py::object& intensity, const py::object& quality,
+         const py::object& triangles, bool ascii, const std::vector<std::string>& comments) {
+        PointCloud cloud = CloudFromArrays(points, normals, colors, intensity, quality);
+        auto tris = TrianglesFromPython(triangles);
+        py::gil_scoped_release release;
+        io::WritePly(path, cloud, tris, PlyFormatOf(ascii), comments);
+      },
+      py::arg("path"), py::arg("points"), py::arg("normals") = py::none(),
+      py::arg("colors") = py::none(), py::arg("intensity") = py::none(),
+      py::arg("quality") = py::none(), py::arg("triangles") = py::none(), py::arg("ascii") = false,
+      py::arg("comments") = std::vector<std::string>{},
+      "Writes points (N, 3) with optional per-point attributes as a PLY file.");
 }
 
 }  // namespace fringe::python

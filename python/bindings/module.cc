@@ -17,4 +17,5 @@ PYBIND11_MODULE(_fringe, m) {
   fringe::python::BindStereo(m);
   fringe::python::BindEval(m);
   fringe::python::BindSim(m);
+  fringe::python::BindPipeline(m);
 }

@@ -55,11 +55,18 @@ void BindSim(py::module_& m) {
       .value("circles", TargetType::kCircleGrid)
       .value("asymmetric_circles", TargetType::kAsymmetricCircleGrid)
       .value("chessboard", TargetType::kChessboard);
-  py::class_<CalibrationTarget>(m, "Target", "A calibration board (docs/formats.md, \"Calibration target\").")
-      .def(py::init([](py::kwargs kw) { return MakeOptions<CalibrationTarget>(py::none(), kw, "Target"); }))
-      .def_static("load", [](const std::filesystem::path& p) { return io::ReadTarget(p); }, py::arg("path"))
-      .def("save", [](const CalibrationTarget& t, const std::filesystem::path& p) { io::WriteJson(p, io::TargetToJson(t)); },
-           py::arg("path"))
+  py::class_<CalibrationTarget>(m, "Target",
+                                "A calibration board (docs/formats.md, \"Calibration target\").")
+      .def(py::init(
+          [](py::kwargs kw) { return MakeOptions<CalibrationTarget>(py::none(), kw, "Target"); }))
+      .def_static(
+          "load", [](const std::filesystem::path& p) { return io::ReadTarget(p); }, py::arg("path"))
+      .def(
+          "save",
+          [](const CalibrationTarget& t, const std::filesystem::path& p) {
+            io::WriteJson(p, io::TargetToJson(t));
+          },
+          py::arg("path"))
       .def("to_dict", [](const CalibrationTarget& t) { return FromJson(io::TargetToJson(t)); })
       .def_readwrite("type", &CalibrationTarget::type)
       .def_readwrite("rows", &CalibrationTarget::rows)
@@ -72,7 +79,9 @@ void BindSim(py::module_& m) {
       .def("check", &CalibrationTarget::Check);
 
   py::class_<sim::SensorOptions>(m, "SensorOptions")
-      .def(py::init([](py::kwargs kw) { return MakeOptions<sim::SensorOptions>(py::none(), kw, "SensorOptions"); }))
+      .def(py::init([](py::kwargs kw) {
+        return MakeOptions<sim::SensorOptions>(py::none(), kw, "SensorOptions");
+      }))
       .def_readwrite("supersampling", &sim::SensorOptions::supersampling)
       .def_readwrite("exposure", &sim::SensorOptions::exposure)
       .def_readwrite("bit_depth", &sim::SensorOptions::bit_depth)
@@ -82,7 +91,9 @@ void BindSim(py::module_& m) {
       .def_readwrite("electrons_per_dn", &sim::SensorOptions::electrons_per_dn)
       .def_readwrite("defocus_sigma_px", &sim::SensorOptions::defocus_sigma_px);
   py::class_<sim::ProjectorOptions>(m, "ProjectorOptions")
-      .def(py::init([](py::kwargs kw) { return MakeOptions<sim::ProjectorOptions>(py::none(), kw, "ProjectorOptions"); }))
+      .def(py::init([](py::kwargs kw) {
+        return MakeOptions<sim::ProjectorOptions>(py::none(), kw, "ProjectorOptions");
+      }))
       .def_readwrite("gamma", &sim::ProjectorOptions::gamma)
       .def_readwrite("black_level", &sim::ProjectorOptions::black_level)
       .def_readwrite("brightness", &sim::ProjectorOptions::brightness)
@@ -90,12 +101,17 @@ void BindSim(py::module_& m) {
       .def_readwrite("defocus_sigma_px", &sim::ProjectorOptions::defocus_sigma_px)
       .def_readwrite("pixelated", &sim::ProjectorOptions::pixelated);
   py::class_<sim::RenderOptions>(m, "RenderOptions")
-      .def(py::init([](py::kwargs kw) { return MakeOptions<sim::RenderOptions>(py::none(), kw, "RenderOptions"); }))
+      .def(py::init([](py::kwargs kw) {
+        return MakeOptions<sim::RenderOptions>(py::none(), kw, "RenderOptions");
+      }))
       .def_readwrite("sensor", &sim::RenderOptions::sensor)
       .def_readwrite("projector", &sim::RenderOptions::projector)
       .def_readwrite("truth", &sim::RenderOptions::truth);
-  py::class_<sim::ScanOptions>(m, "ScanOptions", "Options of fringe.Simulator / fringe.simulate_scan (C++ defaults).")
-      .def(py::init([](py::kwargs kw) { return MakeOptions<sim::ScanOptions>(py::none(), kw, "ScanOptions"); }))
+  py::class_<sim::ScanOptions>(m, "ScanOptions",
+                               "Options of fringe.Simulator / fringe.simulate_scan (C++ defaults).")
+      .def(py::init([](py::kwargs kw) {
+        return MakeOptions<sim::ScanOptions>(py::none(), kw, "ScanOptions");
+      }))
       .def_readwrite("scene", &sim::ScanOptions::scene)
       .def_readwrite("views", &sim::ScanOptions::views)
       .def_readwrite("seed", &sim::ScanOptions::seed)
@@ -111,16 +127,22 @@ One rendered view: left / right image lists (uint8 or uint16, the scheme's order
 left_truth / right_truth (dicts of depth, points, normals, projector, valid, object_id arrays in
 that camera's frame; None without truth), world_from_sensor (4x4), markers (list of dicts).)doc")
       .def_property_readonly("left", [](const sim::ViewImages& v) { return Images(v.left.images); })
-      .def_property_readonly("right", [](const sim::ViewImages& v) { return Images(v.right.images); })
-      .def_property_readonly("left_truth", [](const sim::ViewImages& v) { return Truth(v.left.truth); })
-      .def_property_readonly("right_truth", [](const sim::ViewImages& v) { return Truth(v.right.truth); })
-      .def_property_readonly("world_from_sensor", [](const sim::ViewImages& v) { return MatrixFromRigid(v.world_from_sensor); })
+      .def_property_readonly("right",
+                             [](const sim::ViewImages& v) { return Images(v.right.images); })
+      .def_property_readonly("left_truth",
+                             [](const sim::ViewImages& v) { return Truth(v.left.truth); })
+      .def_property_readonly("right_truth",
+                             [](const sim::ViewImages& v) { return Truth(v.right.truth); })
+      .def_property_readonly(
+          "world_from_sensor",
+          [](const sim::ViewImages& v) { return MatrixFromRigid(v.world_from_sensor); })
       .def_property_readonly("markers", [](const sim::ViewImages& v) {
         py::list out;
         for (const auto& mk : v.markers) {
           py::dict d;
           d["id"] = mk.id;
-          d["centre_in_sensor"] = std::vector<double>{mk.centre_in_sensor.x(), mk.centre_in_sensor.y(), mk.centre_in_sensor.z()};
+          d["centre_in_sensor"] = std::vector<double>{
+              mk.centre_in_sensor.x(), mk.centre_in_sensor.y(), mk.centre_in_sensor.z()};
           d["left_px"] = std::vector<double>{mk.left_px.x(), mk.left_px.y()};
           out.append(d);
         }
@@ -138,67 +160,82 @@ The virtual scanner in memory (the same images `fringe simulate` writes): a scen
            }),
            py::arg("rig") = py::none(), py::arg("options") = py::none())
       .def_property_readonly("rig", &sim::ScanSimulator::rig)
-      .def_property_readonly("scheme", &sim::ScanSimulator::scheme, "The scheme, gamma_precompensation set.")
-      .def_property_readonly("patterns", [](const sim::ScanSimulator& s) { return Images(s.patterns()); })
+      .def_property_readonly("scheme", &sim::ScanSimulator::scheme,
+                             "The scheme, gamma_precompensation set.")
+      .def_property_readonly("patterns",
+                             [](const sim::ScanSimulator& s) { return Images(s.patterns()); })
       .def_property_readonly("views", [](const sim::ScanSimulator& s) { return s.options().views; })
-      .def_property_readonly("calibration_images", [](const sim::ScanSimulator& s) { return s.options().calibration_images; })
-      .def_property_readonly("view_poses", [](const sim::ScanSimulator& s) {
-        py::list out;
-        for (const auto& p : s.view_poses()) out.append(MatrixFromRigid(p));
-        return out;
-      }, "world_from_sensor of every view (4x4).")
-      .def("render_view",
-           [](const sim::ScanSimulator& s, int view) {
-             if (view < 0 || view >= s.options().views) {
-               throw py::index_error("render_view: view " + std::to_string(view) + " not in [0, " +
-                                     std::to_string(s.options().views) + ")");
-             }
-             auto out = std::make_shared<sim::ViewImages>();
-             py::gil_scoped_release release;
-             *out = s.RenderView(view);
-             return out;
-           },
-           py::arg("view"), "Renders fringe view `view` (both cameras, all patterns, truth).")
-      .def("render_board",
-           [](const sim::ScanSimulator& s, int index) {
-             if (index < 0 || index >= s.options().calibration_images) {
-               throw py::index_error("render_board: index " + std::to_string(index) + " not in [0, " +
-                                     std::to_string(s.options().calibration_images) + ")");
-             }
-             sim::StereoBoardImages b;
-             {
-               py::gil_scoped_release release;
-               b = s.RenderBoard(index);
-             }
-             return py::make_tuple(Board(b.left), Board(b.right));
-           },
-           py::arg("index"), "Renders board pose `index`: (left, right) dicts of image, cam_from_board, centres_px, visible.");
-
-  m.def("simulate_scan",
-        [](const std::filesystem::path& out, const py::object& rig, const py::object& options, const py::kwargs& kw) {
-          const auto opts = MakeOptions<sim::ScanOptions>(options, kw, "ScanOptions");
-          const StereoRig r = rig.is_none() ? StereoRig::Reference() : rig.cast<StereoRig>();
-          sim::ScanSummary s;
-          {
+      .def_property_readonly(
+          "calibration_images",
+          [](const sim::ScanSimulator& s) { return s.options().calibration_images; })
+      .def_property_readonly(
+          "view_poses",
+          [](const sim::ScanSimulator& s) {
+            py::list out;
+            for (const auto& p : s.view_poses()) out.append(MatrixFromRigid(p));
+            return out;
+          },
+          "world_from_sensor of every view (4x4).")
+      .def(
+          "render_view",
+          [](const sim::ScanSimulator& s, int view) {
+            if (view < 0 || view >= s.options().views) {
+              throw py::index_error("render_view: view " + std::to_string(view) + " not in [0, " +
+                                    std::to_string(s.options().views) + ")");
+            }
+            auto out = std::make_shared<sim::ViewImages>();
             py::gil_scoped_release release;
-            s = sim::SimulateScan(r, opts, out);
-          }
-          py::dict d;
-          d["views"] = s.views;
-          d["fringe_images"] = s.fringe_images;
-          d["calibration_images"] = s.calibration_images;
-          d["markers"] = s.markers;
-          d["seconds"] = s.seconds;
-          d["report"] = s.BriefReport();
-          return d;
-        },
-        py::arg("out"), py::arg("rig") = py::none(), py::arg("options") = py::none(),
-        "Writes a scan folder (docs/scan-folder.md) as `fringe simulate` does; returns its summary.");
+            *out = s.RenderView(view);
+            return out;
+          },
+          py::arg("view"), "Renders fringe view `view` (both cameras, all patterns, truth).")
+      .def(
+          "render_board",
+          [](const sim::ScanSimulator& s, int index) {
+            if (index < 0 || index >= s.options().calibration_images) {
+              throw py::index_error("render_board: index " + std::to_string(index) +
+                                    " not in [0, " +
+                                    std::to_string(s.options().calibration_images) + ")");
+            }
+            sim::StereoBoardImages b;
+            {
+              py::gil_scoped_release release;
+              b = s.RenderBoard(index);
+            }
+            return py::make_tuple(Board(b.left), Board(b.right));
+          },
+          py::arg("index"),
+          "Renders board pose `index`: (left, right) dicts of image, cam_from_board, centres_px, "
+          "visible.");
+
+  m.def(
+      "simulate_scan",
+      [](const std::filesystem::path& out, const py::object& rig, const py::object& options,
+         const py::kwargs& kw) {
+        const auto opts = MakeOptions<sim::ScanOptions>(options, kw, "ScanOptions");
+        const StereoRig r = rig.is_none() ? StereoRig::Reference() : rig.cast<StereoRig>();
+        sim::ScanSummary s;
+        {
+          py::gil_scoped_release release;
+          s = sim::SimulateScan(r, opts, out);
+        }
+        py::dict d;
+        d["views"] = s.views;
+        d["fringe_images"] = s.fringe_images;
+        d["calibration_images"] = s.calibration_images;
+        d["markers"] = s.markers;
+        d["seconds"] = s.seconds;
+        d["report"] = s.BriefReport();
+        return d;
+      },
+      py::arg("out"), py::arg("rig") = py::none(), py::arg("options") = py::none(),
+      "Writes a scan folder (docs/scan-folder.md) as `fringe simulate` does; returns its summary.");
   // Defined here because ScaledRig belongs to the simulator (quick scaled-down scans).
   py::object rig_class = m.attr("Rig");
-  rig_class.attr("scaled") = py::cpp_function(
-      &sim::ScaledRig, py::name("scaled"), py::is_method(rig_class), py::arg("scale"),
-      "The rig with every device's resolution and focal lengths scaled (e.g. 0.25 for quick scans).");
+  rig_class.attr("scaled") = py::cpp_function(&sim::ScaledRig, py::name("scaled"),
+                                              py::is_method(rig_class), py::arg("scale"),
+                                              "The rig with every device's resolution and focal "
+                                              "lengths scaled (e.g. 0.25 for quick scans).");
   m.def("scene_names", &sim::SceneNames, "Names accepted by ScanOptions.scene.");
 }
 

@@ -391,3 +391,15 @@ class Simulator:
 
 def simulate_scan(out: PathLike, rig: Optional[Rig] = None, options: Optional[ScanOptions] = None, **fields: Any) -> Dict[str, Any]: ...
 def scene_names() -> List[str]: ...
+
+class ScannerOptions:
+    calib: PathLike
+    opencv_intrinsics: PathLike
+    opencv_extrinsics: PathLike
+    keep_going: bool
+    views_in_flight: int
+    reconstruction: ReconstructionOptions
+    write_report: bool
+    def __init__(self, **fields: Any) -> None: ...
+
+def scan(project: PathLike, out: PathLike, options: Optional[ScannerOptions] = None, **fields: Any) -> Dict[str, Any]: ...

@@ -19,12 +19,12 @@ def test_wrong_image_type_and_shape(scheme, stacks):
         fringe.decode(42, scheme)
 
 
-def test_wrong_number_of_images_is_fringe_error(scheme, stacks):
+def test_wrong_number_of_images_is_fringe_error(rig, scheme, stacks):
     with pytest.raises(fringe.Error) as error:
         fringe.decode(stacks[0][:-1], scheme)
     assert str(error.value)  # the library's message is carried
     with pytest.raises(fringe.Error):
-        fringe.reconstruct(fringe.Rig.reference(), scheme, *stacks)  # image size != rig cameras
+        fringe.reconstruct(rig, scheme, stacks[0][:-1], stacks[1])
 
 
 def test_options_are_checked_and_named(scheme, stacks):

@@ -16,7 +16,8 @@ def declared(stub):
         if isinstance(node, (ast.FunctionDef, ast.ClassDef)):
             names.add(node.name)
         if isinstance(node, ast.ClassDef):
-            members[node.name] = {n.name for n in node.body if isinstance(n, ast.FunctionDef)} | {
+            members[node.name] = {n.name for n in node.body if isinstance(n, ast.FunctionDef)
+                                  and not n.name.startswith("_")} | {
                 n.target.id for n in node.body if isinstance(n, ast.AnnAssign)}
     return names, members
 

@@ -55,6 +55,7 @@ def main():
         "repeats": args.repeats,
         "python_s_median": py_med,
         "cpp_s_median": cpp_med,
+        "python_over_cpp": py_med / cpp_med,
         "binding_overhead_s_median": py_med - cpp_med,
         "binding_overhead_fraction": overhead,
         "target_fraction": 0.05,
@@ -64,7 +65,8 @@ def main():
     else:
         print(f"{rig.left.width}x{rig.left.height}, {len(left)} images per camera, {points} points")
         print(f"reconstruct: Python {py_med * 1e3:.1f} ms, C++ {cpp_med * 1e3:.1f} ms (median of "
-              f"{args.repeats}); binding overhead {overhead * 100:.2f} % (target <= 5 %)")
+              f"{args.repeats}), ratio {py_med / cpp_med:.4f}; binding overhead {overhead * 100:.2f} % "
+              f"(target <= 5 %)")
 
 
 if __name__ == "__main__":

@@ -12,56 +12,60 @@ namespace fringe::python {
 
 namespace {
 
-py::dict SummaryDict(const calib::CalibrationSummary& s) {
-  py::dict d;
-  d["success"] = s.success;
-  d["message"] = s.message;
-  d["iterations"] = s.iterations;
-  d["initial_rms_px"] = s.initial_rms_px;
-  d["final_rms_px"] = s.final_rms_px;
-  d["views_used"] = s.num_views_used;
-  d["views_rejected"] = s.num_views_rejected;
-  d["features"] = s.num_features;
-  py::list views;
-  for (const auto& v : s.views) {
-    py::dict vd;
-    vd["name"] = v.name;
-    vd["features"] = v.num_features;
-    vd["rms_px"] = v.rms_px;
-    vd["max_px"] = v.max_px;
-    vd["used"] = v.used;
-    views.append(vd);
-  }
-  d["views"] = views;
-  d["report"] = s.BriefReport();
-  return d;
-}
-
-// (rig, summary): a single camera's rig has the camera on both sides and no baseline; its
-// summary says "stereo": False.
+// (rig, summary): the summary is the "calibration" object `fringe calibrate` writes into the
+// rig file, with stereo, success, message and the readable report beside it.
 py::tuple Result(const calib::FolderCalibration& r) {
-  if (r.stereo) {
-    py::dict d = SummaryDict(r.pair.summary);
-    d["stereo"] = true;
-    d["rms_px"] = r.pair.rms_px;
-    d["epipolar_rms_px"] = r.pair.epipolar_rms_px;
-    d["epipolar_max_px"] = r.pair.epipolar_max_px;
-    d["pairs"] = r.pair.num_pairs;
-    d["left"] = SummaryDict(r.pair.left.summary);
-    d["right"] = SummaryDict(r.pair.right.summary);
-    d["report"] = r.Report();
-    return py::make_tuple(r.pair.rig, d);
-  }
-  py::dict d = SummaryDict(r.mono.summary);
-  d["stereo"] = false;
-  d["rms_px"] = r.mono.summary.final_rms_px;
+  py::dict d = FromJson(calib::CalibrationToJson(r)).cast<py::dict>();
+  d["stereo"] = r.stereo;
+  d["success"] = r.success();
+  d["message"] = r.stereo ? r.pair.summary.message : r.mono.summary.message;
   d["report"] = r.Report();
+  if (r.stereo) return py::make_tuple(r.pair.rig, d);
   return py::make_tuple(py::cast(r.mono.camera), d);
 }
 
 }  // namespace
 
 void BindCalib(py::module_& m) {
+  py::enum_<calib::RobustLoss>(m, "RobustLoss", "Robust loss of the calibration's residuals.")
+      .value("none", calib::RobustLoss::kNone)
+      .value("huber", calib::RobustLoss::kHuber)
+      .value("cauchy", calib::RobustLoss::kCauchy);
+  py::class_<calib::EdgeOptions>(m, "EdgeOptions", "Subpixel edge search of the target detector.")
+      .def(py::init([](py::kwargs kw) {
+        return MakeOptions<calib::EdgeOptions>(py::none(), kw, "EdgeOptions");
+      }))
+      .def_readwrite("smoothing_sigma_px", &calib::EdgeOptions::smoothing_sigma_px)
+      .def_readwrite("search_half_width_px", &calib::EdgeOptions::search_half_width_px)
+      .def_readwrite("min_gradient", &calib::EdgeOptions::min_gradient)
+      .def_readwrite("max_angle_deg", &calib::EdgeOptions::max_angle_deg);
+  py::class_<calib::EllipseFitOptions>(m, "EllipseFitOptions")
+      .def(py::init([](py::kwargs kw) {
+        return MakeOptions<calib::EllipseFitOptions>(py::none(), kw, "EllipseFitOptions");
+      }))
+      .def_readwrite("max_iterations", &calib::EllipseFitOptions::max_iterations)
+      .def_readwrite("outlier_sigma", &calib::EllipseFitOptions::outlier_sigma)
+      .def_readwrite("min_outlier_dist", &calib::EllipseFitOptions::min_outlier_dist)
+      .def_readwrite("outlier_rounds", &calib::EllipseFitOptions::outlier_rounds);
+  py::class_<calib::DetectionOptions>(m, "DetectionOptions",
+                                      "Options of the calibration target / ring detector.")
+      .def(py::init([](py::kwargs kw) {
+        return MakeOptions<calib::DetectionOptions>(py::none(), kw, "DetectionOptions");
+      }))
+      .def_readwrite("edges", &calib::DetectionOptions::edges)
+      .def_readwrite("ellipse_fit", &calib::DetectionOptions::ellipse_fit)
+      .def_readwrite("min_radius_px", &calib::DetectionOptions::min_radius_px)
+      .def_readwrite("max_radius_fraction", &calib::DetectionOptions::max_radius_fraction)
+      .def_readwrite("min_axis_ratio", &calib::DetectionOptions::min_axis_ratio)
+      .def_readwrite("min_convexity", &calib::DetectionOptions::min_convexity)
+      .def_readwrite("max_fit_rms_px", &calib::DetectionOptions::max_fit_rms_px)
+      .def_readwrite("min_edge_coverage", &calib::DetectionOptions::min_edge_coverage)
+      .def_readwrite("max_concentricity", &calib::DetectionOptions::max_concentricity)
+      .def_readwrite("ring_ratio_tolerance", &calib::DetectionOptions::ring_ratio_tolerance)
+      .def_readwrite("threshold_levels", &calib::DetectionOptions::threshold_levels)
+      .def_readwrite("grid_tolerance", &calib::DetectionOptions::grid_tolerance)
+      .def_readwrite("size_tolerance", &calib::DetectionOptions::size_tolerance);
+
   py::class_<calib::CalibrationOptions>(m, "CalibrationOptions",
                                         "Options of fringe.calibrate (C++ defaults).")
       .def(py::init([](py::kwargs kw) {
@@ -74,20 +78,31 @@ void BindCalib(py::module_& m) {
       .def_readwrite("max_image_rms_px", &calib::CalibrationOptions::max_image_rms_px)
       .def_readwrite("outlier_sigma", &calib::CalibrationOptions::outlier_sigma)
       .def_readwrite("min_features", &calib::CalibrationOptions::min_features)
-      .def_readwrite("min_views", &calib::CalibrationOptions::min_views);
+      .def_readwrite("min_views", &calib::CalibrationOptions::min_views)
+      .def_readwrite("loss", &calib::CalibrationOptions::loss)
+      .def_readwrite("loss_scale_px", &calib::CalibrationOptions::loss_scale_px);
 
   m.def(
       "calibrate",
       [](const py::object& images_or_dir, const CalibrationTarget& target,
-         const py::object& options, const py::kwargs& kw) {
+         const py::object& detection_options, const py::object& options, const py::kwargs& kw) {
         const auto opts = MakeOptions<calib::CalibrationOptions>(options, kw, "CalibrationOptions");
+        py::dict detection_kw;
+        py::object detection_base = py::none();
+        if (py::isinstance<py::dict>(detection_options)) {
+          detection_kw = py::reinterpret_borrow<py::dict>(detection_options);
+        } else {
+          detection_base = detection_options;
+        }
+        const auto detection = MakeOptions<calib::DetectionOptions>(
+            detection_base, py::kwargs(detection_kw), "DetectionOptions");
         calib::FolderCalibration r;
         if (py::isinstance<py::str>(images_or_dir) ||
             py::isinstance(images_or_dir, py::module_::import("os").attr("PathLike"))) {
           const auto dir = images_or_dir.cast<std::filesystem::path>();
           {
             py::gil_scoped_release release;
-            r = calib::CalibrateFolder(dir, target, opts);
+            r = calib::CalibrateFolder(dir, target, opts, detection);
           }
           return Result(r);
         }
@@ -117,8 +132,8 @@ void BindCalib(py::module_& m) {
         {
           py::gil_scoped_release release;
           for (size_t i = 0; i < left.mats.size(); ++i) {
-            r.left.push_back(calib::DetectTarget(left.mats[i], target));
-            if (stereo) r.right.push_back(calib::DetectTarget(right.mats[i], target));
+            r.left.push_back(calib::DetectTarget(left.mats[i], target, detection));
+            if (stereo) r.right.push_back(calib::DetectTarget(right.mats[i], target, detection));
           }
           if (stereo) {
             r.pair = calib::CalibrateStereo(r.left, r.right, target, width, height, opts, r.names);
@@ -128,9 +143,12 @@ void BindCalib(py::module_& m) {
         }
         return Result(r);
       },
-      py::arg("images_or_dir"), py::arg("target"), py::arg("options") = py::none(),
+      py::arg("images_or_dir"), py::arg("target"), py::arg("detection") = py::none(),
+      py::arg("options") = py::none(),
       "Calibrates from board images: a folder (as `fringe calibrate`: left/ and right/ or one\n"
       "camera's images), a list of one camera's images or a (left_images, right_images) tuple.\n"
+      "detection: DetectionOptions or a dict of its fields; options: a CalibrationOptions and/or\n"
+      "its fields as keyword arguments.\n"
       "Returns (Rig, summary) for a pair and (Camera, summary) for one camera.");
 }
 

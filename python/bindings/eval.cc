@@ -13,21 +13,10 @@ namespace fringe::python {
 
 namespace {
 
-py::object Vec(const Eigen::Vector3d& v) {
-  return py::cast(std::vector<double>{v.x(), v.y(), v.z()});
-}
-
-py::dict SphereDict(const eval::SphereResult& r) {
-  py::dict d;
-  d["status"] = eval::ToString(r.status);
-  d["message"] = r.message;
-  d["centre_mm"] = Vec(r.centre);
-  d["diameter_mm"] = r.diameter_mm;
-  d["PF_mm"] = r.PF_mm;
-  d["PS_mm"] = r.PS_mm;
-  d["rms_mm"] = r.rms_mm;
-  d["points"] = r.points;
-  d["discarded"] = r.discarded;
+// The JSON `fringe evaluate --json` prints for the result, plus its one-line report.
+template <typename Result>
+py::dict ResultDict(const Result& r) {
+  py::dict d = FromJson(eval::ToJson(r)).template cast<py::dict>();
   d["report"] = r.BriefReport();
   return d;
 }
@@ -67,7 +56,7 @@ void BindEval(py::module_& m) {
           py::gil_scoped_release release;
           r = eval::EvaluateSphere(cloud, diameter_mm, opts);
         }
-        return SphereDict(r);
+        return ResultDict(r);
       },
       py::arg("points"), py::arg("diameter_mm"), py::arg("options") = py::none(),
       "Finds the sphere of the calibrated diameter and returns PF, PS (dict, as `fringe "
@@ -83,15 +72,7 @@ void BindEval(py::module_& m) {
           py::gil_scoped_release release;
           r = eval::EvaluateBallBar(cloud, diameter_mm, distance_mm, opts);
         }
-        py::dict d;
-        d["status"] = eval::ToString(r.status);
-        d["message"] = r.message;
-        d["sphere_a"] = SphereDict(r.sphere_a);
-        d["sphere_b"] = SphereDict(r.sphere_b);
-        d["distance_mm"] = r.distance_mm;
-        d["SD_mm"] = r.SD_mm;
-        d["report"] = r.BriefReport();
-        return d;
+        return ResultDict(r);
       },
       py::arg("points"), py::arg("diameter_mm"), py::arg("distance_mm"),
       py::arg("options") = py::none(),
@@ -106,16 +87,7 @@ void BindEval(py::module_& m) {
           py::gil_scoped_release release;
           r = eval::EvaluatePlane(cloud, opts);
         }
-        py::dict d;
-        d["status"] = eval::ToString(r.status);
-        d["message"] = r.message;
-        d["normal"] = Vec(r.normal);
-        d["F_mm"] = r.F_mm;
-        d["rms_mm"] = r.rms_mm;
-        d["points"] = r.points;
-        d["discarded"] = r.discarded;
-        d["report"] = r.BriefReport();
-        return d;
+        return ResultDict(r);
       },
       py::arg("points"), py::arg("options") = py::none(),
       "Finds the dominant plane and returns its flatness F (dict).");
@@ -126,28 +98,8 @@ void BindEval(py::module_& m) {
         eval::DeviationOptions opts;
         opts.max_distance_mm = max_distance_mm;
         opts.Check();
-        std::vector<Eigen::Vector3d> vertices;
-        std::vector<std::array<int32_t, 3>> triangles;
-        if (py::isinstance<io::PlyData>(mesh)) {
-          const auto& ply = mesh.cast<const io::PlyData&>();
-          vertices = ply.cloud.points;
-          triangles = ply.triangles;
-        } else if (py::isinstance<py::tuple>(mesh) && py::len(mesh) == 2) {
-          auto t = mesh.cast<py::tuple>();
-          vertices = PointsFromPython(t[0], "mesh vertices", false);
-          auto a = py::array_t<int32_t, py::array::c_style | py::array::forcecast>::ensure(t[1]);
-          if (!a || a.ndim() != 2 || a.shape(1) != 3) {
-            PyErr_Clear();
-            throw py::value_error("mesh triangles: expected an integer array of shape (M, 3)");
-          }
-          triangles.resize(static_cast<size_t>(a.shape(0)));
-          if (!triangles.empty())
-            std::copy(a.data(), a.data() + a.size(), triangles.front().data());
-        } else {
-          throw py::type_error(
-              "mesh: expected a PlyFile (fringe.read_ply) or (vertices (V, 3), triangles (M, 3))");
-        }
-        if (triangles.empty()) throw py::value_error("mesh: no triangles");
+        TriangleMesh reference = MeshFromPython(mesh, "mesh");
+        if (reference.empty()) throw py::value_error("mesh: no triangles");
         PointCloud cloud;
         const bool organized = !py::isinstance<PointCloud>(points);
         std::vector<size_t> slot;  // input index of each kept point (NaN rows dropped)
@@ -166,7 +118,7 @@ void BindEval(py::module_& m) {
         eval::DeviationStats stats;
         {
           py::gil_scoped_release release;
-          const eval::MeshDistance distance(std::move(vertices), std::move(triangles));
+          const eval::MeshDistance distance(std::move(reference));
           stats = eval::DeviationFromMesh(cloud, distance, opts, &signed_mm);
         }
         // Signed distances in the input's shape (NaN for empty slots and unmatched points).
@@ -182,13 +134,7 @@ void BindEval(py::module_& m) {
           distances =
               py::array_t<double>(static_cast<py::ssize_t>(signed_mm.size()), signed_mm.data());
         }
-        py::dict d;
-        d["points"] = stats.points;
-        d["unmatched"] = stats.unmatched;
-        d["mean_mm"] = stats.mean_mm;
-        d["rms_mm"] = stats.rms_mm;
-        d["p95_mm"] = stats.p95_mm;
-        d["max_mm"] = stats.max_mm;
+        py::dict d = FromJson(eval::ToJson(stats)).cast<py::dict>();
         d["report"] = stats.BriefReport();
         return py::make_tuple(d, distances);
       },

@@ -7,8 +7,10 @@
 #include "convert.h"
 #include "fringe/geometry/camera.h"
 #include "fringe/geometry/stereo_rig.h"
+#include "fringe/geometry/triangle_mesh.h"
 #include "fringe/io/calibration_io.h"
 #include "fringe/io/image_io.h"
+#include "fringe/io/mesh_io.h"
 #include "fringe/io/ply.h"
 #include "fringe/util/error.h"
 
@@ -55,8 +57,8 @@ void SetAttribute(std::vector<T>& dst, const py::handle& src, size_t n, const ch
   dst.assign(a.data(), a.data() + n);
 }
 
-std::vector<std::array<int32_t, 3>> TrianglesFromPython(const py::handle& triangles) {
-  std::vector<std::array<int32_t, 3>> out;
+std::vector<TriangleMesh::Triangle> TrianglesFromPython(const py::handle& triangles) {
+  std::vector<TriangleMesh::Triangle> out;
   if (triangles.is_none()) return out;
   auto a = py::array_t<int32_t, py::array::c_style | py::array::forcecast>::ensure(triangles);
   if (!a || a.ndim() != 2 || a.shape(1) != 3) {
@@ -64,8 +66,42 @@ std::vector<std::array<int32_t, 3>> TrianglesFromPython(const py::handle& triang
     throw py::value_error("triangles: expected an integer array of shape (M, 3)");
   }
   out.resize(static_cast<size_t>(a.shape(0)));
-  std::copy(a.data(), a.data() + a.size(), out.front().data());
+  if (!out.empty()) std::copy(a.data(), a.data() + a.size(), out.front().data());
   return out;
+}
+
+// A mesh with the cloud's points, normals and colours as vertices (the attributes the mesh
+// writer keeps) and the given triangles, checked.
+TriangleMesh MeshOfCloud(const PointCloud& cloud, std::vector<TriangleMesh::Triangle> triangles,
+                         const std::string& context) {
+  TriangleMesh mesh;
+  mesh.vertices = cloud.points;
+  mesh.normals = cloud.normals;
+  mesh.colors = cloud.colors;
+  mesh.triangles = std::move(triangles);
+  mesh.Check(context);
+  return mesh;
+}
+
+// Writes a cloud, or with triangles a mesh (vertex intensity and quality are not kept then).
+void WriteCloudOrMesh(const std::filesystem::path& path, const PointCloud& cloud,
+                      const py::object& triangles, bool ascii,
+                      const std::vector<std::string>& comments) {
+  cloud.CheckConsistent();
+  if (triangles.is_none()) {
+    py::gil_scoped_release release;
+    io::WritePly(path, cloud, PlyFormatOf(ascii), comments);
+    return;
+  }
+  if (cloud.has_intensity() || cloud.has_quality() || cloud.has_residual()) {
+    // The mesh writer keeps normals and colours only; dropping data silently would surprise.
+    throw py::value_error(
+        "write_ply: with triangles the file is a mesh (vertices, normals, colours): leave out "
+        "intensity, quality and residual_px");
+  }
+  const TriangleMesh mesh = MeshOfCloud(cloud, TrianglesFromPython(triangles), path.string());
+  py::gil_scoped_release release;
+  io::WritePly(path, mesh, PlyFormatOf(ascii), comments);
 }
 
 }  // namespace
@@ -90,6 +126,32 @@ PointCloud CloudFromArrays(const py::handle& points, const py::handle& normals,
   SetAttribute(c.intensity, intensity, n, "intensity");
   SetAttribute(c.quality, quality, n, "quality");
   return c;
+}
+
+TriangleMesh MeshFromPython(const py::handle& mesh, const std::string& what) {
+  if (py::isinstance<TriangleMesh>(mesh)) return mesh.cast<TriangleMesh>();
+  if (py::isinstance<io::PlyData>(mesh)) {
+    const auto& ply = mesh.cast<const io::PlyData&>();
+    TriangleMesh out = MeshOfCloud(ply.cloud, ply.triangles, what);
+    return out;
+  }
+  if (py::isinstance<py::str>(mesh) ||
+      py::isinstance(mesh, py::module_::import("os").attr("PathLike"))) {
+    const auto path = mesh.cast<std::filesystem::path>();
+    py::gil_scoped_release release;
+    return io::ReadMesh(path);
+  }
+  if (py::isinstance<py::tuple>(mesh) && py::len(mesh) == 2) {
+    auto t = mesh.cast<py::tuple>();
+    TriangleMesh out;
+    out.vertices = PointsFromPython(t[0], what + " vertices", false);
+    out.triangles = TrianglesFromPython(t[1]);
+    out.Check(what);
+    return out;
+  }
+  throw py::type_error(what +
+                       ": expected a fringe.Mesh, a PlyFile (fringe.read_ply), a mesh file path "
+                       "or (vertices (V, 3), triangles (M, 3))");
 }
 
 void BindGeometryIo(py::module_& m) {
@@ -283,11 +345,86 @@ float32, quality (N,) float32. Assigning an attribute copies the array in.)doc")
           [](PointCloud& c, const py::handle& a) {
             SetAttribute(c.quality, a, c.size(), "quality");
           })
+      .def_property(
+          "residual_px",
+          [](py::object self) -> py::object {
+            auto& c = self.cast<PointCloud&>();
+            if (!c.has_residual()) return py::none();
+            return ViewVector(c.residual_px, {static_cast<py::ssize_t>(c.size())}, self);
+          },
+          [](PointCloud& c, const py::handle& a) {
+            SetAttribute(c.residual_px, a, c.size(), "residual_px");
+          })
       .def("__repr__", [](const PointCloud& c) {
         return util::StrCat("fringe.PointCloud(", c.size(), " points",
                             c.has_normals() ? ", normals" : "", c.has_colors() ? ", colors" : "",
                             c.has_intensity() ? ", intensity" : "",
                             c.has_quality() ? ", quality" : "", ")");
+      });
+
+  py::class_<TriangleMesh, std::shared_ptr<TriangleMesh>>(m, "Mesh", R"doc(
+A triangle mesh. Arrays view the C++ storage (no copy): vertices (V, 3) float64 mm, triangles
+(M, 3) int32 (counter-clockwise from outside), normals (V, 3) or None, colors (V, 3) uint8 or
+None. Mesh(vertices, triangles, normals=None) copies the arrays in.)doc")
+      .def(py::init([](const py::handle& vertices, const py::handle& triangles,
+                       const py::handle& normals) {
+             TriangleMesh mesh;
+             mesh.vertices = PointsFromPython(vertices, "vertices", false);
+             mesh.triangles = TrianglesFromPython(triangles);
+             if (!normals.is_none()) mesh.normals = PointsFromPython(normals, "normals", false);
+             mesh.Check("Mesh");
+             return mesh;
+           }),
+           py::arg("vertices"), py::arg("triangles"), py::arg("normals") = py::none())
+      .def_static(
+          "load",
+          [](const std::filesystem::path& p) {
+            py::gil_scoped_release release;
+            return io::ReadMesh(p);
+          },
+          py::arg("path"), "Reads a .ply, .stl or .obj mesh (io::ReadMesh).")
+      .def(
+          "save",
+          [](const TriangleMesh& mesh, const std::filesystem::path& p,
+             const std::vector<std::string>& comments) {
+            py::gil_scoped_release release;
+            io::WriteMesh(p, mesh, comments);
+          },
+          py::arg("path"), py::arg("comments") = std::vector<std::string>{},
+          "Writes .ply, .stl or .obj by extension, atomically (io::WriteMesh).")
+      .def_property_readonly(
+          "vertices",
+          [](py::object self) {
+            auto& mesh = self.cast<TriangleMesh&>();
+            return ViewVec3(mesh.vertices, {static_cast<py::ssize_t>(mesh.NumVertices())}, self);
+          })
+      .def_property_readonly("triangles",
+                             [](py::object self) {
+                               auto& mesh = self.cast<TriangleMesh&>();
+                               const auto n = static_cast<py::ssize_t>(mesh.NumTriangles());
+                               return py::array(py::dtype::of<int32_t>(), {n, py::ssize_t{3}},
+                                                {py::ssize_t{12}, py::ssize_t{4}},
+                                                n ? mesh.triangles.front().data() : nullptr, self);
+                             })
+      .def_property_readonly(
+          "normals",
+          [](py::object self) -> py::object {
+            auto& mesh = self.cast<TriangleMesh&>();
+            if (!mesh.has_normals()) return py::none();
+            return ViewVec3(mesh.normals, {static_cast<py::ssize_t>(mesh.NumVertices())}, self);
+          })
+      .def_property_readonly("colors",
+                             [](py::object self) -> py::object {
+                               auto& mesh = self.cast<TriangleMesh&>();
+                               if (!mesh.has_colors()) return py::none();
+                               const auto n = static_cast<py::ssize_t>(mesh.NumVertices());
+                               return py::array(py::dtype::of<uint8_t>(), {n, py::ssize_t{3}},
+                                                {py::ssize_t{3}, py::ssize_t{1}},
+                                                mesh.colors.front().data(), self);
+                             })
+      .def("__repr__", [](const TriangleMesh& mesh) {
+        return util::StrCat("fringe.Mesh(", mesh.NumVertices(), " vertices, ", mesh.NumTriangles(),
+                            " triangles)");
       });
 
   py::class_<io::PlyData, std::shared_ptr<io::PlyData>>(m, "PlyFile", R"doc(
@@ -362,22 +499,19 @@ clouds written by fringe (None otherwise), and the header comments.)doc")
       "write_ply",
       [](const std::filesystem::path& path, const PointCloud& cloud, const py::object& triangles,
          bool ascii, const std::vector<std::string>& comments) {
-        auto tris = TrianglesFromPython(triangles);
-        py::gil_scoped_release release;
-        io::WritePly(path, cloud, tris, PlyFormatOf(ascii), comments);
+        WriteCloudOrMesh(path, cloud, triangles, ascii, comments);
       },
       py::arg("path"), py::arg("cloud"), py::arg("triangles") = py::none(),
       py::arg("ascii") = false, py::arg("comments") = std::vector<std::string>{},
-      "Writes a PointCloud (and optional triangles) atomically, binary little-endian or ASCII.");
+      "Writes a PointCloud atomically, binary little-endian or ASCII. With triangles (M, 3) it is\n"
+      "written as a mesh: vertices with normals and colours (intensity and quality are refused).");
   m.def(
       "write_ply",
       [](const std::filesystem::path& path, const py::array& points, const py::object& normals,
          const py::object& colors, const py::object& intensity, const py::object& quality,
          const py::object& triangles, bool ascii, const std::vector<std::string>& comments) {
-        PointCloud cloud = CloudFromArrays(points, normals, colors, intensity, quality);
-        auto tris = TrianglesFromPython(triangles);
-        py::gil_scoped_release release;
-        io::WritePly(path, cloud, tris, PlyFormatOf(ascii), comments);
+        const PointCloud cloud = CloudFromArrays(points, normals, colors, intensity, quality);
+        WriteCloudOrMesh(path, cloud, triangles, ascii, comments);
       },
       py::arg("path"), py::arg("points"), py::arg("normals") = py::none(),
       py::arg("colors") = py::none(), py::arg("intensity") = py::none(),

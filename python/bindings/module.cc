@@ -17,5 +17,6 @@ PYBIND11_MODULE(_fringe, m) {
   fringe::python::BindStereo(m);
   fringe::python::BindEval(m);
   fringe::python::BindSim(m);
+  fringe::python::BindMultiView(m);
   fringe::python::BindPipeline(m);
 }

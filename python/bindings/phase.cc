@@ -88,6 +88,7 @@ A fringe pattern scheme: what the projector shows and in which order (docs/forma
       .def_readwrite("max_order_residual", &phase::DecodeOptions::max_order_residual)
       .def_readwrite("spatial_check_fraction", &phase::DecodeOptions::spatial_check_fraction)
       .def_readwrite("repair_orders", &phase::DecodeOptions::repair_orders)
+      .def_readwrite("whole_stack", &phase::DecodeOptions::whole_stack)
       .def_readwrite("projector_gamma", &phase::DecodeOptions::projector_gamma)
       .def("check", &phase::DecodeOptions::Check);
 

@@ -19,6 +19,8 @@ void BindPipeline(py::module_& m) {
       .def_readwrite("keep_going", &pipeline::ScanOptions::keep_going)
       .def_readwrite("views_in_flight", &pipeline::ScanOptions::views_in_flight)
       .def_readwrite("reconstruction", &pipeline::ScanOptions::reconstruction)
+      .def_readwrite("detect_markers", &pipeline::ScanOptions::detect_markers)
+      .def_readwrite("markers", &pipeline::ScanOptions::markers)
       .def_readwrite("write_report", &pipeline::ScanOptions::write_report);
 
   m.def(

@@ -76,6 +76,7 @@ void BindSim(py::module_& m) {
       .def_readwrite("inner_radius_mm", &CalibrationTarget::inner_radius_mm)
       .def_readwrite("dot_radius_mm", &CalibrationTarget::dot_radius_mm)
       .def_readwrite("margin_mm", &CalibrationTarget::margin_mm)
+      .def_readwrite("distinct_features", &CalibrationTarget::distinct_features)
       .def("check", &CalibrationTarget::Check);
 
   py::class_<sim::SensorOptions>(m, "SensorOptions")
@@ -89,7 +90,9 @@ void BindSim(py::module_& m) {
       .def_readwrite("read_noise_dn", &sim::SensorOptions::read_noise_dn)
       .def_readwrite("shot_noise", &sim::SensorOptions::shot_noise)
       .def_readwrite("electrons_per_dn", &sim::SensorOptions::electrons_per_dn)
-      .def_readwrite("defocus_sigma_px", &sim::SensorOptions::defocus_sigma_px);
+      .def_readwrite("defocus_sigma_px", &sim::SensorOptions::defocus_sigma_px)
+      .def_readwrite("float_output", &sim::SensorOptions::float_output)
+      .def_readwrite("seed", &sim::SensorOptions::seed);
   py::class_<sim::ProjectorOptions>(m, "ProjectorOptions")
       .def(py::init([](py::kwargs kw) {
         return MakeOptions<sim::ProjectorOptions>(py::none(), kw, "ProjectorOptions");
@@ -106,7 +109,45 @@ void BindSim(py::module_& m) {
       }))
       .def_readwrite("sensor", &sim::RenderOptions::sensor)
       .def_readwrite("projector", &sim::RenderOptions::projector)
-      .def_readwrite("truth", &sim::RenderOptions::truth);
+      .def_readwrite("truth", &sim::RenderOptions::truth)
+      .def_readwrite("shadow_offset_mm", &sim::RenderOptions::shadow_offset_mm)
+      .def_readwrite("marker_visibility_tolerance_mm",
+                     &sim::RenderOptions::marker_visibility_tolerance_mm);
+  py::class_<sim::BoardRenderOptions>(m, "BoardRenderOptions")
+      .def(py::init([](py::kwargs kw) {
+        return MakeOptions<sim::BoardRenderOptions>(py::none(), kw, "BoardRenderOptions");
+      }))
+      .def_readwrite("sensor", &sim::BoardRenderOptions::sensor)
+      .def_readwrite("edge_supersampling", &sim::BoardRenderOptions::edge_supersampling)
+      .def_readwrite("white_albedo", &sim::BoardRenderOptions::white_albedo)
+      .def_readwrite("black_albedo", &sim::BoardRenderOptions::black_albedo)
+      .def_readwrite("background_albedo", &sim::BoardRenderOptions::background_albedo)
+      .def_readwrite("illumination", &sim::BoardRenderOptions::illumination);
+  py::class_<sim::OrbitOptions>(m, "OrbitOptions")
+      .def(py::init([](py::kwargs kw) {
+        return MakeOptions<sim::OrbitOptions>(py::none(), kw, "OrbitOptions");
+      }))
+      .def_readwrite("views", &sim::OrbitOptions::views)
+      .def_readwrite("turntable", &sim::OrbitOptions::turntable)
+      .def_readwrite("elevation_deg", &sim::OrbitOptions::elevation_deg)
+      .def_readwrite("elevation_jitter_deg", &sim::OrbitOptions::elevation_jitter_deg)
+      .def_readwrite("azimuth_start_deg", &sim::OrbitOptions::azimuth_start_deg)
+      .def_readwrite("azimuth_jitter_deg", &sim::OrbitOptions::azimuth_jitter_deg)
+      .def_readwrite("roll_jitter_deg", &sim::OrbitOptions::roll_jitter_deg)
+      .def_readwrite("standoff_jitter_mm", &sim::OrbitOptions::standoff_jitter_mm)
+      .def_readwrite("seed", &sim::OrbitOptions::seed);
+  py::class_<sim::BoardPoseOptions>(m, "BoardPoseOptions")
+      .def(py::init([](py::kwargs kw) {
+        return MakeOptions<sim::BoardPoseOptions>(py::none(), kw, "BoardPoseOptions");
+      }))
+      .def_readwrite("count", &sim::BoardPoseOptions::count)
+      .def_readwrite("min_distance_mm", &sim::BoardPoseOptions::min_distance_mm)
+      .def_readwrite("max_distance_mm", &sim::BoardPoseOptions::max_distance_mm)
+      .def_readwrite("max_tilt_deg", &sim::BoardPoseOptions::max_tilt_deg)
+      .def_readwrite("max_roll_deg", &sim::BoardPoseOptions::max_roll_deg)
+      .def_readwrite("min_visible_fraction", &sim::BoardPoseOptions::min_visible_fraction)
+      .def_readwrite("both_cameras", &sim::BoardPoseOptions::both_cameras)
+      .def_readwrite("seed", &sim::BoardPoseOptions::seed);
   py::class_<sim::ScanOptions>(m, "ScanOptions",
                                "Options of fringe.Simulator / fringe.simulate_scan (C++ defaults).")
       .def(py::init([](py::kwargs kw) {
@@ -120,7 +161,10 @@ void BindSim(py::module_& m) {
       .def_readwrite("calibration_images", &sim::ScanOptions::calibration_images)
       .def_readwrite("target", &sim::ScanOptions::target)
       .def_readwrite("truth_maps", &sim::ScanOptions::truth_maps)
-      .def_readwrite("render", &sim::ScanOptions::render);
+      .def_readwrite("render", &sim::ScanOptions::render)
+      .def_readwrite("board", &sim::ScanOptions::board)
+      .def_readwrite("orbit", &sim::ScanOptions::orbit)
+      .def_readwrite("board_poses", &sim::ScanOptions::board_poses);
 
   py::class_<sim::ViewImages, ViewPtr>(m, "SimulatedView", R"doc(
 One rendered view: left / right image lists (uint8 or uint16, the scheme's order),
@@ -219,14 +263,7 @@ The virtual scanner in memory (the same images `fringe simulate` writes): a scen
           py::gil_scoped_release release;
           s = sim::SimulateScan(r, opts, out);
         }
-        py::dict d;
-        d["views"] = s.views;
-        d["fringe_images"] = s.fringe_images;
-        d["calibration_images"] = s.calibration_images;
-        d["markers"] = s.markers;
-        d["seconds"] = s.seconds;
-        d["report"] = s.BriefReport();
-        return d;
+        return FromJson(s.ToJson());
       },
       py::arg("out"), py::arg("rig") = py::none(), py::arg("options") = py::none(),
       "Writes a scan folder (docs/scan-folder.md) as `fringe simulate` does; returns its summary.");

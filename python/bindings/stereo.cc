@@ -12,40 +12,6 @@ namespace fringe::python {
 
 namespace {
 
-// The summary as a dict: the same fields as the C++ summaries (decode as in summary.json of
-// `fringe decode`).
-py::dict SummaryDict(const stereo::ReconstructionSummary& s) {
-  py::dict d;
-  d["status"] = stereo::ToString(s.status);
-  d["message"] = s.message;
-  d["points"] = s.points;
-  d["decode_left"] = FromJson(phase::DecodeSummaryToJson(s.decode_left));
-  d["decode_right"] = FromJson(phase::DecodeSummaryToJson(s.decode_right));
-  py::dict matching;
-  const auto& m = s.matching;
-  matching["left_valid"] = m.left_valid;
-  matching["no_crossing"] = m.no_crossing;
-  matching["ambiguous"] = m.ambiguous;
-  matching["discontinuity"] = m.discontinuity;
-  matching["lr_inconsistent"] = m.lr_inconsistent;
-  matching["triangulation_failed"] = m.triangulation_failed;
-  matching["large_residual"] = m.large_residual;
-  matching["projector_inconsistent"] = m.projector_inconsistent;
-  matching["out_of_depth_range"] = m.out_of_depth_range;
-  matching["points"] = m.points;
-  matching["mean_reprojection_error_px"] = m.mean_reprojection_error_px;
-  matching["report"] = m.BriefReport();
-  d["matching"] = matching;
-  d["outliers"] =
-      py::dict(py::arg("report") = s.outliers.BriefReport(), py::arg("kept") = s.outliers.kept);
-  d["normals"] = py::dict(py::arg("report") = s.normals.BriefReport());
-  d["timing_s"] = py::dict(py::arg("decode") = s.decode_s, py::arg("match") = s.match_s,
-                           py::arg("outliers") = s.outliers_s, py::arg("normals") = s.normals_s,
-                           py::arg("total") = s.total_s);
-  d["report"] = s.BriefReport();
-  return d;
-}
-
 using ViewPtr = std::shared_ptr<stereo::ViewReconstruction>;
 
 ViewPtr Run(const stereo::ViewReconstructor& r, const py::object& left, const py::object& right) {
@@ -80,14 +46,15 @@ void BindStereo(py::module_& m) {
         return MakeOptions<stereo::MatchingOptions>(py::none(), kw, "MatchingOptions");
       }))
       .def_readwrite("min_modulation", &stereo::MatchingOptions::min_modulation)
-      .def_readwrite("max_phase_step_px", &stereo::MatchingOptions::max_phase_step_px)
-      .def_readwrite("max_reversal_px", &stereo::MatchingOptions::max_reversal_px)
+      .def_readwrite("max_step_gradients", &stereo::MatchingOptions::max_step_gradients)
+      .def_readwrite("max_reversal_gradients", &stereo::MatchingOptions::max_reversal_gradients)
       .def_readwrite("interpolation", &stereo::MatchingOptions::interpolation)
       .def_readwrite("max_row_crossing_diff_px", &stereo::MatchingOptions::max_row_crossing_diff_px)
       .def_readwrite("max_lr_error_px", &stereo::MatchingOptions::max_lr_error_px)
       .def_readwrite("max_reprojection_error_px",
                      &stereo::MatchingOptions::max_reprojection_error_px)
       .def_readwrite("max_projector_error_px", &stereo::MatchingOptions::max_projector_error_px)
+      .def_readwrite("lr_warning_fraction", &stereo::MatchingOptions::lr_warning_fraction)
       .def_readwrite("min_depth_mm", &stereo::MatchingOptions::min_depth_mm)
       .def_readwrite("max_depth_mm", &stereo::MatchingOptions::max_depth_mm)
       .def_readwrite("triangulation", &stereo::MatchingOptions::triangulation)
@@ -175,8 +142,10 @@ summary is a dict; cloud() gives the valid points as a PointCloud.)doc")
       .def_property_readonly(
           "texture_right",
           [](const stereo::ViewReconstruction& v) { return ArrayFromMat(v.texture_right); })
-      .def_property_readonly(
-          "summary", [](const stereo::ViewReconstruction& v) { return SummaryDict(v.summary); })
+      .def_property_readonly("summary",
+                             [](const stereo::ViewReconstruction& v) {
+                               return FromJson(stereo::SummaryToJson(v.summary));
+                             })
       .def_property_readonly("ok",
                              [](const stereo::ViewReconstruction& v) { return v.summary.ok(); })
       .def(

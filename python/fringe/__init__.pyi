@@ -66,6 +66,7 @@ class PointCloud:
     colors: Optional[npt.NDArray[np.uint8]]  # (N, 3)
     intensity: Optional[npt.NDArray[np.float32]]  # (N,)
     quality: Optional[npt.NDArray[np.float32]]  # (N,)
+    residual_px: Optional[npt.NDArray[np.float32]]  # (N,) triangulation reprojection residual
     def __init__(
         self,
         points: npt.ArrayLike,
@@ -75,6 +76,22 @@ class PointCloud:
         quality: Optional[npt.ArrayLike] = None,
     ) -> None: ...
     def __len__(self) -> int: ...
+
+class Mesh:
+    def __init__(self, vertices: npt.ArrayLike, triangles: npt.ArrayLike, normals: Optional[npt.ArrayLike] = None) -> None: ...
+    @staticmethod
+    def load(path: PathLike) -> Mesh: ...
+    def save(self, path: PathLike, comments: Sequence[str] = ...) -> None: ...
+    @property
+    def vertices(self) -> npt.NDArray[np.float64]: ...  # (V, 3) mm
+    @property
+    def triangles(self) -> npt.NDArray[np.int32]: ...  # (M, 3)
+    @property
+    def normals(self) -> Optional[npt.NDArray[np.float64]]: ...
+    @property
+    def colors(self) -> Optional[npt.NDArray[np.uint8]]: ...
+
+MeshLike = Union[Mesh, "PlyFile", PathLike, Tuple[npt.ArrayLike, npt.ArrayLike]]
 
 class PlyFile:
     @property
@@ -150,6 +167,7 @@ class DecodeOptions:
     max_order_residual: float
     spatial_check_fraction: float
     repair_orders: bool
+    whole_stack: bool
     projector_gamma: float
     def __init__(self, **fields: Any) -> None: ...
     def check(self) -> None: ...
@@ -171,6 +189,45 @@ class DecodeResult:
 
 def decode(images: Images, scheme: Scheme, options: Optional[DecodeOptions] = None, **fields: Any) -> DecodeResult: ...
 
+class RobustLoss:
+    none: RobustLoss
+    huber: RobustLoss
+    cauchy: RobustLoss
+    @property
+    def name(self) -> str: ...
+    @property
+    def value(self) -> int: ...
+
+class EdgeOptions:
+    smoothing_sigma_px: float
+    search_half_width_px: float
+    min_gradient: float
+    max_angle_deg: float
+    def __init__(self, **fields: Any) -> None: ...
+
+class EllipseFitOptions:
+    max_iterations: int
+    outlier_sigma: float
+    min_outlier_dist: float
+    outlier_rounds: int
+    def __init__(self, **fields: Any) -> None: ...
+
+class DetectionOptions:
+    edges: EdgeOptions
+    ellipse_fit: EllipseFitOptions
+    min_radius_px: float
+    max_radius_fraction: float
+    min_axis_ratio: float
+    min_convexity: float
+    max_fit_rms_px: float
+    min_edge_coverage: float
+    max_concentricity: float
+    ring_ratio_tolerance: float
+    threshold_levels: int
+    grid_tolerance: float
+    size_tolerance: float
+    def __init__(self, **fields: Any) -> None: ...
+
 class CalibrationOptions:
     estimate_k3: bool
     estimate_tangential: bool
@@ -180,10 +237,13 @@ class CalibrationOptions:
     outlier_sigma: float
     min_features: int
     min_views: int
+    loss: RobustLoss
+    loss_scale_px: float
     def __init__(self, **fields: Any) -> None: ...
 
 def calibrate(
     images_or_dir: Union[PathLike, Images, Tuple[Images, Images]], target: Target,
+    detection: Union[DetectionOptions, Dict[str, Any], None] = None,
     options: Optional[CalibrationOptions] = None, **fields: Any,
 ) -> Tuple[Union[Rig, Camera], Dict[str, Any]]: ...
 
@@ -206,13 +266,14 @@ class RectificationOptions:
 
 class MatchingOptions:
     min_modulation: float
-    max_phase_step_px: float
-    max_reversal_px: float
+    max_step_gradients: float
+    max_reversal_gradients: float
     interpolation: CrossingInterpolation
     max_row_crossing_diff_px: float
     max_lr_error_px: float
     max_reprojection_error_px: float
     max_projector_error_px: float
+    lr_warning_fraction: float
     min_depth_mm: float
     max_depth_mm: float
     triangulation: TriangulationOptions
@@ -290,7 +351,7 @@ class VdiOptions:
 
 def deviation(
     points: Union[npt.ArrayLike, PointCloud],
-    mesh: Union[PlyFile, Tuple[npt.ArrayLike, npt.ArrayLike]],
+    mesh: MeshLike,
     max_distance_mm: float = 2.0,
 ) -> Tuple[Dict[str, Any], npt.NDArray[np.float64]]: ...
 
@@ -313,6 +374,7 @@ class Target:
     inner_radius_mm: float
     dot_radius_mm: float
     margin_mm: float
+    distinct_features: List[Tuple[int, int]]
     def __init__(self, **fields: Any) -> None: ...
     @staticmethod
     def load(path: PathLike) -> Target: ...
@@ -329,6 +391,8 @@ class SensorOptions:
     shot_noise: bool
     electrons_per_dn: float
     defocus_sigma_px: float
+    float_output: bool
+    seed: int
     def __init__(self, **fields: Any) -> None: ...
 
 class ProjectorOptions:
@@ -344,6 +408,40 @@ class RenderOptions:
     sensor: SensorOptions
     projector: ProjectorOptions
     truth: bool
+    shadow_offset_mm: float
+    marker_visibility_tolerance_mm: float
+    def __init__(self, **fields: Any) -> None: ...
+
+class BoardRenderOptions:
+    sensor: SensorOptions
+    edge_supersampling: int
+    white_albedo: float
+    black_albedo: float
+    background_albedo: float
+    illumination: float
+    def __init__(self, **fields: Any) -> None: ...
+
+class OrbitOptions:
+    views: int
+    turntable: bool
+    elevation_deg: float
+    elevation_jitter_deg: float
+    azimuth_start_deg: float
+    azimuth_jitter_deg: float
+    roll_jitter_deg: float
+    standoff_jitter_mm: float
+    seed: int
+    def __init__(self, **fields: Any) -> None: ...
+
+class BoardPoseOptions:
+    count: int
+    min_distance_mm: float
+    max_distance_mm: float
+    max_tilt_deg: float
+    max_roll_deg: float
+    min_visible_fraction: float
+    both_cameras: bool
+    seed: int
     def __init__(self, **fields: Any) -> None: ...
 
 class ScanOptions:
@@ -356,6 +454,9 @@ class ScanOptions:
     target: Target
     truth_maps: bool
     render: RenderOptions
+    board: BoardRenderOptions
+    orbit: OrbitOptions
+    board_poses: BoardPoseOptions
     def __init__(self, **fields: Any) -> None: ...
 
 class SimulatedView:
@@ -399,7 +500,185 @@ class ScannerOptions:
     keep_going: bool
     views_in_flight: int
     reconstruction: ReconstructionOptions
+    detect_markers: bool
+    markers: MarkerDetectionOptions
     write_report: bool
     def __init__(self, **fields: Any) -> None: ...
 
 def scan(project: PathLike, out: PathLike, options: Optional[ScannerOptions] = None, **fields: Any) -> Dict[str, Any]: ...
+
+class MarkerDetectionOptions:
+    rings: DetectionOptions
+    inner_to_outer_ratio: float
+    max_epipolar_px: float
+    max_depth_difference_mm: float
+    relative_depth_difference: float
+    min_outer_radius_mm: float
+    max_outer_radius_mm: float
+    surface_radius_factor: float
+    min_surface_points: int
+    def __init__(self, **fields: Any) -> None: ...
+
+class ViewMarker:
+    @property
+    def id(self) -> int: ...
+    @property
+    def centre_in_sensor(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def normal_in_sensor(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def left_px(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def right_px(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def outer_radius_mm(self) -> float: ...
+    @property
+    def sigma_mm(self) -> float: ...
+    @property
+    def depth_difference_mm(self) -> float: ...
+
+def detect_markers(
+    rig: Rig, view: ViewReconstruction, options: Optional[MarkerDetectionOptions] = None, **fields: Any
+) -> Tuple[List[ViewMarker], str]: ...
+def read_markers(path: PathLike) -> List[ViewMarker]: ...
+def write_markers(path: PathLike, markers: Sequence[ViewMarker]) -> None: ...
+
+class MarkerMatchOptions:
+    distance_tolerance_mm: float
+    sigma_factor: float
+    max_normal_angle_deg: float
+    min_matches: int
+    ambiguity_margin: int
+    same_pose_deg: float
+    same_pose_mm: float
+    outlier_rounds: int
+    def __init__(self, **fields: Any) -> None: ...
+
+class AdjustmentOptions:
+    huber_sigmas: float
+    max_iterations: int
+    def __init__(self, **fields: Any) -> None: ...
+
+class CoarseOptions:
+    voxel_mm: float
+    feature_radius_factor: float
+    max_ransac_iterations: int
+    ransac_confidence: float
+    min_fitness: float
+    seed: int
+    def __init__(self, **fields: Any) -> None: ...
+
+class IcpOptions:
+    points_per_level: List[int]
+    max_iterations_per_level: int
+    initial_threshold_mm: float
+    min_threshold_mm: float
+    shrink_factor: float
+    shrink_percentile: float
+    trim_fraction: float
+    max_normal_angle_deg: float
+    min_overlap_fraction: float
+    degeneracy_ratio: float
+    convergence_rotation_deg: float
+    convergence_translation_mm: float
+    seed: int
+    def __init__(self, **fields: Any) -> None: ...
+
+class RegistrationOptions:
+    use_markers: bool
+    coarse_fallback: bool
+    adjust_markers: bool
+    refine_icp: bool
+    min_extent_mm: float
+    icp_threshold_factor: float
+    icp_min_start_threshold_mm: float
+    coarse_verify_min_overlap: float
+    matching: MarkerMatchOptions
+    adjustment: AdjustmentOptions
+    coarse: CoarseOptions
+    icp: IcpOptions
+    def __init__(self, **fields: Any) -> None: ...
+
+class RegistrationResult:
+    @property
+    def names(self) -> List[str]: ...
+    @property
+    def world_from_sensor(self) -> List[Optional[Matrix4]]: ...
+    @property
+    def placed(self) -> List[bool]: ...
+    @property
+    def paths(self) -> List[str]: ...
+    @property
+    def ok(self) -> bool: ...
+    @property
+    def summary(self) -> Dict[str, Any]: ...
+    def save_poses(self, path: PathLike) -> None: ...
+    def brief_report(self) -> str: ...
+
+def register(
+    views: Sequence[Union[PathLike, ViewReconstruction, PointCloud]],
+    names: Optional[Sequence[str]] = None,
+    markers: Optional[Sequence[Optional[Sequence[ViewMarker]]]] = None,
+    initial: Optional[Sequence[Optional[npt.ArrayLike]]] = None,
+    scale_to_mm: float = 1.0,
+    options: Optional[RegistrationOptions] = None,
+    **fields: Any,
+) -> RegistrationResult: ...
+
+class FusionOptions:
+    spacing_factor: float
+    seed_factor: float
+    registration_rms_mm: float
+    registration_factor: float
+    max_normal_angle_deg: float
+    lateral_sigma: float
+    max_disagreement: float
+    max_iterations: int
+    convergence_mm: float
+    modulation_half_dn: float
+    residual_half_px: float
+    min_cos_view: float
+    tile_mm: float
+    max_spacing_ratio: float
+    def __init__(self, **fields: Any) -> None: ...
+
+class FusionResult:
+    @property
+    def cloud(self) -> PointCloud: ...
+    @property
+    def support(self) -> npt.NDArray[np.uint16]: ...
+    @property
+    def overlap(self) -> List[npt.NDArray[np.uint8]]: ...
+    @property
+    def ok(self) -> bool: ...
+    @property
+    def summary(self) -> Dict[str, Any]: ...
+    def brief_report(self) -> str: ...
+
+def fuse(
+    views: Sequence[Union[PathLike, ViewReconstruction]],
+    poses: Union[RegistrationResult, Sequence[npt.ArrayLike]],
+    names: Optional[Sequence[str]] = None,
+    options: Optional[FusionOptions] = None,
+    **fields: Any,
+) -> FusionResult: ...
+
+class MeshOptions:
+    poisson_depth: int
+    watertight: bool
+    trim_density_quantile: float
+    trim_distance_factor: float
+    max_triangles: int
+    threads: int
+    def __init__(self, **fields: Any) -> None: ...
+
+class MeshResult:
+    @property
+    def mesh(self) -> Mesh: ...
+    @property
+    def ok(self) -> bool: ...
+    @property
+    def summary(self) -> Dict[str, Any]: ...
+    def brief_report(self) -> str: ...
+
+def mesh(cloud: Union[PointCloud, FusionResult], options: Optional[MeshOptions] = None, **fields: Any) -> MeshResult: ...

@@ -11,7 +11,8 @@ import fringe
 
 SOURCE = pathlib.Path(os.environ.get("FRINGE_SOURCE_DIR", pathlib.Path(__file__).resolve().parents[2]))
 EXAMPLES = SOURCE / "examples" / "python"
-REAL = SOURCE / ".." / "shared" / "data" / "slsdk-stereo-phasegray"
+SHARED = pathlib.Path(os.environ.get("FRINGE_SHARED_DATA", SOURCE / ".." / "shared" / "data"))
+REAL = SHARED / "slsdk-stereo-phasegray"
 
 
 def run(script, *args):

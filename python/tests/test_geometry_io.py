@@ -97,18 +97,30 @@ def test_ply_round_trip_keeps_attributes(tmp_path):
     triangles = np.array([[0, 1, 2], [2, 3, 4]], dtype=np.int32)
     for ascii in (False, True):
         path = tmp_path / f"c{int(ascii)}.ply"
-        fringe.write_ply(path, points, normals=normals, colors=colors, quality=quality,
-                         triangles=triangles, ascii=ascii)
+        fringe.write_ply(path, points, normals=normals, colors=colors, quality=quality, ascii=ascii)
         ply = fringe.read_ply(path)
         cloud = ply.cloud
         assert len(cloud) == n and cloud.intensity is None
-        # Positions and normals are stored as float (docs/formats.md).
-        np.testing.assert_array_equal(cloud.points, points.astype(np.float32).astype(np.float64))
-        np.testing.assert_array_equal(cloud.normals, normals.astype(np.float32).astype(np.float64))
+        # Positions and normals are stored as float (docs/formats.md); ASCII prints each float
+        # with 9 significant digits (read back within 5e-9 relative), binary stores it exactly.
+        rtol = 5e-9 if ascii else 0
+        np.testing.assert_allclose(cloud.points, points.astype(np.float32), rtol=rtol, atol=0)
+        np.testing.assert_allclose(cloud.normals, normals.astype(np.float32), rtol=rtol, atol=0)
         np.testing.assert_array_equal(cloud.colors, colors)
         np.testing.assert_array_equal(cloud.quality, quality)
-        np.testing.assert_array_equal(ply.triangles, triangles)
-        assert ply.grid_shape is None
+        assert ply.triangles.shape == (0, 3) and ply.grid_shape is None
+    # With triangles the file is a mesh (io::WritePly of a TriangleMesh): normals and colours kept.
+    fringe.write_ply(tmp_path / "m.ply", points, normals=normals, colors=colors, triangles=triangles)
+    ply = fringe.read_ply(tmp_path / "m.ply")
+    np.testing.assert_array_equal(ply.triangles, triangles)
+    np.testing.assert_array_equal(ply.cloud.colors, colors)
+    mesh = fringe.Mesh.load(tmp_path / "m.ply")
+    np.testing.assert_array_equal(mesh.triangles, triangles)
+    np.testing.assert_array_equal(mesh.vertices, points.astype(np.float32).astype(np.float64))
+    with pytest.raises(ValueError, match="leave out"):
+        fringe.write_ply(tmp_path / "q.ply", points, quality=quality, triangles=triangles)
+    with pytest.raises(fringe.Error, match="out of range|index"):
+        fringe.Mesh(points, np.array([[0, 1, n]], dtype=np.int32))
 
 
 def test_point_cloud_arrays_are_views_of_the_cloud():

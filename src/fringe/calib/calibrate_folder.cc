@@ -132,10 +132,9 @@ FolderCalibration CalibrateFolder(const fs::path& dir, const CalibrationTarget& 
   return out;
 }
 
-void WriteFolderCalibration(const fs::path& path, const FolderCalibration& r) {
-  nlohmann::json extra;
+nlohmann::json CalibrationToJson(const FolderCalibration& r) {
   if (r.stereo) {
-    extra["calibration"] = {
+    return {
         {"rms_px", r.pair.rms_px},
         {"epipolar_rms_px", r.pair.epipolar_rms_px},
         {"epipolar_max_px", r.pair.epipolar_max_px},
@@ -148,15 +147,23 @@ void WriteFolderCalibration(const fs::path& path, const FolderCalibration& r) {
            {r.pair.extrinsic_std_dev[3], r.pair.extrinsic_std_dev[4],
             r.pair.extrinsic_std_dev[5]}}}},
         {"views", ViewsJson(r.pair.summary)}};
+  }
+  return {{"rms_px", r.mono.summary.final_rms_px},
+          {"std_dev", StdJson(r.mono)},
+          {"views", ViewsJson(r.mono.summary)}};
+}
+
+void WriteFolderCalibration(const fs::path& path, const FolderCalibration& r) {
+  if (r.stereo) {
+    nlohmann::json extra;
+    extra["calibration"] = CalibrationToJson(r);
     io::WriteRig(path, r.pair.rig, extra);
   } else {
     nlohmann::json j = {{"format", "fringe-rig"},
                         {"version", 1},
                         {"units", "mm"},
                         {"camera", io::CameraToJson(r.mono.camera)}};
-    j["calibration"] = {{"rms_px", r.mono.summary.final_rms_px},
-                        {"std_dev", StdJson(r.mono)},
-                        {"views", ViewsJson(r.mono.summary)}};
+    j["calibration"] = CalibrationToJson(r);
     io::WriteJson(path, j);
   }
 }

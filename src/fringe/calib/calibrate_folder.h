@@ -6,6 +6,7 @@
 #pragma once
 
 #include <filesystem>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
@@ -30,6 +31,10 @@ struct FolderCalibration {
 FolderCalibration CalibrateFolder(const std::filesystem::path& dir, const CalibrationTarget& target,
                                   const CalibrationOptions& options = {},
                                   const DetectionOptions& detection = {});
+
+// The "calibration" object of the written file: RMS, standard deviations, per-view residuals
+// (and for a pair the epipolar statistics and the extrinsic standard deviations).
+nlohmann::json CalibrationToJson(const FolderCalibration& result);
 
 // Writes the calibration (atomically).
 void WriteFolderCalibration(const std::filesystem::path& path, const FolderCalibration& result);

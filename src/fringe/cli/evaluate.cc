@@ -20,20 +20,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-nlohmann::json SphereJson(const eval::SphereResult& r) {
-  nlohmann::json j = {{"status", eval::ToString(r.status)}, {"message", r.message}};
-  if (r.ok()) {
-    j.update({{"PF_mm", r.PF_mm},
-              {"PS_mm", r.PS_mm},
-              {"diameter_mm", r.diameter_mm},
-              {"centre_mm", {r.centre.x(), r.centre.y(), r.centre.z()}},
-              {"rms_mm", r.rms_mm},
-              {"points", r.points},
-              {"discarded", r.discarded}});
-  }
-  return j;
-}
-
 fs::path TruthMesh(const fs::path& p) {
   if (!fs::is_directory(p)) return p;
   for (const char* name : {"truth/scene.ply", "scene.ply", "truth.ply", "mesh.ply"}) {
@@ -117,8 +103,7 @@ void AddEvaluateCommand(CLI::App& app) {
       std::vector<double> d;
       const eval::DeviationStats s = eval::DeviationFromMesh(cloud, distance, a->deviation, &d);
       j["truth"] = mesh_path.string();
-      j["deviation"] = {{"points", s.points}, {"unmatched", s.unmatched}, {"mean_mm", s.mean_mm},
-                        {"rms_mm", s.rms_mm}, {"p95_mm", s.p95_mm},       {"max_mm", s.max_mm}};
+      j["deviation"] = eval::ToJson(s);
       text = s.BriefReport();
       ok = s.points > 0;
       if (ok && !a->map.empty()) {
@@ -137,31 +122,18 @@ void AddEvaluateCommand(CLI::App& app) {
       }
     } else if (a->artefact == "sphere") {
       const eval::SphereResult r = eval::EvaluateSphere(cloud, a->diameter_mm, a->vdi);
-      j["sphere"] = SphereJson(r);
+      j["sphere"] = eval::ToJson(r);
       text = r.BriefReport();
       ok = r.ok();
     } else if (a->artefact == "ballbar") {
       const eval::BallBarResult r =
           eval::EvaluateBallBar(cloud, a->diameter_mm, a->distance_mm, a->vdi);
-      j["ballbar"] = {{"status", eval::ToString(r.status)},
-                      {"message", r.message},
-                      {"sphere_a", SphereJson(r.sphere_a)},
-                      {"sphere_b", SphereJson(r.sphere_b)}};
-      if (r.ok()) {
-        j["ballbar"]["SD_mm"] = r.SD_mm;
-        j["ballbar"]["distance_mm"] = r.distance_mm;
-      }
+      j["ballbar"] = eval::ToJson(r);
       text = r.BriefReport();
       ok = r.ok();
     } else {
       const eval::PlaneResult r = eval::EvaluatePlane(cloud, a->vdi);
-      j["plane"] = {{"status", eval::ToString(r.status)}, {"message", r.message}};
-      if (r.ok()) {
-        j["plane"].update({{"F_mm", r.F_mm},
-                           {"rms_mm", r.rms_mm},
-                           {"points", r.points},
-                           {"discarded", r.discarded}});
-      }
+      j["plane"] = eval::ToJson(r);
       text = r.BriefReport();
       ok = r.ok();
     }

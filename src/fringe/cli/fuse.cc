@@ -44,39 +44,6 @@ bool SameFile(const fs::path& a, const fs::path& b) {
   return fs::weakly_canonical(a, ec) == fs::weakly_canonical(b, ec);
 }
 
-nlohmann::json SummaryJson(const fusion::FusionSummary& s) {
-  return {{"status", fusion::ToString(s.status)},
-          {"message", s.message},
-          {"views", s.views},
-          {"input_points", s.input_points},
-          {"overlap_points", s.overlap_points},
-          {"clusters", s.clusters},
-          {"passed_through", s.passed_through},
-          {"unassigned", s.unassigned},
-          {"disagreeing_clusters", s.disagreeing_clusters},
-          {"fused_points", s.fused_points},
-          {"iterations", s.iterations},
-          {"last_max_shift_mm", s.last_max_shift_mm},
-          {"median_spacing_mm", s.median_spacing_mm},
-          {"time_s", s.time_s}};
-}
-
-nlohmann::json SummaryJson(const fusion::MeshSummary& s) {
-  return {{"status", fusion::ToString(s.status)},
-          {"message", s.message},
-          {"input_points", s.input_points},
-          {"poisson_triangles", s.poisson_triangles},
-          {"trimmed_vertices", s.trimmed_vertices},
-          {"vertices", s.vertices},
-          {"triangles", s.triangles},
-          {"watertight", s.watertight},
-          {"decimated", s.decimated},
-          {"decimation_rms_mm", s.decimation_rms_mm},
-          {"decimation_max_mm", s.decimation_max_mm},
-          {"poisson_s", s.poisson_s},
-          {"total_s", s.total_s}};
-}
-
 }  // namespace
 
 void AddFuseCommand(CLI::App& app) {
@@ -176,7 +143,7 @@ void AddFuseCommand(CLI::App& app) {
     }
 
     const fusion::FusionResult fused = fusion::FuseViews(views, a->fusion);
-    nlohmann::json summary = {{"fusion", SummaryJson(fused.summary)}};
+    nlohmann::json summary = {{"fusion", fusion::SummaryToJson(fused.summary)}};
     if (!a->json) std::cout << fused.summary.BriefReport() << "\n";
     if (!fused.summary.has_output()) {
       if (a->json) std::cout << summary.dump(2) << "\n";
@@ -187,7 +154,7 @@ void AddFuseCommand(CLI::App& app) {
     fusion::MeshResult mesh;
     if (!a->mesh.empty()) {
       mesh = fusion::MeshPoisson(fused.fused, a->meshing);
-      summary["mesh"] = SummaryJson(mesh.summary);
+      summary["mesh"] = fusion::SummaryToJson(mesh.summary);
       if (!a->json) std::cout << mesh.summary.BriefReport() << "\n";
       if (!mesh.summary.ok()) {
         if (a->json) std::cout << summary.dump(2) << "\n";

@@ -193,6 +193,11 @@ std::string DeviationStats::BriefReport() const {
                       max_mm, " mm");
 }
 
+nlohmann::json ToJson(const DeviationStats& s) {
+  return {{"points", s.points}, {"unmatched", s.unmatched}, {"mean_mm", s.mean_mm},
+          {"rms_mm", s.rms_mm}, {"p95_mm", s.p95_mm},       {"max_mm", s.max_mm}};
+}
+
 DeviationStats DeviationFromMesh(const PointCloud& cloud, const MeshDistance& mesh,
                                  const DeviationOptions& options, std::vector<double>* signed_mm) {
   options.Check();

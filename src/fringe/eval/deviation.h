@@ -16,6 +16,7 @@
 #include <array>
 #include <cstdint>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 #include <string>
 #include <vector>
@@ -60,6 +61,8 @@ struct DeviationStats {
   double max_mm = 0;  // max |d|
   std::string BriefReport() const;
 };
+// As `fringe evaluate --truth --json` prints it.
+nlohmann::json ToJson(const DeviationStats& s);
 
 // Signed distance of every point (NaN for unmatched and non-finite points) and the statistics.
 DeviationStats DeviationFromMesh(const PointCloud& cloud, const MeshDistance& mesh,

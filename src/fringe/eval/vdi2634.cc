@@ -446,4 +446,42 @@ PlaneResult EvaluatePlane(const PointCloud& cloud, const VdiOptions& options) {
   return PlaneFigures(members, options.discard_fraction);
 }
 
+nlohmann::json ToJson(const SphereResult& r) {
+  nlohmann::json j = {{"status", ToString(r.status)}, {"message", r.message}};
+  if (r.ok()) {
+    j.update({{"PF_mm", r.PF_mm},
+              {"PS_mm", r.PS_mm},
+              {"diameter_mm", r.diameter_mm},
+              {"centre_mm", {r.centre.x(), r.centre.y(), r.centre.z()}},
+              {"rms_mm", r.rms_mm},
+              {"points", r.points},
+              {"discarded", r.discarded}});
+  }
+  return j;
+}
+
+nlohmann::json ToJson(const BallBarResult& r) {
+  nlohmann::json j = {{"status", ToString(r.status)},
+                      {"message", r.message},
+                      {"sphere_a", ToJson(r.sphere_a)},
+                      {"sphere_b", ToJson(r.sphere_b)}};
+  if (r.ok()) {
+    j["SD_mm"] = r.SD_mm;
+    j["distance_mm"] = r.distance_mm;
+  }
+  return j;
+}
+
+nlohmann::json ToJson(const PlaneResult& r) {
+  nlohmann::json j = {{"status", ToString(r.status)}, {"message", r.message}};
+  if (r.ok()) {
+    j.update({{"F_mm", r.F_mm},
+              {"normal", {r.normal.x(), r.normal.y(), r.normal.z()}},
+              {"rms_mm", r.rms_mm},
+              {"points", r.points},
+              {"discarded", r.discarded}});
+  }
+  return j;
+}
+
 }  // namespace fringe::eval

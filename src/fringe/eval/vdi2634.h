@@ -20,6 +20,7 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
@@ -117,6 +118,11 @@ BallBarResult EvaluateBallBar(const PointCloud& cloud, double diameter_mm,
                               double calibrated_distance_mm, const VdiOptions& options = {});
 // F of the largest plane in the cloud.
 PlaneResult EvaluatePlane(const PointCloud& cloud, const VdiOptions& options = {});
+
+// The results as `fringe evaluate --json` prints them (figures only when the status is ok).
+nlohmann::json ToJson(const SphereResult& r);
+nlohmann::json ToJson(const BallBarResult& r);
+nlohmann::json ToJson(const PlaneResult& r);
 
 // Form and size from points already known to belong to the sphere (no search, no band): the
 // figures "with true correspondences" in benchmarks.

@@ -225,6 +225,23 @@ std::string FusionSummary::BriefReport() const {
   return s;
 }
 
+nlohmann::json SummaryToJson(const FusionSummary& s) {
+  return {{"status", ToString(s.status)},
+          {"message", s.message},
+          {"views", s.views},
+          {"input_points", s.input_points},
+          {"overlap_points", s.overlap_points},
+          {"clusters", s.clusters},
+          {"passed_through", s.passed_through},
+          {"unassigned", s.unassigned},
+          {"disagreeing_clusters", s.disagreeing_clusters},
+          {"fused_points", s.fused_points},
+          {"iterations", s.iterations},
+          {"last_max_shift_mm", s.last_max_shift_mm},
+          {"median_spacing_mm", s.median_spacing_mm},
+          {"time_s", s.time_s}};
+}
+
 FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions& options) {
   options.Check();
   util::Timer timer;

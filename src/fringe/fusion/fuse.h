@@ -37,6 +37,7 @@
 #pragma once
 
 #include <cstdint>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
@@ -112,6 +113,8 @@ struct FusionSummary {
   }
   std::string BriefReport() const;
 };
+// As `fringe fuse --json` prints it (the "fusion" object).
+nlohmann::json SummaryToJson(const FusionSummary& s);
 
 struct FusionResult {
   // World frame, mm: normals, intensity (texture) also as grey colours, quality (weighted mean

@@ -81,6 +81,22 @@ std::string MeshSummary::BriefReport() const {
   return s;
 }
 
+nlohmann::json SummaryToJson(const MeshSummary& s) {
+  return {{"status", ToString(s.status)},
+          {"message", s.message},
+          {"input_points", s.input_points},
+          {"poisson_triangles", s.poisson_triangles},
+          {"trimmed_vertices", s.trimmed_vertices},
+          {"vertices", s.vertices},
+          {"triangles", s.triangles},
+          {"watertight", s.watertight},
+          {"decimated", s.decimated},
+          {"decimation_rms_mm", s.decimation_rms_mm},
+          {"decimation_max_mm", s.decimation_max_mm},
+          {"poisson_s", s.poisson_s},
+          {"total_s", s.total_s}};
+}
+
 MeshResult MeshPoisson(const PointCloud& cloud, const MeshOptions& options) {
   options.Check();
   cloud.CheckConsistent();

@@ -19,6 +19,7 @@
 #include <array>
 #include <cstdint>
 #include <filesystem>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
@@ -64,6 +65,8 @@ struct MeshSummary {
   bool ok() const { return status == MeshStatus::kOk; }
   std::string BriefReport() const;
 };
+// As `fringe fuse --mesh --json` prints it (the "mesh" object).
+nlohmann::json SummaryToJson(const MeshSummary& s);
 
 struct MeshResult {
   TriangleMesh mesh;  // vertices with unit normals; triangles counter-clockwise from outside

@@ -132,6 +132,15 @@ std::string ScanSummary::BriefReport() const {
   return os.str();
 }
 
+nlohmann::json ScanSummary::ToJson() const {
+  return {{"views", views},
+          {"fringe_images", fringe_images},
+          {"calibration_images", calibration_images},
+          {"markers", markers},
+          {"seconds", seconds},
+          {"report", BriefReport()}};
+}
+
 void WriteCameraTruth(const fs::path& dir, const CameraTruth& truth) {
   fs::create_directories(dir);
   io::WriteImage(dir / "depth.tiff", ToFloat(truth.depth));

@@ -12,6 +12,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
@@ -61,6 +62,7 @@ struct ScanSummary {
   int markers = 0;
   double seconds = 0;
   std::string BriefReport() const;
+  nlohmann::json ToJson() const;  // the counts and seconds (the Python bindings' summary)
 };
 
 // A simulated scan prepared once (scene, patterns, renderer, view and board poses), rendered

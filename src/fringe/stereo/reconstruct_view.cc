@@ -2,6 +2,7 @@
 
 #include <limits>
 
+#include "fringe/phase/stack_io.h"
 #include "fringe/util/error.h"
 #include "fringe/util/timer.h"
 
@@ -56,6 +57,53 @@ std::string ReconstructionSummary::BriefReport() const {
                                " s, outliers ", outliers_s, " s, normals ", normals_s, " s)");
   if (!message.empty()) s += ": " + message;
   return s;
+}
+
+nlohmann::json SummaryToJson(const ReconstructionSummary& s) {
+  const MatchingSummary& m = s.matching;
+  return {{"status", ToString(s.status)},
+          {"message", s.message},
+          {"points", s.points},
+          {"decode_left", phase::DecodeSummaryToJson(s.decode_left)},
+          {"decode_right", phase::DecodeSummaryToJson(s.decode_right)},
+          {"matching",
+           {{"status", ToString(m.status)},
+            {"message", m.message},
+            {"left_valid", m.left_valid},
+            {"no_crossing", m.no_crossing},
+            {"ambiguous", m.ambiguous},
+            {"discontinuity", m.discontinuity},
+            {"lr_inconsistent", m.lr_inconsistent},
+            {"triangulation_failed", m.triangulation_failed},
+            {"large_residual", m.large_residual},
+            {"projector_inconsistent", m.projector_inconsistent},
+            {"out_of_depth_range", m.out_of_depth_range},
+            {"points", m.points},
+            {"mean_reprojection_error_px", m.mean_reprojection_error_px},
+            {"warning", m.warning},
+            {"report", m.BriefReport()}}},
+          {"outliers",
+           {{"status", ToString(s.outliers.status)},
+            {"message", s.outliers.message},
+            {"flying_pixels", s.outliers.flying_pixels},
+            {"small_components", s.outliers.small_components},
+            {"component_points", s.outliers.component_points},
+            {"kept", s.outliers.kept},
+            {"report", s.outliers.BriefReport()}}},
+          {"normals",
+           {{"status", ToString(s.normals.status)},
+            {"message", s.normals.message},
+            {"normals", s.normals.normals},
+            {"missing", s.normals.missing},
+            {"edge_points", s.normals.edge_points},
+            {"report", s.normals.BriefReport()}}},
+          {"timing_s",
+           {{"decode", s.decode_s},
+            {"match", s.match_s},
+            {"outliers", s.outliers_s},
+            {"normals", s.normals_s},
+            {"total", s.total_s}}},
+          {"report", s.BriefReport()}};
 }
 
 ViewReconstructor::ViewReconstructor(const StereoRig& rig, const phase::PatternScheme& scheme,

@@ -18,6 +18,7 @@
 // called concurrently. Results do not depend on the number of threads.
 #pragma once
 
+#include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 #include <string>
 #include <vector>
@@ -59,6 +60,9 @@ struct ReconstructionSummary {
   bool ok() const { return status == ReconstructionStatus::kOk; }
   std::string BriefReport() const;
 };
+// Every figure of the summary (decode as in `fringe decode`'s summary.json, matching, outliers,
+// normals, timings) with each stage's one-line report, for scripts (the Python bindings).
+nlohmann::json SummaryToJson(const ReconstructionSummary& s);
 
 struct ViewReconstruction {
   OrganizedPointCloud cloud;      // LEFT grid, LEFT camera frame, mm

@@ -1,0 +1,156 @@
+// Pattern schemes, pattern images and decoding.
+#include <pybind11/stl.h>
+#include <pybind11/stl/filesystem.h>
+
+#include "bindings.h"
+#include "convert.h"
+#include "fringe/phase/decode.h"
+#include "fringe/phase/pattern_scheme.h"
+#include "fringe/phase/stack_io.h"
+#include "fringe/util/error.h"
+
+namespace fringe::python {
+
+void BindPhase(py::module_& m) {
+  py::class_<phase::PatternScheme>(m, "Scheme", R"doc(
+A fringe pattern scheme: what the projector shows and in which order (docs/formats.md,
+"Pattern scheme manifest"). Make one with Scheme.preset(name) or Scheme.load(path).)doc")
+      .def_static("preset", &phase::MakeScheme, py::arg("name"), py::arg("projector_width") = 1280,
+                  py::arg("projector_height") = 800,
+                  "A preset scheme (see Scheme.presets()) for a projector of the given size.")
+      .def_static("presets", &phase::SchemePresetNames, "The preset names.")
+      .def_static(
+          "load", [](const std::filesystem::path& p) { return phase::ReadScheme(p); },
+          py::arg("path"), "Reads a scheme manifest (JSON).")
+      .def_static(
+          "from_dict",
+          [](const py::dict& d) {
+            const std::string text = py::str(py::module_::import("json").attr("dumps")(d));
+            return phase::SchemeFromJson(nlohmann::json::parse(text), "Scheme.from_dict");
+          },
+          py::arg("manifest"), "A scheme from its manifest as a dict.")
+      .def(
+          "save",
+          [](const phase::PatternScheme& s, const std::filesystem::path& p) {
+            phase::WriteScheme(p, s);
+          },
+          py::arg("path"), "Writes the scheme manifest (JSON) atomically.")
+      .def(
+          "to_dict", [](const phase::PatternScheme& s) { return FromJson(phase::SchemeToJson(s)); },
+          "The scheme manifest as a dict.")
+      .def_readonly("name", &phase::PatternScheme::name)
+      .def_readonly("projector_width", &phase::PatternScheme::projector_width)
+      .def_readonly("projector_height", &phase::PatternScheme::projector_height)
+      .def_property_readonly(
+          "direction",
+          [](const phase::PatternScheme& s) { return phase::DirectionName(s.direction); })
+      .def_readwrite("gamma_precompensation", &phase::PatternScheme::gamma_precompensation)
+      .def_property_readonly("periods_px",
+                             [](const phase::PatternScheme& s) {
+                               std::vector<double> p;
+                               for (const auto& set : s.phase_sets) p.push_back(set.period_px);
+                               return p;
+                             })
+      .def_property_readonly("num_images", &phase::PatternScheme::NumImages)
+      .def_property_readonly("image_names", &phase::PatternScheme::ImageNames)
+      .def("check", &phase::PatternScheme::Check)
+      .def("__repr__", [](const phase::PatternScheme& s) {
+        return util::StrCat("fringe.Scheme('", s.name, "', ", s.NumImages(), " images, ",
+                            s.projector_width, "x", s.projector_height, ")");
+      });
+
+  m.def(
+      "patterns",
+      [](const phase::PatternScheme& scheme, double precompensate_gamma) {
+        std::vector<cv::Mat> images;
+        {
+          py::gil_scoped_release release;
+          images = phase::GeneratePatterns(scheme, precompensate_gamma);
+        }
+        py::list out;
+        for (const auto& image : images) out.append(ArrayFromMat(image));
+        return out;
+      },
+      py::arg("scheme"), py::arg("precompensate_gamma") = 1.0,
+      "The projector images (uint8, projector_height x projector_width) in the scheme's order.");
+
+  py::class_<phase::DecodeOptions>(m, "DecodeOptions", "Options of fringe.decode (C++ defaults).")
+      .def(py::init([](py::kwargs kw) {
+        return MakeOptions<phase::DecodeOptions>(py::none(), kw, "DecodeOptions");
+      }))
+      .def_readwrite("noise_sigma_dn", &phase::DecodeOptions::noise_sigma_dn)
+      .def_readwrite("order_error_probability", &phase::DecodeOptions::order_error_probability)
+      .def_readwrite("min_modulation_dn", &phase::DecodeOptions::min_modulation_dn)
+      .def_readwrite("full_scale_dn", &phase::DecodeOptions::full_scale_dn)
+      .def_readwrite("saturation_dn", &phase::DecodeOptions::saturation_dn)
+      .def_readwrite("min_background_fraction", &phase::DecodeOptions::min_background_fraction)
+      .def_readwrite("min_modulation_ratio", &phase::DecodeOptions::min_modulation_ratio)
+      .def_readwrite("max_order_residual", &phase::DecodeOptions::max_order_residual)
+      .def_readwrite("spatial_check_fraction", &phase::DecodeOptions::spatial_check_fraction)
+      .def_readwrite("repair_orders", &phase::DecodeOptions::repair_orders)
+      .def_readwrite("whole_stack", &phase::DecodeOptions::whole_stack)
+      .def_readwrite("projector_gamma", &phase::DecodeOptions::projector_gamma)
+      .def("check", &phase::DecodeOptions::Check);
+
+  // Results own their images; the arrays share the buffers (no copy).
+  py::class_<phase::DecodeResult, std::shared_ptr<phase::DecodeResult>>(m, "DecodeResult", R"doc(
+One camera's decoded stack: absolute_phase (float32, projector pixels, NaN invalid),
+wrapped_phase (float32, radians), modulation and background (float32, DN), mask (bool) and
+summary (dict, as `fringe decode` writes summary.json).)doc")
+      .def_property_readonly(
+          "absolute_phase",
+          [](const phase::DecodeResult& r) { return ArrayFromMat(r.absolute_phase); })
+      .def_property_readonly(
+          "wrapped_phase",
+          [](const phase::DecodeResult& r) { return ArrayFromMat(r.wrapped_phase); })
+      .def_property_readonly(
+          "modulation", [](const phase::DecodeResult& r) { return ArrayFromMat(r.modulation); })
+      .def_property_readonly(
+          "background", [](const phase::DecodeResult& r) { return ArrayFromMat(r.background); })
+      .def_property_readonly("mask",
+                             [](const phase::DecodeResult& r) {
+                               // 0/255 bytes viewed as bool would read 255 as True but compare
+                               // oddly; convert once.
+                               return ArrayFromMat(r.mask).attr("astype")("bool");
+                             })
+      .def_property_readonly("summary",
+                             [](const phase::DecodeResult& r) {
+                               return FromJson(phase::DecodeSummaryToJson(r.summary));
+                             })
+      .def("brief_report", [](const phase::DecodeResult& r) { return r.summary.BriefReport(); })
+      .def("__repr__", [](const phase::DecodeResult& r) {
+        return "fringe.DecodeResult(" + r.summary.BriefReport() + ")";
+      });
+
+  m.def(
+      "decode",
+      [](const py::object& images, const phase::PatternScheme& scheme, const py::object& options,
+         const py::kwargs& kwargs) {
+        const auto opts = MakeOptions<phase::DecodeOptions>(options, kwargs, "DecodeOptions");
+        ImageStack stack = ImagesFromPython(images, "images");
+        auto result = std::make_shared<phase::DecodeResult>();
+        py::gil_scoped_release release;
+        *result = phase::Decode(scheme, stack.mats, opts);
+        return result;
+      },
+      py::arg("images"), py::arg("scheme"), py::arg("options") = py::none(),
+      "Decodes one camera's stack (uint8/uint16 images in the scheme's order) to absolute phase.\n"
+      "Options: a DecodeOptions and/or its fields as keyword arguments.");
+  m.def(
+      "read_stack",
+      [](const std::filesystem::path& dir, const phase::PatternScheme& scheme) {
+        std::vector<cv::Mat> images;
+        {
+          py::gil_scoped_release release;
+          images = phase::ReadStack(dir, scheme);
+        }
+        py::list out;
+        for (const auto& image : images) out.append(ArrayFromMat(image));
+        return out;
+      },
+      py::arg("dir"), py::arg("scheme"),
+      "Reads the scheme's images from a folder (8- or 16-bit grey), checked as `fringe decode` "
+      "does.");
+}
+
+}  // namespace fringe::python

@@ -1,0 +1,132 @@
+"""decode, reconstruct and the simulator: the bindings' results equal the C++ program's on the
+same input (bit-identical where the program writes full precision), and agree with the truth."""
+
+import json
+
+import numpy as np
+import pytest
+
+import fringe
+from conftest import RIG_SCALE, SENSOR_NOISE_DN, run_cli
+
+
+def test_simulator_renders_the_images_fringe_simulate_wrote(scan, rig, stacks):
+    sim = fringe.Simulator(rig, scene="vdi", views=1, calibration_images=0, seed=7)
+    written = fringe.Scheme.load(scan / "scheme.json")
+    assert sim.scheme.image_names == written.image_names and sim.scheme.periods_px == written.periods_px
+    view = sim.render_view(0)
+    assert len(view.left) == len(stacks[0]) == sim.scheme.num_images
+    for ours, theirs in zip(view.left + view.right, stacks[0] + stacks[1]):
+        np.testing.assert_array_equal(ours, theirs)
+    truth = view.left_truth
+    assert truth["points"].shape == (rig.left.height, rig.left.width, 3)
+    assert truth["valid"].dtype == np.bool_ and truth["valid"].any()
+    with pytest.raises(IndexError):
+        sim.render_view(1)
+
+
+def test_decode_equals_fringe_decode(tmp_path, scan, scheme, stacks):
+    out = tmp_path / "decoded"
+    run_cli("decode", scan / "views" / "000" / "left", "--scheme", scan / "scheme.json", "--out", out)
+    result = fringe.decode(stacks[0], scheme)
+    for name in ("absolute_phase", "wrapped_phase", "modulation", "background"):
+        ours = getattr(result, name)
+        assert ours.dtype == np.float32
+        np.testing.assert_array_equal(ours, fringe.read_image(out / f"{name}.tiff", float32=True))
+    np.testing.assert_array_equal(result.mask, fringe.read_image(out / "mask.png") > 0)
+    theirs = json.loads((out / "summary.json").read_text())
+    ours = result.summary
+    for key in ("time_ms",):  # timing differs between runs
+        theirs.pop(key, None)
+        ours.pop(key, None)
+    assert ours == theirs
+
+
+def test_decode_options_as_keywords_and_objects(scheme, stacks):
+    noise = SENSOR_NOISE_DN
+    a = fringe.decode(stacks[0], scheme, noise_sigma_dn=noise, min_modulation_dn=40.0)
+    b = fringe.decode(stacks[0], scheme,
+                      options=fringe.DecodeOptions(noise_sigma_dn=noise, min_modulation_dn=40.0))
+    default = fringe.decode(stacks[0], scheme, noise_sigma_dn=noise)
+    np.testing.assert_array_equal(a.mask, b.mask)
+    assert a.summary["valid"] < default.summary["valid"]
+    assert a.summary["min_modulation_dn"] == 40.0
+    # One (N, H, W) array decodes like the list of its planes.
+    np.testing.assert_array_equal(
+        fringe.decode(np.stack(stacks[0]), scheme, noise_sigma_dn=noise).absolute_phase,
+        default.absolute_phase)
+
+
+def test_decode_phase_matches_truth(rig, scheme, stacks):
+    sim = fringe.Simulator(rig, scene="vdi", views=1, calibration_images=0, seed=7)
+    truth = sim.render_view(0).left_truth
+    result = fringe.decode(stacks[0], scheme, noise_sigma_dn=SENSOR_NOISE_DN)
+    both = result.mask & truth["valid"]
+    assert both.sum() > 0.2 * both.size
+    error_px = result.absolute_phase[both] - truth["projector"][..., 0][both]
+    # Projector-pixel phase error at this scale and noise (decoder tests: ~0.02 px RMS).
+    median_tolerance_px = 0.1
+    assert np.median(np.abs(error_px)) < median_tolerance_px
+
+
+def test_reconstruct_equals_fringe_reconstruct(tmp_path, scan, rig, scheme, stacks):
+    out = tmp_path / "view.ply"
+    run_cli("reconstruct", scan / "views" / "000", "--calib", scan / "truth" / "rig.json",
+            "--scheme", scan / "scheme.json", "--out", out, "--no-markers")
+    view = fringe.reconstruct(rig, scheme, *stacks)
+    assert view.ok and view.summary["status"] == "ok"
+    assert view.points.shape == (rig.left.height, rig.left.width, 3)
+    assert np.isnan(view.points[~view.valid]).all() and np.isfinite(view.points[view.valid]).all()
+    ply = fringe.read_ply(out)
+    assert ply.grid_shape == (view.height, view.width)
+    index = ply.grid_index.astype(np.int64)
+    np.testing.assert_array_equal(np.flatnonzero(view.valid.ravel()), index)
+    # The PLY stores float32: the same numbers rounded once.
+    np.testing.assert_array_equal(view.points.reshape(-1, 3)[index].astype(np.float32),
+                                  ply.cloud.points.astype(np.float32))
+    np.testing.assert_array_equal(view.normals.reshape(-1, 3)[index].astype(np.float32),
+                                  ply.cloud.normals.astype(np.float32))
+    np.testing.assert_array_equal(view.quality.ravel()[index], ply.cloud.quality)
+    assert view.summary["points"] == len(index)
+    # The bindings write the same organized PLY.
+    # The writer adds its own "written by fringe" and grid comments.
+    comments = [c for c in ply.comments if not c.startswith(("fringe_grid", "written by fringe"))]
+    fringe.write_ply(tmp_path / "ours.ply", view, comments=comments)
+    assert (tmp_path / "ours.ply").read_bytes() == out.read_bytes()
+
+
+def test_reconstruct_against_truth(rig, scheme, stacks):
+    sim = fringe.Simulator(rig, scene="vdi", views=1, calibration_images=0, seed=7)
+    truth = sim.render_view(0).left_truth["points"]
+    view = fringe.reconstruct(rig, scheme, *stacks, decode={"noise_sigma_dn": SENSOR_NOISE_DN})
+    both = view.valid & np.isfinite(truth).all(axis=2)
+    assert both.sum() > 1000
+    error_mm = np.linalg.norm(view.points[both] - truth[both], axis=1)
+    median_tolerance_mm = 0.05 / RIG_SCALE  # the full-size rig's ~0.05 mm, scaled pixels 4x larger
+    assert np.median(error_mm) < median_tolerance_mm
+
+
+def test_reconstructor_reuse_and_nested_options(rig, scheme, stacks):
+    r = fringe.Reconstructor(rig, scheme, remove_outliers=False, decode={"noise_sigma_dn": 2.0})
+    a = r.reconstruct(*stacks)
+    b = fringe.reconstruct(rig, scheme, *stacks, options=fringe.ReconstructionOptions(
+        remove_outliers=False, decode=fringe.DecodeOptions(noise_sigma_dn=2.0)))
+    np.testing.assert_array_equal(a.points, b.points)
+    assert a.summary["points"] >= fringe.reconstruct(
+        rig, scheme, *stacks, decode={"noise_sigma_dn": 2.0}).summary["points"]
+    cloud = a.cloud()
+    assert len(cloud) == a.summary["points"]
+    np.testing.assert_array_equal(cloud.points, a.points[a.valid])
+
+
+def test_scan_equals_fringe_scan(tmp_path, scan):
+    rig_json = scan / "truth" / "rig.json"
+    theirs = json.loads(run_cli("scan", scan, "--out", tmp_path / "cli", "--calib", rig_json, "--json"))
+    ours = fringe.scan(scan, tmp_path / "py", calib=rig_json)
+    assert ours["status"] == theirs["status"] == "ok"
+    assert ours["points"] == theirs["points"] > 0
+    assert [v["points"] for v in ours["view_results"]] == [v["points"] for v in theirs["view_results"]]
+    for ply in (tmp_path / "cli" / "views").glob("*.ply"):
+        assert (tmp_path / "py" / "views" / ply.name).read_bytes() == ply.read_bytes()
+    with pytest.raises(fringe.Error, match="no-such-folder"):
+        fringe.scan(tmp_path / "no-such-folder", tmp_path / "out2", calib=rig_json)

@@ -1,7 +1,10 @@
-// Every JSON format: the bounded parser, then the rig, target and scheme readers on the value.
+// Every JSON format: the bounded parser, then each reader on the value (rig, target, scheme, and
+// the scan folder's manifest, truth poses, markers and scene).
 #include "fringe/io/calibration_io.h"
 #include "fringe/io/json.h"
 #include "fringe/phase/pattern_scheme.h"
+#include "fringe/scan/scan_folder.h"
+#include "fringe/scan/truth.h"
 #include "fringe/util/error.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
@@ -21,6 +24,22 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   }
   try {
     fringe::phase::SchemeFromJson(j, "fuzz.json");
+  } catch (const fringe::Error&) {
+  }
+  try {
+    fringe::scan::ManifestFromJson(j, "fuzz.json");
+  } catch (const fringe::Error&) {
+  }
+  try {
+    fringe::scan::PosesFromJson(j, "fuzz.json");
+  } catch (const fringe::Error&) {
+  }
+  try {
+    fringe::scan::MarkersFromJson(j, "fuzz.json");
+  } catch (const fringe::Error&) {
+  }
+  try {
+    fringe::scan::SceneFromJson(j, "fuzz.json");
   } catch (const fringe::Error&) {
   }
   (void)fringe::io::Brief(j);

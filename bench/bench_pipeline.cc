@@ -19,7 +19,6 @@
 // Usage: bench_pipeline [--json] [--views 8] [--work DIR] [--rig-scale 1] [--poisson-depth 10]
 //                       [--keep]
 #include <CLI/CLI.hpp>
-#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
@@ -67,37 +66,12 @@ int main(int argc, char** argv) {
     const double simulate_s = timer.ElapsedSeconds();
 
     const pipeline::ScanSummary s = pipeline::RunScan(dir / "scan", dir / "out", options);
-    auto figure = [](double v) { return std::isfinite(v) ? json(v) : json(nullptr); };
-    json j{{"views", s.views_ok},
-           {"image_width", rig.left.width},
-           {"image_height", rig.left.height},
-           {"points", s.points},
-           {"fused_points", s.fused_points},
-           {"mesh_triangles", s.mesh_triangles},
-           {"simulate_s", simulate_s},
-           {"calibrate_s", s.calibrate_s},
-           {"total_s", s.total_s},
-           {"read_s", s.read_s},
-           {"decode_s", s.decode_s},
-           {"reconstruct_s", s.reconstruct_s},
-           {"markers_s", s.markers_s},
-           {"views_s", s.views_s},
-           {"register_s", s.register_s},
-           {"fuse_s", s.fuse_s},
-           {"mesh_s", s.mesh_s},
-           {"report_s", s.report_s},
-           {"evaluate_s", s.evaluate_s},
-           {"peak_mem_gib", util::PeakMemoryGiB()},
-           {"calibration_rms_left_px", s.calibration_rms_left_px},
-           {"marker_adjusted_rms_mm", s.marker_adjusted_rms_mm},
-           {"icp_rms_mm", s.icp_rms_mm},
-           {"pose_rot_err_deg", figure(s.pose_rot_err_deg)},
-           {"pose_trans_err_mm", figure(s.pose_trans_err_mm)},
-           {"fused_rms_mm", figure(s.fused_rms_mm)},
-           {"single_view_rms_mm", figure(s.single_view_rms_mm)},
-           {"fused_overlap_rms_mm", figure(s.fused_overlap_rms_mm)},
-           {"single_view_all_rms_mm", figure(s.single_view_all_rms_mm)},
-           {"mesh_rms_mm", figure(s.mesh_rms_mm)}};
+    json j = s.FiguresJson();
+    j["image_width"] = rig.left.width;
+    j["image_height"] = rig.left.height;
+    j["simulate_s"] = simulate_s;
+    j["peak_mem_gib"] = util::PeakMemoryGiB();  // the whole process, simulation included
+    j["calibration_rms_left_px"] = s.calibration_rms_left_px;
     if (as_json) {
       std::cout << j.dump() << "\n";
     } else {

@@ -104,43 +104,18 @@ std::string DemoSummary::Report() const {
 }
 
 json DemoSummary::ToJson() const {
-  const ScanSummary& s = scan;
-  auto figure = [](double v) { return std::isfinite(v) ? json(v) : json(nullptr); };
-  json j{{"views", views},
-         {"views_ok", s.views_ok},
-         {"rig_scale", rig_scale},
-         {"image_width", image_width},
-         {"image_height", image_height},
-         {"points", s.points},
-         {"fused_points", s.fused_points},
-         {"mesh_triangles", s.mesh_triangles},
-         {"simulate_s", simulate_s},
-         {"calibrate_s", s.calibrate_s},
-         {"total_s", s.total_s},
-         {"read_s", s.read_s},
-         {"decode_s", s.decode_s},
-         {"reconstruct_s", s.reconstruct_s},
-         {"markers_s", s.markers_s},
-         {"views_s", s.views_s},
-         {"register_s", s.register_s},
-         {"fuse_s", s.fuse_s},
-         {"mesh_s", s.mesh_s},
-         {"report_s", s.report_s},
-         {"evaluate_s", s.evaluate_s},
-         {"vdi_s", vdi_s},
-         {"demo_s", total_s},
-         {"peak_mem_gib", s.peak_mem_gib},
-         {"pose_rot_err_deg", figure(s.pose_rot_err_deg)},
-         {"pose_trans_err_mm", figure(s.pose_trans_err_mm)},
-         {"fused_rms_mm", figure(s.fused_rms_mm)},
-         {"single_view_rms_mm", figure(s.single_view_rms_mm)},
-         {"fused_overlap_rms_mm", figure(s.fused_overlap_rms_mm)},
-         {"single_view_all_rms_mm", figure(s.single_view_all_rms_mm)},
-         {"mesh_rms_mm", figure(s.mesh_rms_mm)},
-         {"calibration_rms_left_px", calibration_rms_left_px},
-         {"calibration_rms_right_px", calibration_rms_right_px},
-         {"focal_error_pct", focal_error_pct},
-         {"baseline_error_mm", baseline_error_mm}};
+  json j = scan.FiguresJson();
+  j["views"] = views;
+  j["rig_scale"] = rig_scale;
+  j["image_width"] = image_width;
+  j["image_height"] = image_height;
+  j["simulate_s"] = simulate_s;
+  j["vdi_s"] = vdi_s;
+  j["demo_s"] = total_s;
+  j["calibration_rms_left_px"] = calibration_rms_left_px;
+  j["calibration_rms_right_px"] = calibration_rms_right_px;
+  j["focal_error_pct"] = focal_error_pct;
+  j["baseline_error_mm"] = baseline_error_mm;
   j["PF_mm"] = sphere_ok ? json(PF_mm) : json(nullptr);
   j["PS_mm"] = sphere_ok ? json(PS_mm) : json(nullptr);
   j["SD_mm"] = ballbar_ok ? json(SD_mm) : json(nullptr);

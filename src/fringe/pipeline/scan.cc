@@ -57,6 +57,9 @@ struct Calibration {
 
 constexpr int kPictureWidthPx = 480;
 
+// Truth figures are NaN without truth (a real scan): null in JSON.
+json figure(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
+
 std::string Fixed(double v, int digits) {
   std::ostringstream os;
   os << std::fixed << std::setprecision(digits) << v;
@@ -595,15 +598,19 @@ ReportSection RegistrationSection(const ScanSummary& s, const Model& m) {
                            std::to_string(l.correspondences), l.converged ? "yes" : "no"});
   }
   sec.tables.push_back(levels);
-  const double lim = m.residual_threshold_mm;
+  // Histogram range: five times the larger RMS, so that the shape (not the search radius) fills
+  // the picture; residuals beyond it are counted in the end bins.
+  const double lim = std::min(
+      m.residual_threshold_mm,
+      std::max(0.02, 5 * std::max(Rms(m.residuals_adjusted_mm), Rms(m.residuals_final_mm))));
   if (!m.residuals_final_mm.empty() || !m.residuals_adjusted_mm.empty()) {
-    sec.paragraphs.push_back(
-        StrCat("Point-to-plane residuals between overlapping views (", Fixed(lim, 3),
-               " mm search radius = ICP's first threshold; the per-level RMS above is ICP's own "
-               "figure, the registration module does not hand out per-level residual sets): "
-               "RMS ",
-               Fixed(Rms(m.residuals_adjusted_mm), 4), " mm at the marker-adjusted poses, ",
-               Fixed(Rms(m.residuals_final_mm), 4), " mm after ICP."));
+    sec.paragraphs.push_back(StrCat(
+        "Point-to-plane residuals between overlapping views (", Fixed(m.residual_threshold_mm, 3),
+        " mm search radius = ICP's first threshold; the per-level RMS above is ICP's own "
+        "figure, the registration module does not hand out per-level residual sets): "
+        "RMS ",
+        Fixed(Rms(m.residuals_adjusted_mm), 4), " mm at the marker-adjusted poses, ",
+        Fixed(Rms(m.residuals_final_mm), 4), " mm after ICP."));
     sec.images.push_back(
         {"residuals at the marker-adjusted poses (before ICP), mm",
          HistogramImage(m.residuals_adjusted_mm, -lim, lim, 60, "point-to-plane residual, mm")});
@@ -727,6 +734,9 @@ Report BuildReport(const fs::path& project, const ScanSummary& s, const Calibrat
     }
     r.sections.push_back(std::move(sec));
   }
+  // The model and its registration first: what people look at; the per-view pictures last.
+  r.sections.push_back(ModelSection(s, model));
+  r.sections.push_back(RegistrationSection(s, model));
   {
     ReportSection sec;
     sec.title = "Calibration";
@@ -761,8 +771,6 @@ Report BuildReport(const fs::path& project, const ScanSummary& s, const Calibrat
     }
     r.sections.push_back(std::move(sec));
   }
-  r.sections.push_back(RegistrationSection(s, model));
-  r.sections.push_back(ModelSection(s, model));
   return r;
 }
 
@@ -812,48 +820,50 @@ std::string ScanSummary::BriefReport() const {
   return s;
 }
 
+json ScanSummary::FiguresJson() const {
+  return {{"views", views.size()},
+          {"views_ok", views_ok},
+          {"points", points},
+          {"fused_points", fused_points},
+          {"mesh_vertices", mesh_vertices},
+          {"mesh_triangles", mesh_triangles},
+          {"calibrate_s", calibrate_s},
+          {"read_s", read_s},
+          {"decode_s", decode_s},
+          {"reconstruct_s", reconstruct_s},
+          {"markers_s", markers_s},
+          {"views_s", views_s},
+          {"register_s", register_s},
+          {"fuse_s", fuse_s},
+          {"mesh_s", mesh_s},
+          {"report_s", report_s},
+          {"total_s", total_s},
+          {"evaluate_s", evaluate_s},
+          {"peak_mem_gib", peak_mem_gib},
+          {"marker_adjusted_rms_mm", marker_adjusted_rms_mm},
+          {"icp_rms_mm", icp_rms_mm},
+          {"pose_rot_err_deg", figure(pose_rot_err_deg)},
+          {"pose_trans_err_mm", figure(pose_trans_err_mm)},
+          {"fused_rms_mm", figure(fused_rms_mm)},
+          {"single_view_rms_mm", figure(single_view_rms_mm)},
+          {"fused_overlap_rms_mm", figure(fused_overlap_rms_mm)},
+          {"single_view_all_rms_mm", figure(single_view_all_rms_mm)},
+          {"mesh_rms_mm", figure(mesh_rms_mm)}};
+}
+
 json ScanSummary::ToJson() const {
-  json j{{"status", ToString(status)},
-         {"message", message},
-         {"calibration", calibration_source},
-         {"views", views.size()},
-         {"views_ok", views_ok},
-         {"points", points},
-         {"calibrate_s", calibrate_s},
-         {"read_s", read_s},
-         {"decode_s", decode_s},
-         {"reconstruct_s", reconstruct_s},
-         {"markers_s", markers_s},
-         {"views_s", views_s},
-         {"register_s", register_s},
-         {"fuse_s", fuse_s},
-         {"mesh_s", mesh_s},
-         {"report_s", report_s},
-         {"total_s", total_s},
-         {"evaluate_s", evaluate_s},
-         {"peak_mem_gib", peak_mem_gib},
-         {"registration_status", registration_status},
-         {"marker_adjusted_rms_mm", marker_adjusted_rms_mm},
-         {"icp_rms_mm", icp_rms_mm},
-         {"fused_points", fused_points},
-         {"overlap_points", overlap_points},
-         {"clusters", clusters},
-         {"mesh_vertices", mesh_vertices},
-         {"mesh_triangles", mesh_triangles},
-         {"mesh_watertight", mesh_watertight},
-         {"has_truth", has_truth},
-         {"registration", registration},
-         {"fusion", fusion},
-         {"mesh", meshing}};
-  // Truth figures: null without truth (a real scan).
-  auto figure = [](double v) { return std::isfinite(v) ? json(v) : json(nullptr); };
-  j["pose_rot_err_deg"] = figure(pose_rot_err_deg);
-  j["pose_trans_err_mm"] = figure(pose_trans_err_mm);
-  j["single_view_all_rms_mm"] = figure(single_view_all_rms_mm);
-  j["fused_rms_mm"] = figure(fused_rms_mm);
-  j["single_view_rms_mm"] = figure(single_view_rms_mm);
-  j["fused_overlap_rms_mm"] = figure(fused_overlap_rms_mm);
-  j["mesh_rms_mm"] = figure(mesh_rms_mm);
+  json j = FiguresJson();
+  j["status"] = ToString(status);
+  j["message"] = message;
+  j["calibration"] = calibration_source;
+  j["registration_status"] = registration_status;
+  j["overlap_points"] = overlap_points;
+  j["clusters"] = clusters;
+  j["mesh_watertight"] = mesh_watertight;
+  j["has_truth"] = has_truth;
+  j["registration"] = registration;
+  j["fusion"] = fusion;
+  j["mesh"] = meshing;
   if (calibration_rms_left_px > 0) {
     j["calibration_rms_left_px"] = calibration_rms_left_px;
     j["calibration_rms_right_px"] = calibration_rms_right_px;

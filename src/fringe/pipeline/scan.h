@@ -148,6 +148,11 @@ struct ScanSummary {
 
   bool partial() const { return status == ScanStatus::kPartial; }
   std::string BriefReport() const;
+  // The flat figures (counts, stage times, memory, registration and truth figures; truth ones
+  // null without truth): what fringe demo --json and bench_pipeline --json print.
+  nlohmann::json FiguresJson() const;
+  // FiguresJson plus status, message, the per-view results and the stages' summaries
+  // (summary.json).
   nlohmann::json ToJson() const;
 };
 

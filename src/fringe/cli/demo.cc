@@ -1,5 +1,5 @@
-// fringe demo: a simulated measurement of the built-in part and the VDI/VDE 2634-2 artefacts
-// with the reference rig, end to end (pipeline/demo.h).
+// fringe demo: the whole scanner on a simulated multi-view measurement of the built-in part with
+// markers, plus the VDI/VDE 2634-2 artefacts, against the truth (pipeline/demo.h).
 #include <CLI/CLI.hpp>
 #include <iostream>
 #include <memory>
@@ -18,9 +18,19 @@ void AddDemoCommand(CLI::App& app) {
   auto a = std::make_shared<Args>();
   CLI::App* sub = app.add_subcommand(
       "demo",
-      "Simulated scan of the built-in part and the VDI/VDE 2634-2 artefacts: simulate, "
-      "calibrate, reconstruct, evaluate against the truth");
+      "The whole scanner on a simulated scan of the built-in part with markers (views around "
+      "it) and the VDI/VDE 2634-2 artefacts: simulate, calibrate, reconstruct, register, fuse, "
+      "mesh, report, evaluate against the truth");
   sub->add_option("--out", a->out, "Output folder (replaced)")->capture_default_str();
+  sub->add_option("--views", a->options.views, "Sensor poses around the part")
+      ->capture_default_str();
+  sub->add_option("--rig-scale", a->options.rig_scale,
+                  "Camera/projector resolution relative to 1280x1024 (1: full size; the default "
+                  "half size keeps the demo short, see README)")
+      ->capture_default_str();
+  sub->add_option("--poisson-depth", a->options.scan.mesh.poisson_depth,
+                  "Poisson octree depth of the mesh")
+      ->capture_default_str();
   sub->add_option("--seed", a->options.seed, "Random seed")->capture_default_str();
   sub->add_option("--calibration-images", a->options.calibration_images,
                   "Board poses for calibration")
@@ -34,7 +44,8 @@ void AddDemoCommand(CLI::App& app) {
     if (a->json) {
       std::cout << s.ToJson().dump(2) << "\n";
     } else {
-      std::cout << s.Report() << "written to " << a->out << "/\n";
+      std::cout << s.Report() << "written to " << a->out << "/ (the scan's report: " << a->out
+                << "/scan/report.html)\n";
     }
   });
 }

@@ -31,9 +31,6 @@ namespace fs = std::filesystem;
 using nlohmann::json;
 using util::StrCat;
 
-// Deviation colour map range: the demo part's expected errors are tens of micrometres.
-constexpr double kDeviationRangeMm = 0.1;
-
 stereo::ViewReconstruction ReconstructScanView(const StereoRig& rig, const scan::ScanFolder& folder,
                                                const std::string& view) {
   const phase::PatternScheme scheme = folder.ReadScheme();
@@ -47,70 +44,78 @@ stereo::ViewReconstruction ReconstructScanView(const StereoRig& rig, const scan:
   return rec;
 }
 
-PointCloud Transformed(const PointCloud& cloud, const Rigid3d& b_from_a) {
-  PointCloud out = cloud;
-  for (auto& p : out.points) p = b_from_a * p;
-  for (auto& n : out.normals) n = b_from_a.RotateDirection(n);
-  return out;
+std::string Figure(double v, int digits) {
+  if (!std::isfinite(v)) return "-";
+  std::ostringstream os;
+  os << std::fixed << std::setprecision(digits) << v;
+  return os.str();
 }
 
 }  // namespace
 
 void DemoOptions::Check() const {
+  util::CheckOption(views >= 2 && views <= 64, "DemoOptions", "views", views,
+                    "must be in [2, 64] (registration needs several views)");
+  util::CheckOption(rig_scale > 0.25 && rig_scale <= 1, "DemoOptions", "rig_scale", rig_scale,
+                    "must be in (0.25, 1]: below half size the 5 mm markers are too small");
   util::CheckOption(calibration_images >= 6, "DemoOptions", "calibration_images",
                     calibration_images, "must be >= 6 (Zhang needs several board poses)");
   util::CheckOption(precompensate_gamma > 0 && precompensate_gamma <= 10, "DemoOptions",
                     "precompensate_gamma", precompensate_gamma, "must be in (0, 10]");
   phase::MakeScheme(scheme);  // throws for an unknown preset
+  scan.Check();
 }
 
 std::string DemoSummary::Report() const {
+  const ScanSummary& s = scan;
   std::ostringstream os;
   os << std::fixed;
-  os << "calibration (estimated from simulated board images, against the true rig)\n"
-     << std::setprecision(3) << "  RMS reprojection   left " << calibration_rms_left_px
+  os << "demo part: " << views << " views, " << image_width << " x " << image_height
+     << " px cameras (rig scale " << std::setprecision(2) << rig_scale << "), " << s.views_ok
+     << " measured, " << s.points << " points, " << s.fused_points << " fused points, mesh "
+     << s.mesh_triangles << " triangles\n";
+  os << "calibration (from simulated board images, against the true rig)\n"
+     << std::setprecision(3) << "  RMS reprojection      left " << calibration_rms_left_px
      << " px, right " << calibration_rms_right_px << " px\n"
-     << std::setprecision(4) << "  focal length error " << focal_error_pct << " %\n"
-     << "  baseline error     " << baseline_error_mm << " mm\n";
-  os << "demo part (view 000, against the truth mesh)\n"
-     << "  points             " << part_points << ", coverage " << std::setprecision(1)
-     << 100.0 * part_coverage << " %\n"
-     << std::setprecision(4) << "  deviation          mean " << part_mean_mm << " mm, RMS "
-     << part_rms_mm << " mm, 95 % " << part_p95_mm << " mm, max " << part_max_mm << " mm\n";
+     << std::setprecision(4) << "  focal length error    " << focal_error_pct << " %\n"
+     << "  baseline error        " << baseline_error_mm << " mm\n";
+  os << "registration and fusion (against the truth)\n"
+     << "  pose error (max)      " << Figure(s.pose_rot_err_deg, 4) << " deg, "
+     << Figure(s.pose_trans_err_mm, 4) << " mm\n"
+     << "  single-view RMS       " << Figure(s.single_view_rms_mm, 4)
+     << " mm (overlaps; all points " << Figure(s.single_view_all_rms_mm, 4) << " mm)\n"
+     << "  fused RMS             " << Figure(s.fused_rms_mm, 4) << " mm (merged points "
+     << Figure(s.fused_overlap_rms_mm, 4) << " mm)\n"
+     << "  mesh RMS              " << Figure(s.mesh_rms_mm, 4) << " mm\n";
   os << "VDI/VDE 2634-2 artefacts\n";
   auto fig = [&](const char* name, bool ok, double v) {
-    os << "  " << name;
-    if (ok) {
-      os << std::setprecision(4) << v << " mm\n";
-    } else {
-      os << "not measured\n";
-    }
+    os << "  " << name << (ok ? Figure(v, 4) + " mm\n" : std::string("not measured\n"));
   };
-  fig("PF (sphere form)   ", sphere_ok, PF_mm);
-  fig("PS (sphere size)   ", sphere_ok, PS_mm);
-  fig("SD (ball bar)      ", ballbar_ok, SD_mm);
-  fig("F  (flatness)      ", plane_ok, F_mm);
-  os << std::setprecision(1) << "time: simulate " << seconds_simulate << " s, calibrate "
-     << seconds_calibrate << " s, reconstruct " << seconds_reconstruct << " s, evaluate "
-     << seconds_evaluate << " s\n";
+  fig("PF (sphere form)      ", sphere_ok, PF_mm);
+  fig("PS (sphere size)      ", sphere_ok, PS_mm);
+  fig("SD (ball bar)         ", ballbar_ok, SD_mm);
+  fig("F  (flatness)         ", plane_ok, F_mm);
+  os << std::setprecision(1) << "time, s: simulate " << simulate_s << ", calibrate "
+     << s.calibrate_s << ", scan " << s.total_s << " (views " << s.views_s << ", register "
+     << s.register_s << ", fuse " << s.fuse_s << ", mesh " << s.mesh_s << ", report " << s.report_s
+     << "), truth comparison " << s.evaluate_s << ", VDI artefacts " << vdi_s << "; whole demo "
+     << total_s << "\n";
   return os.str();
 }
 
 json DemoSummary::ToJson() const {
-  json j{{"calibration_rms_left_px", calibration_rms_left_px},
-         {"calibration_rms_right_px", calibration_rms_right_px},
-         {"focal_error_pct", focal_error_pct},
-         {"baseline_error_mm", baseline_error_mm},
-         {"part_points", part_points},
-         {"part_coverage", part_coverage},
-         {"part_mean_mm", part_mean_mm},
-         {"part_rms_mm", part_rms_mm},
-         {"part_p95_mm", part_p95_mm},
-         {"part_max_mm", part_max_mm},
-         {"seconds_simulate", seconds_simulate},
-         {"seconds_calibrate", seconds_calibrate},
-         {"seconds_reconstruct", seconds_reconstruct},
-         {"seconds_evaluate", seconds_evaluate}};
+  json j = scan.FiguresJson();
+  j["views"] = views;
+  j["rig_scale"] = rig_scale;
+  j["image_width"] = image_width;
+  j["image_height"] = image_height;
+  j["simulate_s"] = simulate_s;
+  j["vdi_s"] = vdi_s;
+  j["demo_s"] = total_s;
+  j["calibration_rms_left_px"] = calibration_rms_left_px;
+  j["calibration_rms_right_px"] = calibration_rms_right_px;
+  j["focal_error_pct"] = focal_error_pct;
+  j["baseline_error_mm"] = baseline_error_mm;
   j["PF_mm"] = sphere_ok ? json(PF_mm) : json(nullptr);
   j["PS_mm"] = sphere_ok ? json(PS_mm) : json(nullptr);
   j["SD_mm"] = ballbar_ok ? json(SD_mm) : json(nullptr);
@@ -121,7 +126,11 @@ json DemoSummary::ToJson() const {
 DemoSummary RunDemo(const DemoOptions& options, const fs::path& out_dir) {
   options.Check();
   DemoSummary s;
-  const StereoRig true_rig = StereoRig::Reference();
+  const StereoRig true_rig = sim::ScaledRig(StereoRig::Reference(), options.rig_scale);
+  s.views = options.views;
+  s.rig_scale = options.rig_scale;
+  s.image_width = true_rig.left.width;
+  s.image_height = true_rig.left.height;
   // A demo folder written before output folders carried the marker is recognised by its layout,
   // so that re-running the README's demo command replaces it.
   util::OutputFolderOptions output;
@@ -129,99 +138,49 @@ DemoSummary RunDemo(const DemoOptions& options, const fs::path& out_dir) {
     return fs::is_directory(d / "scan-demo") && fs::is_directory(d / "scan-vdi") &&
            fs::exists(d / "calibration.json");
   };
+  util::Timer demo_timer;
   util::WriteFolderAtomically(out_dir, output, [&](const fs::path& dir) {
     // 1. Simulate.
     util::Timer timer;
     sim::ScanOptions demo_scan;
     demo_scan.scene = "demo";
-    demo_scan.views = 1;
+    demo_scan.views = options.views;
     demo_scan.seed = options.seed;
     demo_scan.scheme = options.scheme;
     demo_scan.precompensate_gamma = options.precompensate_gamma;
     demo_scan.calibration_images = options.calibration_images;
-    util::LogInfo("simulating the demo part and " + std::to_string(options.calibration_images) +
-                  " calibration board poses");
+    demo_scan.truth_maps = false;  // the scan compares with the truth mesh and poses
+    util::LogInfo(StrCat("simulating ", options.views, " views of the demo part and ",
+                         options.calibration_images, " calibration board poses"));
     sim::SimulateScan(true_rig, demo_scan, dir / "scan-demo");
     sim::ScanOptions vdi = demo_scan;
     vdi.scene = "vdi";
+    vdi.views = 1;
     vdi.calibration_images = 0;
     util::LogInfo("simulating the VDI/VDE 2634-2 artefacts");
     sim::SimulateScan(true_rig, vdi, dir / "scan-vdi");
-    s.seconds_simulate = timer.ElapsedSeconds();
+    s.simulate_s = timer.ElapsedSeconds();
 
-    // 2. Calibrate from the board images.
-    timer.Restart();
-    util::LogInfo("calibrating from the board images");
-    const scan::ScanFolder scan_demo = scan::ScanFolder::Open(dir / "scan-demo");
-    const scan::ScanFolder scan_vdi = scan::ScanFolder::Open(dir / "scan-vdi");
-    const calib::FolderCalibration cal =
-        calib::CalibrateFolder(scan_demo.layout().CalibrationDir(), scan_demo.ReadTarget());
-    if (!cal.success()) {
-      throw Error(StrCat("demo: calibration failed: ", cal.pair.summary.message));
-    }
-    calib::WriteFolderCalibration(dir / "calibration.json", cal);
-    io::WriteImage(dir / "calibration_residuals_left.png", calib::ResidualImage(cal.pair.left));
-    s.calibration_rms_left_px = cal.pair.left.summary.final_rms_px;
-    s.calibration_rms_right_px = cal.pair.right.summary.final_rms_px;
-    const StereoRig& est = cal.pair.rig;
+    // 2. The scanner on the demo part: it calibrates from the board images itself.
+    ScanOptions scan_options = options.scan;
+    if (options.use_true_calibration) scan_options.calib = dir / "scan-demo" / "truth" / "rig.json";
+    s.scan = RunScan(dir / "scan-demo", dir / "scan", scan_options);
+    const StereoRig est = io::ReadRig(dir / "scan" / "rig.json");
+    s.calibration_rms_left_px = s.scan.calibration_rms_left_px;
+    s.calibration_rms_right_px = s.scan.calibration_rms_right_px;
     for (const auto& [e, t] :
          {std::make_pair(est.left, true_rig.left), std::make_pair(est.right, true_rig.right)}) {
       s.focal_error_pct = std::max({s.focal_error_pct, 100 * std::abs(e.fx - t.fx) / t.fx,
                                     100 * std::abs(e.fy - t.fy) / t.fy});
     }
     s.baseline_error_mm = std::abs(est.BaselineMm() - true_rig.BaselineMm());
-    s.seconds_calibrate = timer.ElapsedSeconds();
-    const StereoRig& rig = options.use_true_calibration ? true_rig : est;
 
-    // 3. Reconstruct.
+    // 3. The VDI/VDE 2634-2 artefacts, measured with the same (calibrated) rig.
     timer.Restart();
-    util::LogInfo("reconstructing the demo part and the artefacts");
-    const stereo::ViewReconstruction part = ReconstructScanView(rig, scan_demo, "000");
-    io::WritePly(dir / "demo_part.ply", part.cloud);
-    const stereo::ViewReconstruction artefacts = ReconstructScanView(rig, scan_vdi, "000");
+    util::LogInfo("measuring the VDI/VDE 2634-2 artefacts");
+    const scan::ScanFolder scan_vdi = scan::ScanFolder::Open(dir / "scan-vdi");
+    const stereo::ViewReconstruction artefacts = ReconstructScanView(est, scan_vdi, "000");
     io::WritePly(dir / "vdi_artefacts.ply", artefacts.cloud);
-    s.seconds_reconstruct = timer.ElapsedSeconds();
-
-    // 4. Evaluate against the truth.
-    timer.Restart();
-    util::LogInfo("evaluating against the truth");
-    {
-      const Rigid3d world_from_sensor =
-          scan_demo.ReadTruthPoses().Find("000")->world_from_sensor;  // checked by ReadTruthPoses
-      const eval::MeshDistance distance(scan_demo.ReadTruthMesh());
-      // Distances on the grid, for the picture.
-      PointCloud grid_world = Transformed(part.cloud.cloud, world_from_sensor);
-      std::vector<double> d_grid(part.cloud.valid.size(), std::numeric_limits<double>::quiet_NaN());
-      PointCloud measured;
-      std::vector<size_t> slot;
-      for (size_t i = 0; i < part.cloud.valid.size(); ++i) {
-        if (!part.cloud.valid[i]) continue;
-        measured.points.push_back(grid_world.points[i]);
-        slot.push_back(i);
-      }
-      std::vector<double> d;
-      const eval::DeviationStats dev = eval::DeviationFromMesh(measured, distance, {}, &d);
-      for (size_t k = 0; k < slot.size(); ++k) d_grid[slot[k]] = d[k];
-      io::WriteImage(
-          dir / "demo_part_deviation.png",
-          eval::DeviationColorMap(part.cloud.width, part.cloud.height, d_grid, kDeviationRangeMm));
-      s.part_points = static_cast<int>(measured.size());
-      s.part_mean_mm = dev.mean_mm;
-      s.part_rms_mm = dev.rms_mm;
-      s.part_p95_mm = dev.p95_mm;
-      s.part_max_mm = dev.max_mm;
-      const cv::Mat valid =
-          io::ReadGrayImage(scan_demo.layout().TruthMaps("000", scan::Camera::kLeft) / "valid.png");
-      size_t seen = 0, measured_seen = 0;
-      for (int r = 0; r < valid.rows; ++r) {
-        for (int c = 0; c < valid.cols; ++c) {
-          if (!valid.at<uint8_t>(r, c)) continue;
-          ++seen;
-          measured_seen += part.cloud.valid[part.cloud.index(c, r)] != 0;
-        }
-      }
-      s.part_coverage = seen ? double(measured_seen) / seen : 0.0;
-    }
     {
       const scan::TruthScene truth = scan_vdi.ReadTruthScene();
       auto sphere = [&](const char* name) -> const scan::TruthSphere* {
@@ -247,7 +206,8 @@ DemoSummary RunDemo(const DemoOptions& options, const fs::path& out_dir) {
       s.plane_ok = plane.ok();
       s.F_mm = plane.F_mm;
     }
-    s.seconds_evaluate = timer.ElapsedSeconds();
+    s.vdi_s = timer.ElapsedSeconds();
+    s.total_s = demo_timer.ElapsedSeconds();
     io::WriteJson(dir / "report.json", s.ToJson());
     std::ofstream(dir / "report.txt") << s.Report();
   });

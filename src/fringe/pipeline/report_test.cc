@@ -8,6 +8,7 @@
 
 #include "fringe/pipeline/report_test_util.h"
 #include "fringe/sim/scene.h"
+#include "fringe/util/error.h"
 #include "fringe/util/files.h"
 #include "fringe_test.h"
 
@@ -56,6 +57,42 @@ TEST(Report, RenderedBoxFillsItsSilhouette) {
   EXPECT_NEAR(cv::countNonZero(img), expected_px, 0.05 * expected_px);
   EXPECT_EQ(img.at<uint8_t>(0, 0), 0);       // background
   EXPECT_GT(img.at<uint8_t>(100, 100), 40);  // the lit face
+}
+
+TEST(Report, ColouredRenderingFollowsTheVertexValues) {
+  // A square in the plane z = 0 seen from above, its value rising with x: the left of the
+  // picture is blue (low), the right red (high); a colour bar is appended below.
+  TriangleMesh square;
+  square.vertices = {{-10, -10, 0}, {10, -10, 0}, {10, 10, 0}, {-10, 10, 0}};
+  square.triangles = {{0, 1, 2}, {0, 2, 3}};
+  const std::vector<double> values = {-1, 1, 1, -1};
+  const cv::Mat img =
+      RenderMeshColoured(square, values, -1, 1, "mm", Eigen::Vector3d(0, 0, -1), 200, 200);
+  ASSERT_EQ(img.type(), CV_8UC3);
+  EXPECT_GT(img.rows, 200);  // the bar
+  const cv::Vec3b left = img.at<cv::Vec3b>(100, 40), right = img.at<cv::Vec3b>(100, 160);
+  EXPECT_GT(left[0], left[2]);                             // blue-ish (BGR)
+  EXPECT_GT(right[2], right[0]);                           // red-ish
+  EXPECT_EQ(img.at<cv::Vec3b>(2, 2), cv::Vec3b(0, 0, 0));  // background
+  EXPECT_THROW(RenderMeshColoured(square, {1, 2}, -1, 1, "mm", Eigen::Vector3d(0, 0, -1)), Error);
+}
+
+TEST(Report, HistogramBarsFollowTheCounts) {
+  // 90 values in the left half, 10 in the right: the left bar is far taller.
+  std::vector<double> v(90, -0.5);
+  v.insert(v.end(), 10, 0.5);
+  const cv::Mat img = HistogramImage(v, -1, 1, 2, "mm", {}, 200, 200);
+  auto bar_height = [&](int col) {
+    int n = 0;
+    for (int r = 0; r < img.rows; ++r) {
+      const cv::Vec3b p = img.at<cv::Vec3b>(r, col);
+      n += p == cv::Vec3b(180, 110, 40);
+    }
+    return n;
+  };
+  const int left = bar_height(50), right = bar_height(150);
+  EXPECT_GT(left, 0);
+  EXPECT_NEAR(double(right) / left, 10.0 / 90.0, 0.03);
 }
 
 TEST(Report, HtmlIsSelfContainedAndEveryImageDecodes) {

@@ -57,6 +57,9 @@ struct Calibration {
 
 constexpr int kPictureWidthPx = 480;
 
+// Truth figures are NaN without truth (a real scan): null in JSON.
+json figure(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
+
 std::string Fixed(double v, int digits) {
   std::ostringstream os;
   os << std::fixed << std::setprecision(digits) << v;
@@ -103,7 +106,8 @@ Calibration ResolveCalibration(const scan::ScanFolder& folder, const ScanOptions
         StrCat("scan: ", cal_dir.string(), ": calibration failed: ", cal.pair.summary.message));
   }
   c.rig = cal.pair.rig;
-  c.source = StrCat(cal_dir.string(), " (", cal.names.size(), " board pairs)");
+  // Relative to the scan folder: the report and summary stay the same wherever it lies.
+  c.source = StrCat("calibration/ of the scan folder (", cal.names.size(), " board pairs)");
   c.folder = std::move(cal);
   return c;
 }
@@ -500,8 +504,8 @@ void EvaluateAgainstTruth(const scan::ScanFolder& folder, Model* m, ScanSummary*
       }
     }
   }
-  s->single_view_rms_mm = Rms(single_all);
-  s->single_view_overlap_rms_mm = Rms(single_overlap);
+  s->single_view_all_rms_mm = Rms(single_all);
+  s->single_view_rms_mm = Rms(single_overlap);
   // Fused cloud and mesh, moved into the truth's world by the gauge.
   {
     PointCloud sample;
@@ -595,15 +599,19 @@ ReportSection RegistrationSection(const ScanSummary& s, const Model& m) {
                            std::to_string(l.correspondences), l.converged ? "yes" : "no"});
   }
   sec.tables.push_back(levels);
-  const double lim = m.residual_threshold_mm;
+  // Histogram range: five times the larger RMS, so that the shape (not the search radius) fills
+  // the picture; residuals beyond it are counted in the end bins.
+  const double lim = std::min(
+      m.residual_threshold_mm,
+      std::max(0.02, 5 * std::max(Rms(m.residuals_adjusted_mm), Rms(m.residuals_final_mm))));
   if (!m.residuals_final_mm.empty() || !m.residuals_adjusted_mm.empty()) {
-    sec.paragraphs.push_back(
-        StrCat("Point-to-plane residuals between overlapping views (", Fixed(lim, 3),
-               " mm search radius = ICP's first threshold; the per-level RMS above is ICP's own "
-               "figure, the registration module does not hand out per-level residual sets): "
-               "RMS ",
-               Fixed(Rms(m.residuals_adjusted_mm), 4), " mm at the marker-adjusted poses, ",
-               Fixed(Rms(m.residuals_final_mm), 4), " mm after ICP."));
+    sec.paragraphs.push_back(StrCat(
+        "Point-to-plane residuals between overlapping views (", Fixed(m.residual_threshold_mm, 3),
+        " mm search radius = ICP's first threshold; the per-level RMS above is ICP's own "
+        "figure, the registration module does not hand out per-level residual sets): "
+        "RMS ",
+        Fixed(Rms(m.residuals_adjusted_mm), 4), " mm at the marker-adjusted poses, ",
+        Fixed(Rms(m.residuals_final_mm), 4), " mm after ICP."));
     sec.images.push_back(
         {"residuals at the marker-adjusted poses (before ICP), mm",
          HistogramImage(m.residuals_adjusted_mm, -lim, lim, 60, "point-to-plane residual, mm")});
@@ -652,8 +660,8 @@ ReportSection ModelSection(const ScanSummary& s, const Model& m) {
     ReportTable t;
     t.caption = "Against the truth (simulated scan; fused cloud and mesh placed by the gauge)";
     t.header = {"figure", "mm"};
-    t.rows = {{"single-view RMS (true poses, all points)", Fixed(s.single_view_rms_mm, 4)},
-              {"single-view RMS in the overlaps", Fixed(s.single_view_overlap_rms_mm, 4)},
+    t.rows = {{"single-view RMS in the overlaps (true poses)", Fixed(s.single_view_rms_mm, 4)},
+              {"single-view RMS, all points (true poses)", Fixed(s.single_view_all_rms_mm, 4)},
               {"fused RMS (all points)", Fixed(s.fused_rms_mm, 4)},
               {"fused RMS (points merged from 2+ views)", Fixed(s.fused_overlap_rms_mm, 4)},
               {"mesh vertices RMS", Fixed(s.mesh_rms_mm, 4)},
@@ -693,8 +701,8 @@ Report BuildReport(const fs::path& project, const ScanSummary& s, const Calibrat
              {"register", s.register_s},
              {"fuse", s.fuse_s},
              {"mesh", s.mesh_s},
-             {"report", s.report_s},
-             {"total (wall, without calibration)", s.total_s},
+             {"total (wall, without calibration; the report's own time is in summary.json)",
+              s.total_s},
              {"truth comparison (not in the total)", s.evaluate_s}}) {
       t.rows.push_back({name, Fixed(value, 3)});
     }
@@ -713,7 +721,8 @@ Report BuildReport(const fs::path& project, const ScanSummary& s, const Calibrat
     if (s.has_truth) {
       m.rows.push_back({"pose error (max over views)", Fixed(s.pose_rot_err_deg, 4) + " deg, " +
                                                            Fixed(s.pose_trans_err_mm, 4) + " mm"});
-      m.rows.push_back({"single-view RMS vs truth", Fixed(s.single_view_rms_mm, 4) + " mm"});
+      m.rows.push_back(
+          {"single-view RMS vs truth (overlaps)", Fixed(s.single_view_rms_mm, 4) + " mm"});
       m.rows.push_back({"fused RMS vs truth", Fixed(s.fused_rms_mm, 4) + " mm"});
       m.rows.push_back({"mesh RMS vs truth", Fixed(s.mesh_rms_mm, 4) + " mm"});
     }
@@ -726,6 +735,9 @@ Report BuildReport(const fs::path& project, const ScanSummary& s, const Calibrat
     }
     r.sections.push_back(std::move(sec));
   }
+  // The model and its registration first: what people look at; the per-view pictures last.
+  r.sections.push_back(ModelSection(s, model));
+  r.sections.push_back(RegistrationSection(s, model));
   {
     ReportSection sec;
     sec.title = "Calibration";
@@ -760,8 +772,6 @@ Report BuildReport(const fs::path& project, const ScanSummary& s, const Calibrat
     }
     r.sections.push_back(std::move(sec));
   }
-  r.sections.push_back(RegistrationSection(s, model));
-  r.sections.push_back(ModelSection(s, model));
   return r;
 }
 
@@ -803,55 +813,58 @@ std::string ScanSummary::BriefReport() const {
       mesh_triangles, " triangles, peak memory ", Fixed(peak_mem_gib, 2), " GiB");
   if (has_truth) {
     s += StrCat("; against the truth: pose error max ", Fixed(pose_rot_err_deg, 4), " deg / ",
-                Fixed(pose_trans_err_mm, 4), " mm, single-view RMS ", Fixed(single_view_rms_mm, 4),
-                " mm, fused RMS ", Fixed(fused_rms_mm, 4), " mm");
+                Fixed(pose_trans_err_mm, 4), " mm, single-view RMS in the overlaps ",
+                Fixed(single_view_rms_mm, 4), " mm, fused RMS ", Fixed(fused_rms_mm, 4),
+                " mm (merged points ", Fixed(fused_overlap_rms_mm, 4), " mm)");
   }
   if (!message.empty()) s += ": " + message;
   return s;
 }
 
+json ScanSummary::FiguresJson() const {
+  return {{"views", views.size()},
+          {"views_ok", views_ok},
+          {"points", points},
+          {"fused_points", fused_points},
+          {"mesh_vertices", mesh_vertices},
+          {"mesh_triangles", mesh_triangles},
+          {"calibrate_s", calibrate_s},
+          {"read_s", read_s},
+          {"decode_s", decode_s},
+          {"reconstruct_s", reconstruct_s},
+          {"markers_s", markers_s},
+          {"views_s", views_s},
+          {"register_s", register_s},
+          {"fuse_s", fuse_s},
+          {"mesh_s", mesh_s},
+          {"report_s", report_s},
+          {"total_s", total_s},
+          {"evaluate_s", evaluate_s},
+          {"peak_mem_gib", peak_mem_gib},
+          {"marker_adjusted_rms_mm", marker_adjusted_rms_mm},
+          {"icp_rms_mm", icp_rms_mm},
+          {"pose_rot_err_deg", figure(pose_rot_err_deg)},
+          {"pose_trans_err_mm", figure(pose_trans_err_mm)},
+          {"fused_rms_mm", figure(fused_rms_mm)},
+          {"single_view_rms_mm", figure(single_view_rms_mm)},
+          {"fused_overlap_rms_mm", figure(fused_overlap_rms_mm)},
+          {"single_view_all_rms_mm", figure(single_view_all_rms_mm)},
+          {"mesh_rms_mm", figure(mesh_rms_mm)}};
+}
+
 json ScanSummary::ToJson() const {
-  json j{{"status", ToString(status)},
-         {"message", message},
-         {"calibration", calibration_source},
-         {"views", views.size()},
-         {"views_ok", views_ok},
-         {"points", points},
-         {"calibrate_s", calibrate_s},
-         {"read_s", read_s},
-         {"decode_s", decode_s},
-         {"reconstruct_s", reconstruct_s},
-         {"markers_s", markers_s},
-         {"views_s", views_s},
-         {"register_s", register_s},
-         {"fuse_s", fuse_s},
-         {"mesh_s", mesh_s},
-         {"report_s", report_s},
-         {"total_s", total_s},
-         {"evaluate_s", evaluate_s},
-         {"peak_mem_gib", peak_mem_gib},
-         {"registration_status", registration_status},
-         {"marker_adjusted_rms_mm", marker_adjusted_rms_mm},
-         {"icp_rms_mm", icp_rms_mm},
-         {"fused_points", fused_points},
-         {"overlap_points", overlap_points},
-         {"clusters", clusters},
-         {"mesh_vertices", mesh_vertices},
-         {"mesh_triangles", mesh_triangles},
-         {"mesh_watertight", mesh_watertight},
-         {"has_truth", has_truth},
-         {"registration", registration},
-         {"fusion", fusion},
-         {"mesh", meshing}};
-  // Truth figures: null without truth (a real scan).
-  auto figure = [](double v) { return std::isfinite(v) ? json(v) : json(nullptr); };
-  j["pose_rot_err_deg"] = figure(pose_rot_err_deg);
-  j["pose_trans_err_mm"] = figure(pose_trans_err_mm);
-  j["single_view_rms_mm"] = figure(single_view_rms_mm);
-  j["fused_rms_mm"] = figure(fused_rms_mm);
-  j["single_view_overlap_rms_mm"] = figure(single_view_overlap_rms_mm);
-  j["fused_overlap_rms_mm"] = figure(fused_overlap_rms_mm);
-  j["mesh_rms_mm"] = figure(mesh_rms_mm);
+  json j = FiguresJson();
+  j["status"] = ToString(status);
+  j["message"] = message;
+  j["calibration"] = calibration_source;
+  j["registration_status"] = registration_status;
+  j["overlap_points"] = overlap_points;
+  j["clusters"] = clusters;
+  j["mesh_watertight"] = mesh_watertight;
+  j["has_truth"] = has_truth;
+  j["registration"] = registration;
+  j["fusion"] = fusion;
+  j["mesh"] = meshing;
   if (calibration_rms_left_px > 0) {
     j["calibration_rms_left_px"] = calibration_rms_left_px;
     j["calibration_rms_right_px"] = calibration_rms_right_px;

@@ -290,6 +290,7 @@ Pass it as `poses` to fringe.fuse.)doc")
         if (!initial.is_none() && py::len(initial) != n) {
           throw py::value_error("initial: expected one pose (or None) per view");
         }
+        const bool read_marker_files = markers.is_none();
         std::vector<registration::RegistrationView> in(n);
         for (size_t i = 0; i < n; ++i) {
           const py::object item = views[i];
@@ -298,7 +299,7 @@ Pass it as `poses` to fringe.fuse.)doc")
             std::string note;
             const fs::path path = item.cast<fs::path>();
             py::gil_scoped_release release;
-            v = registration::ReadRegistrationView(path, scale_to_mm, markers.is_none(), &note);
+            v = registration::ReadRegistrationView(path, scale_to_mm, read_marker_files, &note);
           } else if (py::isinstance<stereo::ViewReconstruction>(item)) {
             v.cloud = item.cast<const stereo::ViewReconstruction&>().cloud.Compact();
           } else if (py::isinstance<PointCloud>(item)) {

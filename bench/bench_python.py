@@ -26,13 +26,16 @@ def main():
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.add_argument("--repeats", type=int, default=7, help="timed calls (after one warm-up)")
     parser.add_argument("--rig-scale", type=float, default=1.0, help="camera resolution scale")
+    parser.add_argument("--noise-sigma", type=float, default=fringe.SensorOptions().read_noise_dn,
+                        help="camera noise given to the decoder, DN (default: the simulator's read "
+                             "noise; 0 = estimate from the images)")
     args = parser.parse_args()
 
     rig = fringe.Rig.reference().scaled(args.rig_scale) if args.rig_scale != 1 else fringe.Rig.reference()
     sim = fringe.Simulator(rig, scene="demo", views=1, calibration_images=0, seed=1)
     view = sim.render_view(0)
     left, right = view.left, view.right
-    reconstructor = fringe.Reconstructor(rig, sim.scheme)
+    reconstructor = fringe.Reconstructor(rig, sim.scheme, decode={"noise_sigma_dn": args.noise_sigma})
     reconstructor.reconstruct(left, right)  # warm-up (TBB threads, page faults)
 
     python_s, cpp_s, points = [], [], 0
@@ -52,6 +55,7 @@ def main():
         "image_size": [rig.left.width, rig.left.height],
         "images_per_camera": len(left),
         "points": points,
+        "noise_sigma_dn": args.noise_sigma,
         "repeats": args.repeats,
         "python_s_median": py_med,
         "cpp_s_median": cpp_med,

@@ -32,26 +32,20 @@ void BindCalib(py::module_& m) {
       .value("huber", calib::RobustLoss::kHuber)
       .value("cauchy", calib::RobustLoss::kCauchy);
   py::class_<calib::EdgeOptions>(m, "EdgeOptions", "Subpixel edge search of the target detector.")
-      .def(py::init([](py::kwargs kw) {
-        return MakeOptions<calib::EdgeOptions>(py::none(), kw, "EdgeOptions");
-      }))
+      .def(OptionsInit<calib::EdgeOptions>("EdgeOptions"))
       .def_readwrite("smoothing_sigma_px", &calib::EdgeOptions::smoothing_sigma_px)
       .def_readwrite("search_half_width_px", &calib::EdgeOptions::search_half_width_px)
       .def_readwrite("min_gradient", &calib::EdgeOptions::min_gradient)
       .def_readwrite("max_angle_deg", &calib::EdgeOptions::max_angle_deg);
   py::class_<calib::EllipseFitOptions>(m, "EllipseFitOptions")
-      .def(py::init([](py::kwargs kw) {
-        return MakeOptions<calib::EllipseFitOptions>(py::none(), kw, "EllipseFitOptions");
-      }))
+      .def(OptionsInit<calib::EllipseFitOptions>("EllipseFitOptions"))
       .def_readwrite("max_iterations", &calib::EllipseFitOptions::max_iterations)
       .def_readwrite("outlier_sigma", &calib::EllipseFitOptions::outlier_sigma)
       .def_readwrite("min_outlier_dist", &calib::EllipseFitOptions::min_outlier_dist)
       .def_readwrite("outlier_rounds", &calib::EllipseFitOptions::outlier_rounds);
   py::class_<calib::DetectionOptions>(m, "DetectionOptions",
                                       "Options of the calibration target / ring detector.")
-      .def(py::init([](py::kwargs kw) {
-        return MakeOptions<calib::DetectionOptions>(py::none(), kw, "DetectionOptions");
-      }))
+      .def(OptionsInit<calib::DetectionOptions>("DetectionOptions"))
       .def_readwrite("edges", &calib::DetectionOptions::edges)
       .def_readwrite("ellipse_fit", &calib::DetectionOptions::ellipse_fit)
       .def_readwrite("min_radius_px", &calib::DetectionOptions::min_radius_px)
@@ -68,9 +62,7 @@ void BindCalib(py::module_& m) {
 
   py::class_<calib::CalibrationOptions>(m, "CalibrationOptions",
                                         "Options of fringe.calibrate (C++ defaults).")
-      .def(py::init([](py::kwargs kw) {
-        return MakeOptions<calib::CalibrationOptions>(py::none(), kw, "CalibrationOptions");
-      }))
+      .def(OptionsInit<calib::CalibrationOptions>("CalibrationOptions"))
       .def_readwrite("estimate_k3", &calib::CalibrationOptions::estimate_k3)
       .def_readwrite("estimate_tangential", &calib::CalibrationOptions::estimate_tangential)
       .def_readwrite("max_iterations", &calib::CalibrationOptions::max_iterations)

@@ -76,6 +76,12 @@ py::object ArrayFromMat(const cv::Mat& mat) {
   return py::array(DtypeOfDepth(keep->depth()), shape, strides, keep->data, owner);
 }
 
+py::list ArraysFromMats(const std::vector<cv::Mat>& images) {
+  py::list out;
+  for (const auto& image : images) out.append(ArrayFromMat(image));
+  return out;
+}
+
 ImageStack ImagesFromPython(const py::handle& images, const std::string& what) {
   ImageStack stack;
   if (py::isinstance<py::array>(images) && py::reinterpret_borrow<py::array>(images).ndim() == 3) {

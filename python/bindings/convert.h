@@ -79,4 +79,14 @@ Options MakeOptions(const py::object& base, const py::kwargs& kwargs, const char
   return result;
 }
 
+// The constructor of a bound options type: Options(**fields), C++ defaults for the rest.
+template <typename Options>
+auto OptionsInit(const char* name) {
+  return py::init(
+      [name](const py::kwargs& kw) { return MakeOptions<Options>(py::none(), kw, name); });
+}
+
+// Images as a list of numpy arrays sharing their buffers.
+py::list ArraysFromMats(const std::vector<cv::Mat>& images);
+
 }  // namespace fringe::python

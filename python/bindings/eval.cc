@@ -33,9 +33,7 @@ PointCloud CloudOf(const py::handle& points) {
 
 void BindEval(py::module_& m) {
   py::class_<eval::VdiOptions>(m, "VdiOptions", "Options of fringe.evaluate.* (C++ defaults).")
-      .def(py::init([](py::kwargs kw) {
-        return MakeOptions<eval::VdiOptions>(py::none(), kw, "VdiOptions");
-      }))
+      .def(OptionsInit<eval::VdiOptions>("VdiOptions"))
       .def_readwrite("discard_fraction", &eval::VdiOptions::discard_fraction)
       .def_readwrite("inlier_band_mm", &eval::VdiOptions::inlier_band_mm)
       .def_readwrite("ransac_iterations", &eval::VdiOptions::ransac_iterations)

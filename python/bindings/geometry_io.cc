@@ -11,6 +11,7 @@
 #include "fringe/io/calibration_io.h"
 #include "fringe/io/image_io.h"
 #include "fringe/io/mesh_io.h"
+#include "fringe/io/opencv_calibration.h"
 #include "fringe/io/ply.h"
 #include "fringe/util/error.h"
 
@@ -259,11 +260,22 @@ is the left camera frame; transforms are 4x4 matrices b_from_a, millimetres.)doc
           py::arg("path"), "Writes the rig JSON file atomically.")
       .def_static(
           "from_opencv",
-          [](const std::filesystem::path& intrinsics, const std::filesystem::path& extrinsics,
-             int width,
-             int height) { return io::ImportOpenCvStereo(intrinsics, extrinsics, width, height); },
-          py::arg("intrinsics"), py::arg("extrinsics"), py::arg("width"), py::arg("height"),
-          "Imports OpenCV stereo calibration files (M1 D1 M2 D2; R T in millimetres).")
+          [](const py::object& files, int width, int height) {
+            std::vector<std::filesystem::path> paths;
+            if (py::isinstance<py::str>(files) ||
+                py::isinstance(files, py::module_::import("os").attr("PathLike"))) {
+              paths.push_back(files.cast<std::filesystem::path>());
+            } else {
+              paths = files.cast<std::vector<std::filesystem::path>>();
+            }
+            if (paths.empty()) throw py::value_error("from_opencv: no files");
+            py::gil_scoped_release release;
+            return io::ReadOpenCvCalibration(paths, width, height).ToRig(paths[0].string());
+          },
+          py::arg("files"), py::arg("width") = 0, py::arg("height") = 0,
+          "The rig of OpenCV calibration files (YAML/XML; one path or a list, e.g. stereo_calib's\n"
+          "intrinsics and extrinsics), as `fringe convert-calib`; width/height when the files do\n"
+          "not store the image size.")
       .def(
           "to_dict", [](const StereoRig& r) { return FromJson(io::RigToJson(r)); },
           "The rig JSON of docs/formats.md as a dict.")

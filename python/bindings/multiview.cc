@@ -85,10 +85,7 @@ void BindMultiView(py::module_& m) {
   // ---- Sticky markers ----
   py::class_<registration::MarkerDetectionOptions>(m, "MarkerDetectionOptions",
                                                    "Options of fringe.detect_markers.")
-      .def(py::init([](py::kwargs kw) {
-        return MakeOptions<registration::MarkerDetectionOptions>(py::none(), kw,
-                                                                 "MarkerDetectionOptions");
-      }))
+      .def(OptionsInit<registration::MarkerDetectionOptions>("MarkerDetectionOptions"))
       .def_readwrite("rings", &registration::MarkerDetectionOptions::rings)
       .def_readwrite("inner_to_outer_ratio",
                      &registration::MarkerDetectionOptions::inner_to_outer_ratio)
@@ -158,9 +155,7 @@ uncertainty), depth_difference_mm.)doc")
 
   // ---- Registration ----
   py::class_<registration::MarkerMatchOptions>(m, "MarkerMatchOptions")
-      .def(py::init([](py::kwargs kw) {
-        return MakeOptions<registration::MarkerMatchOptions>(py::none(), kw, "MarkerMatchOptions");
-      }))
+      .def(OptionsInit<registration::MarkerMatchOptions>("MarkerMatchOptions"))
       .def_readwrite("distance_tolerance_mm",
                      &registration::MarkerMatchOptions::distance_tolerance_mm)
       .def_readwrite("sigma_factor", &registration::MarkerMatchOptions::sigma_factor)
@@ -172,15 +167,11 @@ uncertainty), depth_difference_mm.)doc")
       .def_readwrite("same_pose_mm", &registration::MarkerMatchOptions::same_pose_mm)
       .def_readwrite("outlier_rounds", &registration::MarkerMatchOptions::outlier_rounds);
   py::class_<registration::AdjustmentOptions>(m, "AdjustmentOptions")
-      .def(py::init([](py::kwargs kw) {
-        return MakeOptions<registration::AdjustmentOptions>(py::none(), kw, "AdjustmentOptions");
-      }))
+      .def(OptionsInit<registration::AdjustmentOptions>("AdjustmentOptions"))
       .def_readwrite("huber_sigmas", &registration::AdjustmentOptions::huber_sigmas)
       .def_readwrite("max_iterations", &registration::AdjustmentOptions::max_iterations);
   py::class_<registration::CoarseOptions>(m, "CoarseOptions")
-      .def(py::init([](py::kwargs kw) {
-        return MakeOptions<registration::CoarseOptions>(py::none(), kw, "CoarseOptions");
-      }))
+      .def(OptionsInit<registration::CoarseOptions>("CoarseOptions"))
       .def_readwrite("voxel_mm", &registration::CoarseOptions::voxel_mm)
       .def_readwrite("feature_radius_factor", &registration::CoarseOptions::feature_radius_factor)
       .def_readwrite("max_ransac_iterations", &registration::CoarseOptions::max_ransac_iterations)
@@ -188,9 +179,7 @@ uncertainty), depth_difference_mm.)doc")
       .def_readwrite("min_fitness", &registration::CoarseOptions::min_fitness)
       .def_readwrite("seed", &registration::CoarseOptions::seed);
   py::class_<registration::IcpOptions>(m, "IcpOptions")
-      .def(py::init([](py::kwargs kw) {
-        return MakeOptions<registration::IcpOptions>(py::none(), kw, "IcpOptions");
-      }))
+      .def(OptionsInit<registration::IcpOptions>("IcpOptions"))
       .def_readwrite("points_per_level", &registration::IcpOptions::points_per_level)
       .def_readwrite("max_iterations_per_level",
                      &registration::IcpOptions::max_iterations_per_level)
@@ -209,10 +198,7 @@ uncertainty), depth_difference_mm.)doc")
       .def_readwrite("seed", &registration::IcpOptions::seed);
   py::class_<registration::RegistrationOptions>(m, "RegistrationOptions",
                                                 "Options of fringe.register (C++ defaults).")
-      .def(py::init([](py::kwargs kw) {
-        return MakeOptions<registration::RegistrationOptions>(py::none(), kw,
-                                                              "RegistrationOptions");
-      }))
+      .def(OptionsInit<registration::RegistrationOptions>("RegistrationOptions"))
       .def_readwrite("use_markers", &registration::RegistrationOptions::use_markers)
       .def_readwrite("coarse_fallback", &registration::RegistrationOptions::coarse_fallback)
       .def_readwrite("adjust_markers", &registration::RegistrationOptions::adjust_markers)
@@ -304,6 +290,7 @@ Pass it as `poses` to fringe.fuse.)doc")
         if (!initial.is_none() && py::len(initial) != n) {
           throw py::value_error("initial: expected one pose (or None) per view");
         }
+        const bool read_marker_files = markers.is_none();
         std::vector<registration::RegistrationView> in(n);
         for (size_t i = 0; i < n; ++i) {
           const py::object item = views[i];
@@ -312,7 +299,7 @@ Pass it as `poses` to fringe.fuse.)doc")
             std::string note;
             const fs::path path = item.cast<fs::path>();
             py::gil_scoped_release release;
-            v = registration::ReadRegistrationView(path, scale_to_mm, markers.is_none(), &note);
+            v = registration::ReadRegistrationView(path, scale_to_mm, read_marker_files, &note);
           } else if (py::isinstance<stereo::ViewReconstruction>(item)) {
             v.cloud = item.cast<const stereo::ViewReconstruction&>().cloud.Compact();
           } else if (py::isinstance<PointCloud>(item)) {
@@ -349,9 +336,7 @@ Pass it as `poses` to fringe.fuse.)doc")
 
   // ---- Fusion ----
   py::class_<fusion::FusionOptions>(m, "FusionOptions", "Options of fringe.fuse (C++ defaults).")
-      .def(py::init([](py::kwargs kw) {
-        return MakeOptions<fusion::FusionOptions>(py::none(), kw, "FusionOptions");
-      }))
+      .def(OptionsInit<fusion::FusionOptions>("FusionOptions"))
       .def_readwrite("spacing_factor", &fusion::FusionOptions::spacing_factor)
       .def_readwrite("seed_factor", &fusion::FusionOptions::seed_factor)
       .def_readwrite("registration_rms_mm", &fusion::FusionOptions::registration_rms_mm)
@@ -439,9 +424,7 @@ an overlap), summary (dict: the "fusion" object `fringe fuse --json` prints).)do
 
   // ---- Meshing ----
   py::class_<fusion::MeshOptions>(m, "MeshOptions", "Options of fringe.mesh (C++ defaults).")
-      .def(py::init([](py::kwargs kw) {
-        return MakeOptions<fusion::MeshOptions>(py::none(), kw, "MeshOptions");
-      }))
+      .def(OptionsInit<fusion::MeshOptions>("MeshOptions"))
       .def_readwrite("poisson_depth", &fusion::MeshOptions::poisson_depth)
       .def_readwrite("watertight", &fusion::MeshOptions::watertight)
       .def_readwrite("trim_density_quantile", &fusion::MeshOptions::trim_density_quantile)

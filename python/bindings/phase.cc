@@ -67,17 +67,13 @@ A fringe pattern scheme: what the projector shows and in which order (docs/forma
           py::gil_scoped_release release;
           images = phase::GeneratePatterns(scheme, precompensate_gamma);
         }
-        py::list out;
-        for (const auto& image : images) out.append(ArrayFromMat(image));
-        return out;
+        return ArraysFromMats(images);
       },
       py::arg("scheme"), py::arg("precompensate_gamma") = 1.0,
       "The projector images (uint8, projector_height x projector_width) in the scheme's order.");
 
   py::class_<phase::DecodeOptions>(m, "DecodeOptions", "Options of fringe.decode (C++ defaults).")
-      .def(py::init([](py::kwargs kw) {
-        return MakeOptions<phase::DecodeOptions>(py::none(), kw, "DecodeOptions");
-      }))
+      .def(OptionsInit<phase::DecodeOptions>("DecodeOptions"))
       .def_readwrite("noise_sigma_dn", &phase::DecodeOptions::noise_sigma_dn)
       .def_readwrite("order_error_probability", &phase::DecodeOptions::order_error_probability)
       .def_readwrite("min_modulation_dn", &phase::DecodeOptions::min_modulation_dn)
@@ -144,9 +140,7 @@ summary (dict, as `fringe decode` writes summary.json).)doc")
           py::gil_scoped_release release;
           images = phase::ReadStack(dir, scheme);
         }
-        py::list out;
-        for (const auto& image : images) out.append(ArrayFromMat(image));
-        return out;
+        return ArraysFromMats(images);
       },
       py::arg("dir"), py::arg("scheme"),
       "Reads the scheme's images from a folder (8- or 16-bit grey), checked as `fringe decode` "

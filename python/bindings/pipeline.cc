@@ -10,9 +10,7 @@ namespace fringe::python {
 
 void BindPipeline(py::module_& m) {
   py::class_<pipeline::ScanOptions>(m, "ScannerOptions", "Options of fringe.scan (C++ defaults).")
-      .def(py::init([](py::kwargs kw) {
-        return MakeOptions<pipeline::ScanOptions>(py::none(), kw, "ScannerOptions");
-      }))
+      .def(OptionsInit<pipeline::ScanOptions>("ScannerOptions"))
       .def_readwrite("calib", &pipeline::ScanOptions::calib)
       .def_readwrite("opencv_intrinsics", &pipeline::ScanOptions::opencv_intrinsics)
       .def_readwrite("opencv_extrinsics", &pipeline::ScanOptions::opencv_extrinsics)

@@ -11,12 +11,6 @@ namespace fringe::python {
 
 namespace {
 
-py::list Images(const std::vector<cv::Mat>& images) {
-  py::list out;
-  for (const auto& image : images) out.append(ArrayFromMat(image));
-  return out;
-}
-
 py::object Truth(const sim::CameraTruth& t) {
   if (t.depth.empty()) return py::none();
   py::dict d;
@@ -57,8 +51,7 @@ void BindSim(py::module_& m) {
       .value("chessboard", TargetType::kChessboard);
   py::class_<CalibrationTarget>(m, "Target",
                                 "A calibration board (docs/formats.md, \"Calibration target\").")
-      .def(py::init(
-          [](py::kwargs kw) { return MakeOptions<CalibrationTarget>(py::none(), kw, "Target"); }))
+      .def(OptionsInit<CalibrationTarget>("Target"))
       .def_static(
           "load", [](const std::filesystem::path& p) { return io::ReadTarget(p); }, py::arg("path"))
       .def(
@@ -80,9 +73,7 @@ void BindSim(py::module_& m) {
       .def("check", &CalibrationTarget::Check);
 
   py::class_<sim::SensorOptions>(m, "SensorOptions")
-      .def(py::init([](py::kwargs kw) {
-        return MakeOptions<sim::SensorOptions>(py::none(), kw, "SensorOptions");
-      }))
+      .def(OptionsInit<sim::SensorOptions>("SensorOptions"))
       .def_readwrite("supersampling", &sim::SensorOptions::supersampling)
       .def_readwrite("exposure", &sim::SensorOptions::exposure)
       .def_readwrite("bit_depth", &sim::SensorOptions::bit_depth)
@@ -94,9 +85,7 @@ void BindSim(py::module_& m) {
       .def_readwrite("float_output", &sim::SensorOptions::float_output)
       .def_readwrite("seed", &sim::SensorOptions::seed);
   py::class_<sim::ProjectorOptions>(m, "ProjectorOptions")
-      .def(py::init([](py::kwargs kw) {
-        return MakeOptions<sim::ProjectorOptions>(py::none(), kw, "ProjectorOptions");
-      }))
+      .def(OptionsInit<sim::ProjectorOptions>("ProjectorOptions"))
       .def_readwrite("gamma", &sim::ProjectorOptions::gamma)
       .def_readwrite("black_level", &sim::ProjectorOptions::black_level)
       .def_readwrite("brightness", &sim::ProjectorOptions::brightness)
@@ -104,9 +93,7 @@ void BindSim(py::module_& m) {
       .def_readwrite("defocus_sigma_px", &sim::ProjectorOptions::defocus_sigma_px)
       .def_readwrite("pixelated", &sim::ProjectorOptions::pixelated);
   py::class_<sim::RenderOptions>(m, "RenderOptions")
-      .def(py::init([](py::kwargs kw) {
-        return MakeOptions<sim::RenderOptions>(py::none(), kw, "RenderOptions");
-      }))
+      .def(OptionsInit<sim::RenderOptions>("RenderOptions"))
       .def_readwrite("sensor", &sim::RenderOptions::sensor)
       .def_readwrite("projector", &sim::RenderOptions::projector)
       .def_readwrite("truth", &sim::RenderOptions::truth)
@@ -114,9 +101,7 @@ void BindSim(py::module_& m) {
       .def_readwrite("marker_visibility_tolerance_mm",
                      &sim::RenderOptions::marker_visibility_tolerance_mm);
   py::class_<sim::BoardRenderOptions>(m, "BoardRenderOptions")
-      .def(py::init([](py::kwargs kw) {
-        return MakeOptions<sim::BoardRenderOptions>(py::none(), kw, "BoardRenderOptions");
-      }))
+      .def(OptionsInit<sim::BoardRenderOptions>("BoardRenderOptions"))
       .def_readwrite("sensor", &sim::BoardRenderOptions::sensor)
       .def_readwrite("edge_supersampling", &sim::BoardRenderOptions::edge_supersampling)
       .def_readwrite("white_albedo", &sim::BoardRenderOptions::white_albedo)
@@ -124,9 +109,7 @@ void BindSim(py::module_& m) {
       .def_readwrite("background_albedo", &sim::BoardRenderOptions::background_albedo)
       .def_readwrite("illumination", &sim::BoardRenderOptions::illumination);
   py::class_<sim::OrbitOptions>(m, "OrbitOptions")
-      .def(py::init([](py::kwargs kw) {
-        return MakeOptions<sim::OrbitOptions>(py::none(), kw, "OrbitOptions");
-      }))
+      .def(OptionsInit<sim::OrbitOptions>("OrbitOptions"))
       .def_readwrite("views", &sim::OrbitOptions::views)
       .def_readwrite("turntable", &sim::OrbitOptions::turntable)
       .def_readwrite("elevation_deg", &sim::OrbitOptions::elevation_deg)
@@ -137,9 +120,7 @@ void BindSim(py::module_& m) {
       .def_readwrite("standoff_jitter_mm", &sim::OrbitOptions::standoff_jitter_mm)
       .def_readwrite("seed", &sim::OrbitOptions::seed);
   py::class_<sim::BoardPoseOptions>(m, "BoardPoseOptions")
-      .def(py::init([](py::kwargs kw) {
-        return MakeOptions<sim::BoardPoseOptions>(py::none(), kw, "BoardPoseOptions");
-      }))
+      .def(OptionsInit<sim::BoardPoseOptions>("BoardPoseOptions"))
       .def_readwrite("count", &sim::BoardPoseOptions::count)
       .def_readwrite("min_distance_mm", &sim::BoardPoseOptions::min_distance_mm)
       .def_readwrite("max_distance_mm", &sim::BoardPoseOptions::max_distance_mm)
@@ -150,9 +131,7 @@ void BindSim(py::module_& m) {
       .def_readwrite("seed", &sim::BoardPoseOptions::seed);
   py::class_<sim::ScanOptions>(m, "ScanOptions",
                                "Options of fringe.Simulator / fringe.simulate_scan (C++ defaults).")
-      .def(py::init([](py::kwargs kw) {
-        return MakeOptions<sim::ScanOptions>(py::none(), kw, "ScanOptions");
-      }))
+      .def(OptionsInit<sim::ScanOptions>("ScanOptions"))
       .def_readwrite("scene", &sim::ScanOptions::scene)
       .def_readwrite("views", &sim::ScanOptions::views)
       .def_readwrite("seed", &sim::ScanOptions::seed)
@@ -170,9 +149,10 @@ void BindSim(py::module_& m) {
 One rendered view: left / right image lists (uint8 or uint16, the scheme's order),
 left_truth / right_truth (dicts of depth, points, normals, projector, valid, object_id arrays in
 that camera's frame; None without truth), world_from_sensor (4x4), markers (list of dicts).)doc")
-      .def_property_readonly("left", [](const sim::ViewImages& v) { return Images(v.left.images); })
-      .def_property_readonly("right",
-                             [](const sim::ViewImages& v) { return Images(v.right.images); })
+      .def_property_readonly("left",
+                             [](const sim::ViewImages& v) { return ArraysFromMats(v.left.images); })
+      .def_property_readonly(
+          "right", [](const sim::ViewImages& v) { return ArraysFromMats(v.right.images); })
       .def_property_readonly("left_truth",
                              [](const sim::ViewImages& v) { return Truth(v.left.truth); })
       .def_property_readonly("right_truth",
@@ -206,8 +186,8 @@ The virtual scanner in memory (the same images `fringe simulate` writes): a scen
       .def_property_readonly("rig", &sim::ScanSimulator::rig)
       .def_property_readonly("scheme", &sim::ScanSimulator::scheme,
                              "The scheme, gamma_precompensation set.")
-      .def_property_readonly("patterns",
-                             [](const sim::ScanSimulator& s) { return Images(s.patterns()); })
+      .def_property_readonly(
+          "patterns", [](const sim::ScanSimulator& s) { return ArraysFromMats(s.patterns()); })
       .def_property_readonly("views", [](const sim::ScanSimulator& s) { return s.options().views; })
       .def_property_readonly(
           "calibration_images",

@@ -31,20 +31,14 @@ void BindStereo(py::module_& m) {
       .value("cubic", stereo::CrossingInterpolation::kCubic);
 
   py::class_<stereo::TriangulationOptions>(m, "TriangulationOptions")
-      .def(py::init([](py::kwargs kw) {
-        return MakeOptions<stereo::TriangulationOptions>(py::none(), kw, "TriangulationOptions");
-      }))
+      .def(OptionsInit<stereo::TriangulationOptions>("TriangulationOptions"))
       .def_readwrite("refine_iterations", &stereo::TriangulationOptions::refine_iterations)
       .def_readwrite("min_ray_angle_rad", &stereo::TriangulationOptions::min_ray_angle_rad);
   py::class_<stereo::RectificationOptions>(m, "RectificationOptions")
-      .def(py::init([](py::kwargs kw) {
-        return MakeOptions<stereo::RectificationOptions>(py::none(), kw, "RectificationOptions");
-      }))
+      .def(OptionsInit<stereo::RectificationOptions>("RectificationOptions"))
       .def_readwrite("focal_scale", &stereo::RectificationOptions::focal_scale);
   py::class_<stereo::MatchingOptions>(m, "MatchingOptions")
-      .def(py::init([](py::kwargs kw) {
-        return MakeOptions<stereo::MatchingOptions>(py::none(), kw, "MatchingOptions");
-      }))
+      .def(OptionsInit<stereo::MatchingOptions>("MatchingOptions"))
       .def_readwrite("min_modulation", &stereo::MatchingOptions::min_modulation)
       .def_readwrite("max_step_gradients", &stereo::MatchingOptions::max_step_gradients)
       .def_readwrite("max_reversal_gradients", &stereo::MatchingOptions::max_reversal_gradients)
@@ -60,16 +54,12 @@ void BindStereo(py::module_& m) {
       .def_readwrite("triangulation", &stereo::MatchingOptions::triangulation)
       .def_readwrite("rectification", &stereo::MatchingOptions::rectification);
   py::class_<stereo::OutlierOptions>(m, "OutlierOptions")
-      .def(py::init([](py::kwargs kw) {
-        return MakeOptions<stereo::OutlierOptions>(py::none(), kw, "OutlierOptions");
-      }))
+      .def(OptionsInit<stereo::OutlierOptions>("OutlierOptions"))
       .def_readwrite("max_slope_factor", &stereo::OutlierOptions::max_slope_factor)
       .def_readwrite("min_neighbours", &stereo::OutlierOptions::min_neighbours)
       .def_readwrite("min_component_px", &stereo::OutlierOptions::min_component_px);
   py::class_<GridNormalOptions>(m, "GridNormalOptions")
-      .def(py::init([](py::kwargs kw) {
-        return MakeOptions<GridNormalOptions>(py::none(), kw, "GridNormalOptions");
-      }))
+      .def(OptionsInit<GridNormalOptions>("GridNormalOptions"))
       .def_readwrite("window_radius_px", &GridNormalOptions::window_radius_px)
       .def_readwrite("max_depth_jump_mm", &GridNormalOptions::max_depth_jump_mm)
       .def_readwrite("relative_depth_jump", &GridNormalOptions::relative_depth_jump)
@@ -77,9 +67,7 @@ void BindStereo(py::module_& m) {
   py::class_<stereo::ReconstructionOptions>(m, "ReconstructionOptions", R"doc(
 Options of fringe.reconstruct: nested decode/matching/outliers/normals options (objects or
 dicts of their fields) and the remove_outliers / compute_normals switches.)doc")
-      .def(py::init([](py::kwargs kw) {
-        return MakeOptions<stereo::ReconstructionOptions>(py::none(), kw, "ReconstructionOptions");
-      }))
+      .def(OptionsInit<stereo::ReconstructionOptions>("ReconstructionOptions"))
       .def_readwrite("decode", &stereo::ReconstructionOptions::decode)
       .def_readwrite("matching", &stereo::ReconstructionOptions::matching)
       .def_readwrite("remove_outliers", &stereo::ReconstructionOptions::remove_outliers)

@@ -34,7 +34,6 @@
 #include "fringe/calib/projector.h"
 #include "fringe/eval/vdi2634.h"
 #include "fringe/phase/decode.h"
-#include "fringe/phase/scheme_presets.h"
 #include "fringe/sim/board.h"
 #include "fringe/sim/poses.h"
 #include "fringe/sim/projector_board.h"
@@ -124,34 +123,19 @@ std::optional<StereoRig> CalibrateProjector(const StereoRig& rig, int poses, nlo
   util::Timer timer;
   const CameraModel& proj = *rig.projector;
   const CalibrationTarget target = CalibrationTarget::Reference();
-  phase::SchemeParameters sp;
-  sp.projector_width = proj.width;
-  sp.projector_height = proj.height;
-  const phase::PatternScheme vertical = phase::MakePresetScheme("heterodyne-4x3", sp);
-  sp.horizontal = true;
-  const phase::PatternScheme horizontal = phase::MakePresetScheme("heterodyne-4x3", sp);
-  const auto vp = phase::GeneratePatterns(vertical), hp = phase::GeneratePatterns(horizontal);
+  const auto schemes = sim::BothDirectionSchemes(proj);
   sim::BoardPoseOptions po;
   po.count = poses;
   po.both_cameras = false;
   std::vector<calib::TargetDetection> camera;
   std::vector<calib::ProjectorCoordinates> coordinates;
-  phase::DecodeOptions d;
-  d.projector_gamma = 1.0;
   for (const Rigid3d& pose : sim::GenerateBoardPoses(rig, target, po)) {
     const uint64_t i = camera.size();
     camera.push_back(
         calib::DetectTarget(sim::RenderBoardImage(rig.left, target, pose, {}, i).image, target));
-    auto decode = [&](const phase::PatternScheme& scheme, const std::vector<cv::Mat>& patterns,
-                      uint64_t stream) {
-      return phase::Decode(scheme,
-                           sim::RenderBoardUnderPatterns(rig.left, proj, rig.projector_from_left,
-                                                         target, pose, patterns, {}, stream),
-                           d);
-    };
-    const phase::DecodeResult du = decode(vertical, vp, 2 * i + 100);
-    const phase::DecodeResult dv = decode(horizontal, hp, 2 * i + 101);
-    coordinates.push_back({du.absolute_phase, dv.absolute_phase, du.mask, dv.mask});
+    const auto d = sim::DecodeBoardUnderBothDirections(rig.left, proj, rig.projector_from_left,
+                                                       target, pose, schemes, {}, i);
+    coordinates.push_back({d[0].absolute_phase, d[1].absolute_phase, d[0].mask, d[1].mask});
   }
   const calib::ProjectorCalibration cal = calib::CalibrateCameraProjector(
       camera, coordinates, target, rig.left.width, rig.left.height, proj.width, proj.height);

@@ -254,12 +254,7 @@ TEST(CameraProjectorCli, CalibrateFolderWithFringeStacksCalibratesTheProjector) 
   const StereoRig rig = sim::ScaledRig(StereoRig::Reference(), 0.5);
   const CameraModel& proj = *rig.projector;
   const CalibrationTarget target = CalibrationTarget::Reference();
-  phase::SchemeParameters sp;
-  sp.projector_width = proj.width;
-  sp.projector_height = proj.height;
-  const phase::PatternScheme vertical = phase::MakePresetScheme("heterodyne-4x3", sp);
-  sp.horizontal = true;
-  const phase::PatternScheme horizontal = phase::MakePresetScheme("heterodyne-4x3", sp);
+  const auto schemes = sim::BothDirectionSchemes(proj);
   sim::BoardPoseOptions po;
   po.count = 5;
   po.seed = 9;
@@ -274,15 +269,15 @@ TEST(CameraProjectorCli, CalibrateFolderWithFringeStacksCalibratesTheProjector) 
     std::filesystem::create_directories(pose_dir);
     io::WriteImage(pose_dir / "board.png",
                    sim::RenderBoardImage(rig.left, target, pose, {}, index).image);
-    for (const phase::PatternScheme* scheme : {&vertical, &horizontal}) {
-      const auto stack = pose_dir / phase::DirectionName(scheme->direction);
+    for (int k = 0; k < 2; ++k) {
+      const auto stack = pose_dir / phase::DirectionName(schemes[k].direction);
       std::filesystem::create_directories(stack);
       const auto images = sim::RenderBoardUnderPatterns(
-          rig.left, proj, rig.projector_from_left, target, pose, phase::GeneratePatterns(*scheme),
-          fb, 100 + 2 * index + (scheme == &vertical));
-      const auto names = scheme->ImageNames();
+          rig.left, proj, rig.projector_from_left, target, pose,
+          phase::GeneratePatterns(schemes[k]), fb, 100 + 2 * index + k);
+      const auto names = schemes[k].ImageNames();
       for (size_t i = 0; i < names.size(); ++i) io::WriteImage(stack / names[i], images[i]);
-      phase::WriteScheme(stack / "manifest.json", *scheme);
+      phase::WriteScheme(stack / "manifest.json", schemes[k]);
     }
     ++index;
   }

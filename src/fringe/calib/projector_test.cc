@@ -4,9 +4,6 @@
 
 #include <cmath>
 
-#include "fringe/phase/decode.h"
-#include "fringe/phase/pattern_scheme.h"
-#include "fringe/phase/scheme_presets.h"
 #include "fringe/sim/board.h"
 #include "fringe/sim/projector_board.h"
 #include "fringe/sim/renderer.h"
@@ -34,42 +31,21 @@ struct Views {
 // and the fringe stacks of both directions (decoded), as `fringe calibrate` would get them.
 Views Simulate(const StereoRig& rig, const CalibrationTarget& target, int count) {
   const CameraModel& proj = *rig.projector;
-  phase::SchemeParameters p;
-  p.projector_width = proj.width;
-  p.projector_height = proj.height;
-  const phase::PatternScheme vertical = phase::MakePresetScheme("heterodyne-4x3", p);
-  p.horizontal = true;
-  const phase::PatternScheme horizontal = phase::MakePresetScheme("heterodyne-4x3", p);
-  const auto vp = phase::GeneratePatterns(vertical), hp = phase::GeneratePatterns(horizontal);
+  const auto schemes = sim::BothDirectionSchemes(proj);
   sim::BoardPoseOptions po;
   po.count = count;
   po.seed = 5;
   po.both_cameras = false;
+  sim::FringeBoardOptions fb;
+  fb.supersampling = 2;
   Views out;
   for (const Rigid3d& pose : sim::GenerateBoardPoses(rig, target, po)) {
     const uint64_t i = out.camera.size();
     out.camera.push_back(
         DetectTarget(sim::RenderBoardImage(rig.left, target, pose, {}, i).image, target));
-    ProjectorCoordinates c;
-    sim::FringeBoardOptions fb;
-    fb.supersampling = 2;
-    phase::DecodeOptions d;
-    d.projector_gamma = 1.0;
-    const auto du =
-        phase::Decode(vertical,
-                      sim::RenderBoardUnderPatterns(rig.left, proj, rig.projector_from_left, target,
-                                                    pose, vp, fb, 2 * i + 100),
-                      d);
-    const auto dv =
-        phase::Decode(horizontal,
-                      sim::RenderBoardUnderPatterns(rig.left, proj, rig.projector_from_left, target,
-                                                    pose, hp, fb, 2 * i + 101),
-                      d);
-    c.u = du.absolute_phase;
-    c.u_mask = du.mask;
-    c.v = dv.absolute_phase;
-    c.v_mask = dv.mask;
-    out.coordinates.push_back(c);
+    const auto d = sim::DecodeBoardUnderBothDirections(rig.left, proj, rig.projector_from_left,
+                                                       target, pose, schemes, fb, i);
+    out.coordinates.push_back({d[0].absolute_phase, d[1].absolute_phase, d[0].mask, d[1].mask});
     std::vector<Eigen::Vector2d> truth;
     for (int r = 0; r < target.rows; ++r) {
       for (int col = 0; col < target.cols; ++col) {

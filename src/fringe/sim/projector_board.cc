@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "fringe/phase/scheme_presets.h"
 #include "fringe/sim/renderer.h"
 #include "fringe/util/error.h"
 #include "fringe/util/random.h"
@@ -106,6 +107,34 @@ std::vector<cv::Mat> RenderBoardUnderPatterns(
       }
     });
     out.push_back(ApplySensor(radiance, options.board.sensor, util::MixSeed(stream, p)));
+  }
+  return out;
+}
+
+std::array<phase::PatternScheme, 2> BothDirectionSchemes(const CameraModel& projector,
+                                                         const std::string& preset) {
+  phase::SchemeParameters p;
+  p.projector_width = projector.width;
+  p.projector_height = projector.height;
+  const phase::PatternScheme vertical = phase::MakePresetScheme(preset, p);
+  p.horizontal = true;
+  return {vertical, phase::MakePresetScheme(preset, p)};
+}
+
+std::array<phase::DecodeResult, 2> DecodeBoardUnderBothDirections(
+    const CameraModel& camera, const CameraModel& projector, const Rigid3d& projector_from_camera,
+    const CalibrationTarget& target, const Rigid3d& cam_from_board,
+    const std::array<phase::PatternScheme, 2>& schemes, const FringeBoardOptions& options,
+    uint64_t index) {
+  phase::DecodeOptions d;
+  d.projector_gamma = 1.0;  // the renderer's projector is linear
+  std::array<phase::DecodeResult, 2> out;
+  for (int k = 0; k < 2; ++k) {
+    out[k] = phase::Decode(
+        schemes[k],
+        RenderBoardUnderPatterns(camera, projector, projector_from_camera, target, cam_from_board,
+                                 phase::GeneratePatterns(schemes[k]), options, 2 * index + 100 + k),
+        d);
   }
   return out;
 }

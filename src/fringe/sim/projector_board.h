@@ -16,13 +16,17 @@
 // ApplySensor), so results do not depend on the thread count. Thread safety: reentrant.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <opencv2/core.hpp>
+#include <string>
 #include <vector>
 
 #include "fringe/geometry/calibration_target.h"
 #include "fringe/geometry/camera.h"
 #include "fringe/geometry/rigid3.h"
+#include "fringe/phase/decode.h"
+#include "fringe/phase/pattern_scheme.h"
 #include "fringe/sim/board.h"
 
 namespace fringe::sim {
@@ -40,5 +44,18 @@ std::vector<cv::Mat> RenderBoardUnderPatterns(
     const CalibrationTarget& target, const Rigid3d& cam_from_board,
     const std::vector<cv::Mat>& patterns, const FringeBoardOptions& options = {},
     uint64_t stream = 0);
+
+// A scheme preset (phase/scheme_presets.h) for `projector` in both directions:
+// {vertical fringes (phase = column), horizontal fringes (phase = row)}.
+std::array<phase::PatternScheme, 2> BothDirectionSchemes(
+    const CameraModel& projector, const std::string& preset = "heterodyne-4x3");
+
+// One board pose under both schemes (BothDirectionSchemes), rendered and decoded with gamma 1:
+// the camera's projector columns and rows. Noise streams 2 * index + 100 and 2 * index + 101.
+std::array<phase::DecodeResult, 2> DecodeBoardUnderBothDirections(
+    const CameraModel& camera, const CameraModel& projector, const Rigid3d& projector_from_camera,
+    const CalibrationTarget& target, const Rigid3d& cam_from_board,
+    const std::array<phase::PatternScheme, 2>& schemes, const FringeBoardOptions& options,
+    uint64_t index);
 
 }  // namespace fringe::sim

@@ -357,8 +357,8 @@ int main(int argc, char** argv) {
     std::cout << j.dump() << "\n";
     return 0;
   }
-  std::printf("bench_camera_projector (reference rig, %s, sigma %.1f DN, true calibration)\n",
-              b.scheme.name.c_str(), b.render.sensor.read_noise_dn);
+  std::printf("bench_camera_projector (reference rig, %s, sigma %.1f DN)\n", b.scheme.name.c_str(),
+              b.render.sensor.read_noise_dn);
   std::printf("%-20s %12s %12s %12s %12s %10s\n", "figure", "cp est.", "cp true", "cp floor",
               "stereo", "target");
   auto row = [&](const char* name, double est, double tru, double floor, double st,

@@ -6,9 +6,13 @@
 //   Artefacts and positions as bench_reconstruction (sphere d = 30 mm in 10 positions, ball bar
 //   200 mm in 7, plate in 6 across the measuring volume; the pose formulas are copied from there
 //   so the two benchmarks measure the same views).
-//   Calibration: the TRUE rig (camera, projector with its model, extrinsics). The projector
-//   calibration of the issue (proj_* keys, figures with the estimated calibration) is not
-//   implemented yet; the JSON says so.
+//   Projector calibration (calib/projector.h): 15 simulated board poses (the reference rings
+//   board), each as a plain image and under heterodyne-4x3 fringes of both directions
+//   (sim/projector_board.h, linear projector), decoded, features mapped into the projector by
+//   local homographies, joint calibration of camera + projector; errors against the true
+//   projector: proj_focal_err_pct, proj_principal_err_px, proj_rot_err_deg, proj_trans_err_mm.
+//   Camera-projector figures (cp_PS_mm, ...) with that ESTIMATED calibration, and with the TRUE
+//   rig (cp_*_true_calib_mm).
 //   Floors cp_PF_floor / cp_F_floor: the same figures from TRUE correspondences in
 //   camera-projector mode: every pixel that gave a point, its true projector column (simulator
 //   truth at the pixel centre) plus Gaussian noise of the decoder's phase-noise limit
@@ -22,13 +26,17 @@
 #include <cstdio>
 #include <iostream>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <random>
 #include <string>
 #include <vector>
 
+#include "fringe/calib/projector.h"
 #include "fringe/eval/vdi2634.h"
 #include "fringe/phase/decode.h"
+#include "fringe/sim/board.h"
 #include "fringe/sim/poses.h"
+#include "fringe/sim/projector_board.h"
 #include "fringe/sim/renderer.h"
 #include "fringe/sim/scene.h"
 #include "fringe/stereo/camera_projector.h"
@@ -60,9 +68,11 @@ struct Bench {
   double cp_s = 0, stereo_s = 0;
   int views = 0;
 
+  std::optional<stereo::CameraProjectorReconstructor> cp_est_recon;
+
   struct Reconstructions {
     sim::ViewImages view;
-    stereo::ViewReconstruction cp, stereo;
+    stereo::ViewReconstruction cp, stereo, cp_est;
   };
   Reconstructions Run(const sim::Scene& scene, const Rigid3d& pose, uint64_t index) {
     Reconstructions r;
@@ -73,6 +83,7 @@ struct Bench {
     t.Restart();
     r.stereo = stereo_recon.Reconstruct(r.view.left.images, r.view.right.images);
     stereo_s += t.ElapsedSeconds();
+    if (cp_est_recon) r.cp_est = cp_est_recon->Reconstruct({r.view.left.images});
     ++views;
     return r;
   }
@@ -106,6 +117,54 @@ struct Bench {
 
 double MaxAbs(double a, double b) { return std::max(std::abs(a), std::abs(b)); }
 
+// Projector calibration from simulated boards under fringes of both directions; errors against
+// the true projector into *j; the estimated camera + projector rig when it succeeded.
+std::optional<StereoRig> CalibrateProjector(const StereoRig& rig, int poses, nlohmann::json* j) {
+  util::Timer timer;
+  const CameraModel& proj = *rig.projector;
+  const CalibrationTarget target = CalibrationTarget::Reference();
+  const auto schemes = sim::BothDirectionSchemes(proj);
+  sim::BoardPoseOptions po;
+  po.count = poses;
+  po.both_cameras = false;
+  std::vector<calib::TargetDetection> camera;
+  std::vector<calib::ProjectorCoordinates> coordinates;
+  for (const Rigid3d& pose : sim::GenerateBoardPoses(rig, target, po)) {
+    const uint64_t i = camera.size();
+    camera.push_back(
+        calib::DetectTarget(sim::RenderBoardImage(rig.left, target, pose, {}, i).image, target));
+    const auto d = sim::DecodeBoardUnderBothDirections(rig.left, proj, rig.projector_from_left,
+                                                       target, pose, schemes, {}, i);
+    coordinates.push_back({d[0].absolute_phase, d[1].absolute_phase, d[0].mask, d[1].mask});
+  }
+  const calib::ProjectorCalibration cal = calib::CalibrateCameraProjector(
+      camera, coordinates, target, rig.left.width, rig.left.height, proj.width, proj.height);
+  (*j)["projector_calibration"] = cal.BriefReport();
+  (*j)["proj_time_s"] = timer.ElapsedSeconds();
+  if (!cal.ok()) return std::nullopt;
+  const CameraModel& p = *cal.rig.projector;
+  const auto diff = Difference(cal.rig.projector_from_left, rig.projector_from_left);
+  (*j)["proj_poses"] = cal.joint.num_pairs;
+  (*j)["proj_rms_px"] = cal.projector_rms_px;
+  (*j)["proj_camera_rms_px"] = cal.camera_rms_px;
+  (*j)["proj_focal_err_pct"] =
+      100 * std::max(std::abs(p.fx - proj.fx) / proj.fx, std::abs(p.fy - proj.fy) / proj.fy);
+  (*j)["proj_principal_err_px"] = std::hypot(p.cx - proj.cx, p.cy - proj.cy);
+  (*j)["proj_rot_err_deg"] = diff.angle_rad * 180 / M_PI;
+  (*j)["proj_trans_err_mm"] = diff.translation_mm;
+  (*j)["proj_std_dev"] = {{"fx_px", cal.joint.right.std_dev[0]},
+                          {"fy_px", cal.joint.right.std_dev[1]},
+                          {"cx_px", cal.joint.right.std_dev[2]},
+                          {"cy_px", cal.joint.right.std_dev[3]},
+                          {"rotation_rad",
+                           {cal.joint.extrinsic_std_dev[0], cal.joint.extrinsic_std_dev[1],
+                            cal.joint.extrinsic_std_dev[2]}},
+                          {"translation_mm",
+                           {cal.joint.extrinsic_std_dev[3], cal.joint.extrinsic_std_dev[4],
+                            cal.joint.extrinsic_std_dev[5]}}};
+  return cal.rig;
+}
+
 }  // namespace
 }  // namespace fringe
 
@@ -127,12 +186,19 @@ int main(int argc, char** argv) {
   j["noise_sigma_dn"] = b.render.sensor.read_noise_dn;
   j["camera_projector_baseline_mm"] = b.cp.projector_from_camera.Inverse().translation().norm();
   j["stereo_baseline_mm"] = b.rig.BaselineMm();
-  j["calibration"] = "true rig (projector calibration not implemented yet: no proj_* keys)";
+  const std::optional<StereoRig> est = CalibrateProjector(b.rig, quick ? 6 : 15, &j);
+  if (est) {
+    b.cp_est_recon.emplace(stereo::CameraProjectorRig::FromLeftCamera(*est),
+                           std::vector<phase::PatternScheme>{b.scheme},
+                           stereo::CameraProjectorOptions{b.options});
+  }
 
   // ---- Spheres (positions of bench_reconstruction) ----
   const sim::Scene sphere_scene = sim::MakeSphereScene(kSphereRadiusMm);
   const int n_sphere = quick ? 3 : 10;
   double cp_ps = 0, cp_pf = 0, cp_pf_floor = 0, cp_pf_ratio = 0, st_ps = 0, st_pf = 0;
+  // With the estimated calibration (e_): the same maxima, ratio to the same floor.
+  double e_ps = 0, e_pf = 0, e_pf_ratio = 0;
   nlohmann::json spheres = nlohmann::json::array();
   for (int k = 0; k < n_sphere; ++k) {
     const double ax = -70 + 140.0 * (k % 5) / 4, ay = (k / 5 % 2 ? 45 : -45);
@@ -177,12 +243,23 @@ int main(int argc, char** argv) {
       st_ps = MaxAbs(st_ps, st.PS_mm);
       st_pf = std::max(st_pf, st.PF_mm);
     }
+    if (b.cp_est_recon) {
+      const eval::SphereResult e =
+          eval::EvaluateSphere(r.cp_est.cloud.Compact(), 2 * kSphereRadiusMm, vdi);
+      spheres.back()["cp_PS_est_calib_mm"] = e.PS_mm;
+      spheres.back()["cp_PF_est_calib_mm"] = e.PF_mm;
+      if (e.ok()) {
+        e_ps = MaxAbs(e_ps, e.PS_mm);
+        e_pf = std::max(e_pf, e.PF_mm);
+        if (f.ok()) e_pf_ratio = std::max(e_pf_ratio, e.PF_mm / f.PF_mm);
+      }
+    }
   }
 
   // ---- Ball bar ----
   const sim::Scene bar_scene = sim::MakeBallBarScene(kBarRadiusMm, kBarDistanceMm);
   const int n_bar = quick ? 2 : 7;
-  double cp_sd = 0, st_sd = 0;
+  double cp_sd = 0, st_sd = 0, e_sd = 0;
   nlohmann::json bars = nlohmann::json::array();
   for (int k = 0; k < n_bar; ++k) {
     const double roll = M_PI * k / n_bar;
@@ -200,12 +277,18 @@ int main(int argc, char** argv) {
                     {"stereo_SD_mm", st.SD_mm}});
     if (s.ok()) cp_sd = MaxAbs(cp_sd, s.SD_mm);
     if (st.ok()) st_sd = MaxAbs(st_sd, st.SD_mm);
+    if (b.cp_est_recon) {
+      const eval::BallBarResult e =
+          eval::EvaluateBallBar(r.cp_est.cloud.Compact(), 2 * kBarRadiusMm, kBarDistanceMm, vdi);
+      bars.back()["cp_SD_est_calib_mm"] = e.SD_mm;
+      if (e.ok()) e_sd = MaxAbs(e_sd, e.SD_mm);
+    }
   }
 
   // ---- Plate ----
   const sim::Scene plate_scene = sim::MakePlateScene();
   const int n_plate = quick ? 2 : 6;
-  double cp_f = 0, cp_f_floor = 0, cp_f_ratio = 0, st_f = 0;
+  double cp_f = 0, cp_f_floor = 0, cp_f_ratio = 0, st_f = 0, e_f = 0, e_f_ratio = 0;
   nlohmann::json plates = nlohmann::json::array();
   for (int k = 0; k < n_plate; ++k) {
     const double roll = M_PI * k / n_plate;
@@ -231,24 +314,42 @@ int main(int argc, char** argv) {
       }
     }
     if (st.ok()) st_f = std::max(st_f, st.F_mm);
+    if (b.cp_est_recon) {
+      const eval::PlaneResult e = eval::EvaluatePlane(r.cp_est.cloud.Compact(), vdi);
+      plates.back()["cp_F_est_calib_mm"] = e.F_mm;
+      if (e.ok()) {
+        e_f = std::max(e_f, e.F_mm);
+        if (f.ok()) e_f_ratio = std::max(e_f_ratio, e.F_mm / f.F_mm);
+      }
+    }
   }
 
   j["spheres"] = spheres;
   j["ball_bars"] = bars;
   j["plates"] = plates;
-  j["cp_PS_mm"] = cp_ps;
-  j["cp_SD_mm"] = cp_sd;
-  j["cp_PF_mm"] = cp_pf;
-  j["cp_F_mm"] = cp_f;
+  // The issue's figures with the estimated calibration; the true rig's beside them.
+  const bool e = b.cp_est_recon.has_value();
+  j["cp_PS_mm"] = e ? e_ps : cp_ps;
+  j["cp_SD_mm"] = e ? e_sd : cp_sd;
+  j["cp_PF_mm"] = e ? e_pf : cp_pf;
+  j["cp_F_mm"] = e ? e_f : cp_f;
+  j["cp_PF_over_floor"] = e ? e_pf_ratio : cp_pf_ratio;
+  j["cp_F_over_floor"] = e ? e_f_ratio : cp_f_ratio;
+  j["cp_PS_true_calib_mm"] = cp_ps;
+  j["cp_SD_true_calib_mm"] = cp_sd;
+  j["cp_PF_true_calib_mm"] = cp_pf;
+  j["cp_F_true_calib_mm"] = cp_f;
+  j["cp_PF_over_floor_true_calib"] = cp_pf_ratio;
+  j["cp_F_over_floor_true_calib"] = cp_f_ratio;
   j["cp_PF_floor_mm"] = cp_pf_floor;
   j["cp_F_floor_mm"] = cp_f_floor;
-  j["cp_PF_over_floor"] = cp_pf_ratio;
-  j["cp_F_over_floor"] = cp_f_ratio;
   j["stereo_PS_mm"] = st_ps;
   j["stereo_SD_mm"] = st_sd;
   j["stereo_PF_mm"] = st_pf;
   j["stereo_F_mm"] = st_f;
-  j["figures"] = "max |.| (PS, SD) or max (PF, F) over positions, true calibration";
+  j["figures"] = e ? "max |.| (PS, SD) or max (PF, F) over positions; cp_* with the estimated "
+                     "calibration, cp_*_true_calib with the true rig, stereo_* true rig"
+                   : "projector calibration failed: every figure with the true rig";
   j["cp_time_per_view_s"] = b.views ? b.cp_s / b.views : 0.0;
   j["stereo_time_per_view_s"] = b.views ? b.stereo_s / b.views : 0.0;
   j["total_s"] = total.ElapsedSeconds();
@@ -256,18 +357,29 @@ int main(int argc, char** argv) {
     std::cout << j.dump() << "\n";
     return 0;
   }
-  std::printf("bench_camera_projector (reference rig, %s, sigma %.1f DN, true calibration)\n",
-              b.scheme.name.c_str(), b.render.sensor.read_noise_dn);
-  std::printf("%-30s %14s %14s %14s %10s\n", "figure", "camera-proj.", "cp floor", "stereo",
-              "target");
-  std::printf("%-30s %14.4f %14s %14.4f %10s\n", "PS max |.| (mm)", cp_ps, "", st_ps, "0.02");
-  std::printf("%-30s %14.4f %14s %14.4f %10s\n", "SD max |.| (mm)", cp_sd, "", st_sd, "0.02");
-  std::printf("%-30s %14.4f %14.4f %14.4f %10s\n", "PF max (mm)", cp_pf, cp_pf_floor, st_pf,
-              "1.3 floor");
-  std::printf("%-30s %14.4f %14.4f %14.4f %10s\n", "F max (mm)", cp_f, cp_f_floor, st_f,
-              "1.3 floor");
+  std::printf("bench_camera_projector (reference rig, %s, sigma %.1f DN)\n", b.scheme.name.c_str(),
+              b.render.sensor.read_noise_dn);
+  std::printf("%-20s %12s %12s %12s %12s %10s\n", "figure", "cp est.", "cp true", "cp floor",
+              "stereo", "target");
+  auto row = [&](const char* name, double est, double tru, double floor, double st,
+                 const char* target) {
+    std::printf("%-20s %12.4f %12.4f %12.4f %12.4f %10s\n", name, e ? est : std::nan(""), tru,
+                floor, st, target);
+  };
+  row("PS max |.| (mm)", e_ps, cp_ps, std::nan(""), st_ps, "0.02");
+  row("SD max |.| (mm)", e_sd, cp_sd, std::nan(""), st_sd, "0.02");
+  row("PF max (mm)", e_pf, cp_pf, cp_pf_floor, st_pf, "1.3 floor");
+  row("F max (mm)", e_f, cp_f, cp_f_floor, st_f, "1.3 floor");
+  std::printf("%s\n", j["projector_calibration"].get<std::string>().c_str());
+  if (j.contains("proj_focal_err_pct")) {
+    std::printf(
+        "projector vs truth: focal %.4f %%, principal point %.3f px, rotation %.4f deg, "
+        "translation %.4f mm\n",
+        j["proj_focal_err_pct"].get<double>(), j["proj_principal_err_px"].get<double>(),
+        j["proj_rot_err_deg"].get<double>(), j["proj_trans_err_mm"].get<double>());
+  }
   std::printf(
-      "PF / floor max %.2f, F / floor max %.2f; time per view: camera-projector %.3f s, "
+      "PF / floor max %.2f, F / floor max %.2f (true rig); time per view: camera-projector %.3f s, "
       "stereo %.3f s\n",
       cp_pf_ratio, cp_f_ratio, j["cp_time_per_view_s"].get<double>(),
       j["stereo_time_per_view_s"].get<double>());

@@ -18,13 +18,16 @@
 #include "fringe/cli/run_cli_for_test.h"
 #include "fringe/io/calibration_io.h"
 #include "fringe/io/image_io.h"
+#include "fringe/io/json.h"
 #include "fringe/io/opencv_calibration.h"
 #include "fringe/io/ply.h"
 #include "fringe/phase/decode.h"
 #include "fringe/phase/pattern_scheme.h"
 #include "fringe/phase/scheme_presets.h"
 #include "fringe/phase/stack_io.h"
+#include "fringe/sim/board.h"
 #include "fringe/sim/poses.h"
+#include "fringe/sim/projector_board.h"
 #include "fringe/sim/renderer.h"
 #include "fringe/sim/scene.h"
 #include "fringe/stereo/camera_projector.h"
@@ -237,6 +240,65 @@ TEST(CameraProjectorCli, LeftOnlyViewReconstructsAgainstTheProjector) {
             1);
   EXPECT_NE(err.find("no calibrated projector"), std::string::npos) << err;
   EXPECT_FALSE(std::filesystem::exists(tmp / "np.ply"));
+}
+
+// `fringe calibrate DIR --target T --out RIG` with DIR/NNN/{board.png, vertical/, horizontal/}
+// (docs/scan-folder.md) calibrates the camera and the projector: the rig it writes has the
+// projector close to the true one (half-resolution reference rig, 5 poses, no supersampling of
+// the fringe images: a plumbing check; the accuracy is calib/projector_test.cc's and
+// bench_camera_projector's).
+TEST(CameraProjectorCli, CalibrateFolderWithFringeStacksCalibratesTheProjector) {
+  constexpr double kFocalTolPct = 0.1;
+  constexpr double kPrincipalTolPx = 1.0;
+  constexpr double kTranslationTolMm = 0.3;
+  const StereoRig rig = sim::ScaledRig(StereoRig::Reference(), 0.5);
+  const CameraModel& proj = *rig.projector;
+  const CalibrationTarget target = CalibrationTarget::Reference();
+  const auto schemes = sim::BothDirectionSchemes(proj);
+  sim::BoardPoseOptions po;
+  po.count = 5;
+  po.seed = 9;
+  po.both_cameras = false;
+  sim::FringeBoardOptions fb;
+  fb.supersampling = 1;
+  const test::TempDir tmp;
+  const auto dir = tmp / "calibration";
+  int index = 0;
+  for (const Rigid3d& pose : sim::GenerateBoardPoses(rig, target, po)) {
+    const auto pose_dir = dir / ("00" + std::to_string(index));
+    std::filesystem::create_directories(pose_dir);
+    io::WriteImage(pose_dir / "board.png",
+                   sim::RenderBoardImage(rig.left, target, pose, {}, index).image);
+    for (int k = 0; k < 2; ++k) {
+      const auto stack = pose_dir / phase::DirectionName(schemes[k].direction);
+      std::filesystem::create_directories(stack);
+      const auto images = sim::RenderBoardUnderPatterns(
+          rig.left, proj, rig.projector_from_left, target, pose,
+          phase::GeneratePatterns(schemes[k]), fb, 100 + 2 * index + k);
+      const auto names = schemes[k].ImageNames();
+      for (size_t i = 0; i < names.size(); ++i) io::WriteImage(stack / names[i], images[i]);
+      phase::WriteScheme(stack / "manifest.json", schemes[k]);
+    }
+    ++index;
+  }
+  io::WriteJson(tmp / "target.json", io::TargetToJson(target));
+  std::string out, err;
+  const std::string rig_path = (tmp / "rig.json").string();
+  ASSERT_EQ(cli::RunCli({"calibrate", dir.string(), "--target", (tmp / "target.json").string(),
+                         "--out", rig_path},
+                        &out, &err),
+            0)
+      << out << err;
+  EXPECT_NE(out.find("projector calibration"), std::string::npos) << out;
+  const StereoRig cal = io::ReadRig(rig_path);
+  ASSERT_TRUE(cal.projector.has_value());
+  EXPECT_EQ(cal.BaselineMm(), 0.0);  // camera + projector, no right camera
+  EXPECT_EQ(cal.projector->width, proj.width);
+  EXPECT_LT(100 * std::abs(cal.projector->fx - proj.fx) / proj.fx, kFocalTolPct);
+  EXPECT_LT(std::hypot(cal.projector->cx - proj.cx, cal.projector->cy - proj.cy), kPrincipalTolPx);
+  EXPECT_LT(Difference(cal.projector_from_left, rig.projector_from_left).translation_mm,
+            kTranslationTolMm);
+  EXPECT_TRUE(io::ReadJson(rig_path)["calibration"].contains("projector_rms_px"));
 }
 
 }  // namespace

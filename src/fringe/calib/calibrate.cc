@@ -497,7 +497,8 @@ StereoCalibration CalibrateStereo(const std::vector<TargetDetection>& left,
                                   const std::vector<TargetDetection>& right,
                                   const CalibrationTarget& target, int width, int height,
                                   const CalibrationOptions& options,
-                                  const std::vector<std::string>& names) {
+                                  const std::vector<std::string>& names, int right_width,
+                                  int right_height) {
   options.Check();
   if (left.size() != right.size()) {
     throw Error(util::StrCat("CalibrateStereo: ", left.size(), " left views but ", right.size(),
@@ -505,7 +506,8 @@ StereoCalibration CalibrateStereo(const std::vector<TargetDetection>& left,
   }
   StereoCalibration out;
   out.left = CalibrateCamera(left, target, width, height, options, names);
-  out.right = CalibrateCamera(right, target, width, height, options, names);
+  out.right = CalibrateCamera(right, target, right_width > 0 ? right_width : width,
+                              right_height > 0 ? right_height : height, options, names);
   auto& s = out.summary;
   s.views = out.left.summary.views;
   if (!out.left.summary.success || !out.right.summary.success) {

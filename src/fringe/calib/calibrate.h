@@ -115,10 +115,13 @@ struct StereoCalibration {
   std::string BriefReport() const;
 };
 
+// right_width / right_height (> 0): the second device's image size when it differs from the
+// first's (a projector as the second device, calib/projector.h).
 StereoCalibration CalibrateStereo(const std::vector<TargetDetection>& left,
                                   const std::vector<TargetDetection>& right,
                                   const CalibrationTarget& target, int width, int height,
                                   const CalibrationOptions& options = {},
-                                  const std::vector<std::string>& names = {});
+                                  const std::vector<std::string>& names = {}, int right_width = 0,
+                                  int right_height = 0);
 
 }  // namespace fringe::calib

@@ -71,12 +71,23 @@ std::string DescribeJson(const fs::path& path) {
   }
   if (format == "fringe-rig") {
     const StereoRig rig = io::RigFromJson(j, path.string());
-    os << path.string() << ": rig calibration\n";
+    // A file without a right camera (camera + projector) reads with right = left.
+    const bool has_right = j.contains("cameras") && j["cameras"].contains("right");
+    os << path.string() << ": rig calibration" << (has_right ? "" : " (camera + projector)")
+       << "\n";
     os << "  left:      " << DescribeCamera(rig.left) << "\n";
-    os << "  right:     " << DescribeCamera(rig.right) << "\n";
-    os << std::fixed << std::setprecision(3) << "  baseline:  " << rig.BaselineMm()
-       << " mm, angle between cameras " << rig.right_from_left.AngleRad() * 180 / M_PI << " deg\n";
-    if (rig.projector) os << "  projector: " << DescribeCamera(*rig.projector) << "\n";
+    if (has_right) {
+      os << "  right:     " << DescribeCamera(rig.right) << "\n";
+      os << std::fixed << std::setprecision(3) << "  baseline:  " << rig.BaselineMm()
+         << " mm, angle between cameras " << rig.right_from_left.AngleRad() * 180 / M_PI
+         << " deg\n";
+    }
+    if (rig.projector) {
+      os << "  projector: " << DescribeCamera(*rig.projector) << "\n";
+      os << std::fixed << std::setprecision(3)
+         << "  camera-projector baseline: " << rig.projector_from_left.translation().norm()
+         << " mm, angle " << rig.projector_from_left.AngleRad() * 180 / M_PI << " deg\n";
+    }
     return os.str();
   }
   os << path.string() << ": JSON" << (format.empty() ? "" : " (" + format + ")") << "\n";

@@ -1,0 +1,78 @@
+// Projector calibration: the projector as an inverse camera (issue 14).
+//
+// Input per board pose: the camera's detection of the board (detect.h, from the plain board
+// image) and the decoded projector coordinates of the camera pixels under fringes in BOTH
+// directions (absolute phase of vertical fringes = projector column u, of horizontal fringes =
+// projector row v, phase/decode.h).
+//
+// Features in the projector (D. Moreno and G. Taubin, "Simple, accurate, and robust
+// projector-camera calibration", 3DIMPVT 2012): around each camera feature, the camera pixels of
+// a window with both coordinates valid give (camera px -> projector px) pairs; a homography
+// fitted to them by linear least squares (cv::findHomography, all points) maps the feature's
+// camera centre into the projector. The board is a plane, so camera -> projector is a
+// homography up to the two lenses' distortion, which is smooth over a small window.
+//
+// Calibration: the projector's features are a TargetDetection in projector pixels; the
+// camera and the projector are calibrated as a stereo pair (calibrate.h CalibrateStereo: Zhang
+// per device, then one joint Ceres refinement of both intrinsics, the board poses and
+// projector_from_camera with the parameter blocks of bundle.h). Projector features have no
+// edges, so they are not re-measured between rounds.
+//
+// Frames: the camera is the reference (`left`); projector_from_camera = the stereo solution's
+// right_from_left. Thread safety: reentrant.
+#pragma once
+
+#include <opencv2/core.hpp>
+#include <string>
+#include <vector>
+
+#include "fringe/calib/calibrate.h"
+#include "fringe/calib/detect.h"
+#include "fringe/geometry/calibration_target.h"
+#include "fringe/geometry/stereo_rig.h"
+
+namespace fringe::calib {
+
+// Decoded projector coordinates of one board pose on the camera grid.
+struct ProjectorCoordinates {
+  cv::Mat u, v;            // CV_32F projector column (vertical fringes) and row (horizontal)
+  cv::Mat u_mask, v_mask;  // CV_8U, non-zero where valid
+};
+
+struct ProjectorFeatureOptions {
+  int window_radius_px = 20;  // half-size of the camera window around a feature, [2, 200]
+  int min_points = 30;        // valid pixels the window needs, >= 8
+  void Check() const;
+};
+
+// The camera features of one view mapped into the projector (features whose window has too few
+// valid pixels are left out). status kOk with the mapped features, kNotFound when the camera
+// detection failed or fewer than 4 features map.
+TargetDetection MapFeaturesToProjector(const TargetDetection& camera,
+                                       const ProjectorCoordinates& coordinates, int projector_width,
+                                       int projector_height,
+                                       const ProjectorFeatureOptions& options = {});
+
+struct ProjectorCalibration {
+  // left = the camera, projector + projector_from_left; right = copy of the camera at zero
+  // baseline (a camera-projector rig, io/calibration_io.h writes it without `right`).
+  StereoRig rig;
+  StereoCalibration joint;  // left = camera, right = projector (std devs, per-view residuals)
+  std::vector<TargetDetection> projector_views;  // the mapped features per view
+  double projector_rms_px = 0;  // reprojection RMS of the projector's features, joint solution
+  double camera_rms_px = 0;
+  bool ok() const { return joint.summary.success; }
+  std::string BriefReport() const;
+};
+
+// camera_views[i] and coordinates[i]: one board pose. Throws fringe::Error for mismatched sizes.
+ProjectorCalibration CalibrateCameraProjector(const std::vector<TargetDetection>& camera_views,
+                                              const std::vector<ProjectorCoordinates>& coordinates,
+                                              const CalibrationTarget& target, int camera_width,
+                                              int camera_height, int projector_width,
+                                              int projector_height,
+                                              const CalibrationOptions& options = {},
+                                              const ProjectorFeatureOptions& feature_options = {},
+                                              const std::vector<std::string>& names = {});
+
+}  // namespace fringe::calib

@@ -74,6 +74,16 @@ TEST(ReconstructCli, SimulatedSphereViewToVdiFigures) {
   const OrganizedPointCloud cloud = io::ReadOrganizedPly(ply);
   EXPECT_EQ(cloud.width, rig.left.width);
   EXPECT_GT(cloud.NumValid(), 20000u);
+  // --json: one JSON object with every stage's summary, and the same cloud.
+  const std::string ply_json = (tmp / "cloud_json.ply").string();
+  ASSERT_EQ(RunCli({"reconstruct", dir.string(), "--out", ply_json, "--json"}, &out, &err), 0)
+      << out << err;
+  const nlohmann::json rj = nlohmann::json::parse(out);
+  EXPECT_EQ(rj.at("mode"), "stereo");
+  EXPECT_EQ(rj.at("summary").at("status"), "ok");
+  EXPECT_EQ(rj.at("summary").at("points").get<size_t>(), cloud.NumValid());
+  EXPECT_GT(rj.at("summary").at("decode_left").at("valid").get<int64_t>(), 20000);
+  EXPECT_EQ(io::ReadOrganizedPly(ply_json).NumValid(), cloud.NumValid());
 
   ASSERT_EQ(RunCli({"evaluate", ply, "--artefact", "sphere", "--diameter",
                     std::to_string(2 * kRadiusMm), "--json"},

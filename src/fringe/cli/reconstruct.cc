@@ -5,7 +5,9 @@
 #include <filesystem>
 #include <iostream>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <optional>
+#include <sstream>
 
 #include "fringe/cli/cli.h"
 #include "fringe/cli/scheme_flags.h"
@@ -56,6 +58,7 @@ void AddReconstructCommand(CLI::App& app) {
     bool no_normals = false;
     bool keep_outliers = false;
     bool no_markers = false;
+    bool json = false;
     int bit_depth = 0;
     stereo::ReconstructionOptions options;
     phase::SchemeParameters parameters;
@@ -121,6 +124,8 @@ void AddReconstructCommand(CLI::App& app) {
   sub->add_flag("--no-normals", a->no_normals, "Do not estimate normals");
   sub->add_flag("--keep-outliers", a->keep_outliers, "Do not remove flying pixels / small patches");
   sub->add_flag("--ascii", a->ascii, "Write ASCII PLY");
+  sub->add_flag("--json", a->json,
+                "Print every stage's summary as one JSON object instead of the text report");
   sub->add_flag("--no-markers", a->no_markers,
                 "Do not detect sticky markers (default: OUT.markers.json beside the cloud)");
   sub->callback([a] {
@@ -209,9 +214,12 @@ void AddReconstructCommand(CLI::App& app) {
                                                  : ":",
                                " the rig has no calibrated projector for camera-projector mode"));
     }
+    // With --json the text report is dropped so that stdout is one JSON object.
+    std::ostringstream dropped;
+    std::ostream& text = a->json ? dropped : std::cout;
     if (camera_projector) {
-      std::cout << "camera-projector mode: " << left_dir.string() << " against the projector of "
-                << rig_name << "\n";
+      text << "camera-projector mode: " << left_dir.string() << " against the projector of "
+           << rig_name << "\n";
     }
     const auto right =
         camera_projector ? std::vector<cv::Mat>{} : phase::ReadStack(right_dir, scheme);
@@ -229,20 +237,20 @@ void AddReconstructCommand(CLI::App& app) {
       rec = stereo::CameraProjectorReconstructor(stereo::CameraProjectorRig::FromLeftCamera(rig),
                                                  {scheme}, cp)
                 .Reconstruct({left});
-      std::cout << rec.summary.decode_left.BriefReport() << " (camera)\n"
-                << rec.summary.matching.BriefReport() << "\n";
+      text << rec.summary.decode_left.BriefReport() << " (camera)\n"
+           << rec.summary.matching.BriefReport() << "\n";
       WarnIfSchemeMismatch(rec.summary.decode_left, scheme.name, left_dir.string());
     } else {
       rec = stereo::ReconstructView(rig, scheme, left, right, a->options);
-      std::cout << rec.summary.decode_left.BriefReport() << " (left)\n"
-                << rec.summary.decode_right.BriefReport() << " (right)\n"
-                << rec.summary.matching.BriefReport() << "\n";
+      text << rec.summary.decode_left.BriefReport() << " (left)\n"
+           << rec.summary.decode_right.BriefReport() << " (right)\n"
+           << rec.summary.matching.BriefReport() << "\n";
       WarnIfSchemeMismatch(rec.summary.decode_left, scheme.name, left_dir.string());
       WarnIfSchemeMismatch(rec.summary.decode_right, scheme.name, right_dir.string());
     }
-    if (a->options.remove_outliers) std::cout << rec.summary.outliers.BriefReport() << "\n";
-    if (a->options.compute_normals) std::cout << rec.summary.normals.BriefReport() << "\n";
-    std::cout << rec.summary.BriefReport() << "\n";
+    if (a->options.remove_outliers) text << rec.summary.outliers.BriefReport() << "\n";
+    if (a->options.compute_normals) text << rec.summary.normals.BriefReport() << "\n";
+    text << rec.summary.BriefReport() << "\n";
     if (!rec.summary.ok()) {
       throw Error(util::StrCat("reconstruct: ", view.string(), ": ",
                                stereo::ToString(rec.summary.status), ": ", rec.summary.message));
@@ -268,9 +276,22 @@ void AddReconstructCommand(CLI::App& app) {
       registration::WriteViewMarkers(outputs.Stage(markers_path), markers->markers);
     }
     outputs.Commit();
-    std::cout << "wrote " << a->out << " (" << rec.summary.points << " points)\n";
+    if (a->json) {
+      nlohmann::json j = {{"view", view.string()},
+                          {"mode", camera_projector ? "camera-projector" : "stereo"},
+                          {"out", a->out},
+                          {"summary", stereo::SummaryToJson(rec.summary)}};
+      if (markers) {
+        j["markers"] = {{"file", markers_path.string()},
+                        {"count", markers->markers.size()},
+                        {"report", markers->summary.BriefReport()}};
+      }
+      std::cout << j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) << "\n";
+      return;
+    }
+    text << "wrote " << a->out << " (" << rec.summary.points << " points)\n";
     if (markers) {
-      std::cout << markers->summary.BriefReport() << "\nwrote " << markers_path.string() << "\n";
+      text << markers->summary.BriefReport() << "\nwrote " << markers_path.string() << "\n";
     }
   });
 }

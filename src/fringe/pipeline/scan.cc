@@ -1045,19 +1045,8 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
         s.icp_rms_mm > 0 ? s.icp_rms_mm : std::max(s.marker_adjusted_rms_mm, 0.0);
     m.fused = fusion::FuseViews(fusion_views, fusion_options);
     const fusion::FusionSummary& fs_ = m.fused.summary;
-    s.fusion = {{"status", fusion::ToString(fs_.status)},
-                {"message", fs_.message},
-                {"input_points", fs_.input_points},
-                {"overlap_points", fs_.overlap_points},
-                {"clusters", fs_.clusters},
-                {"passed_through", fs_.passed_through},
-                {"unassigned", fs_.unassigned},
-                {"disagreeing_clusters", fs_.disagreeing_clusters},
-                {"fused_points", fs_.fused_points},
-                {"iterations", fs_.iterations},
-                {"median_spacing_mm", fs_.median_spacing_mm},
-                {"registration_rms_mm", fusion_options.registration_rms_mm},
-                {"time_s", fs_.time_s}};
+    s.fusion = fusion::SummaryToJson(fs_);
+    s.fusion["registration_rms_mm"] = fusion_options.registration_rms_mm;
     if (!fs_.has_output()) {
       throw Error(StrCat("scan: ", project.string(),
                          ": stage 'fuse' failed: ", fusion::ToString(fs_.status), ": ", fs_.message,
@@ -1075,18 +1064,7 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
     timer.Restart();
     m.mesh = fusion::MeshPoisson(m.fused.fused, options.mesh);
     const fusion::MeshSummary& ms = m.mesh.summary;
-    s.meshing = {{"status", fusion::ToString(ms.status)},
-                 {"message", ms.message},
-                 {"input_points", ms.input_points},
-                 {"poisson_triangles", ms.poisson_triangles},
-                 {"trimmed_vertices", ms.trimmed_vertices},
-                 {"vertices", ms.vertices},
-                 {"triangles", ms.triangles},
-                 {"watertight", ms.watertight},
-                 {"decimated", ms.decimated},
-                 {"decimation_rms_mm", ms.decimation_rms_mm},
-                 {"poisson_s", ms.poisson_s},
-                 {"total_s", ms.total_s}};
+    s.meshing = fusion::SummaryToJson(ms);
     if (!ms.ok()) {
       throw Error(StrCat("scan: ", project.string(),
                          ": stage 'mesh' failed: ", fusion::ToString(ms.status), ": ", ms.message,

@@ -4,7 +4,7 @@
 // the same figures in stereo mode beside them, on the same rendered views.
 //
 //   Artefacts and positions as bench_reconstruction (sphere d = 30 mm in 10 positions, ball bar
-//   200 mm in 7, plate in 6 across the measuring volume; the pose formulas are copied from there
+//   200 mm in 7, plate in 6 across the measuring volume; bench/vdi_positions.h, shared with it,
 //   so the two benchmarks measure the same views).
 //   Projector calibration (calib/projector.h): 15 simulated board poses (the reference rings
 //   board), each as a plain image and under heterodyne-4x3 fringes of both directions
@@ -43,13 +43,14 @@
 #include "fringe/stereo/reconstruct_view.h"
 #include "fringe/util/random.h"
 #include "fringe/util/timer.h"
+#include "vdi_positions.h"
 
 namespace fringe {
 namespace {
 
-constexpr double kSphereRadiusMm = 15;
-constexpr double kBarRadiusMm = 12.5;
-constexpr double kBarDistanceMm = 200;
+using bench::kBarDistanceMm;
+using bench::kBarRadiusMm;
+using bench::kSphereRadiusMm;
 
 struct Bench {
   StereoRig rig = StereoRig::Reference();
@@ -201,12 +202,8 @@ int main(int argc, char** argv) {
   double e_ps = 0, e_pf = 0, e_pf_ratio = 0;
   nlohmann::json spheres = nlohmann::json::array();
   for (int k = 0; k < n_sphere; ++k) {
-    const double ax = -70 + 140.0 * (k % 5) / 4, ay = (k / 5 % 2 ? 45 : -45);
-    const double standoff = -60 + 120.0 * k / std::max(1, n_sphere - 1);
-    const Eigen::Vector3d centre(0, 0, kSphereRadiusMm);
-    const Rigid3d pose = sim::SensorPoseLookingAt(
-        b.rig, centre + Eigen::Vector3d(ax, ay, 0),
-        Eigen::Vector3d(0.1 * (k % 3 - 1), -0.45, 1).normalized(), 0.2 * k, standoff);
+    const Eigen::Vector3d centre = bench::SphereCentre();
+    const Rigid3d pose = bench::SpherePose(b.rig, k, n_sphere);
     const auto r = b.Run(sphere_scene, pose, 100 + k);
     const Eigen::Vector3d c_in_sensor = pose.Inverse() * centre;
     const eval::SphereResult s =
@@ -262,10 +259,7 @@ int main(int argc, char** argv) {
   double cp_sd = 0, st_sd = 0, e_sd = 0;
   nlohmann::json bars = nlohmann::json::array();
   for (int k = 0; k < n_bar; ++k) {
-    const double roll = M_PI * k / n_bar;
-    const Eigen::Vector3d from = Eigen::Vector3d(0.35 * std::sin(1.3 * k), -0.4, 1).normalized();
-    const Rigid3d pose =
-        sim::SensorPoseLookingAt(b.rig, Eigen::Vector3d(0, 0, 40), from, roll, -40 + 15.0 * k);
+    const Rigid3d pose = bench::BallBarPose(b.rig, k, n_bar);
     const auto r = b.Run(bar_scene, pose, 200 + k);
     const eval::BallBarResult s =
         eval::EvaluateBallBar(r.cp.cloud.Compact(), 2 * kBarRadiusMm, kBarDistanceMm, vdi);
@@ -291,10 +285,7 @@ int main(int argc, char** argv) {
   double cp_f = 0, cp_f_floor = 0, cp_f_ratio = 0, st_f = 0, e_f = 0, e_f_ratio = 0;
   nlohmann::json plates = nlohmann::json::array();
   for (int k = 0; k < n_plate; ++k) {
-    const double roll = M_PI * k / n_plate;
-    const Eigen::Vector3d from = Eigen::Vector3d(0.3 * std::cos(1.7 * k), -0.3, 1).normalized();
-    const Rigid3d pose =
-        sim::SensorPoseLookingAt(b.rig, Eigen::Vector3d::Zero(), from, roll, -50 + 20.0 * k);
+    const Rigid3d pose = bench::PlatePose(b.rig, k, n_plate);
     const auto r = b.Run(plate_scene, pose, 300 + k);
     const eval::PlaneResult s = eval::EvaluatePlane(r.cp.cloud.Compact(), vdi);
     const eval::PlaneResult f = eval::PlaneFigures(b.Floor(

@@ -50,6 +50,7 @@
 #include "fringe/stereo/triangulation.h"
 #include "fringe/util/random.h"
 #include "fringe/util/timer.h"
+#include "vdi_positions.h"
 
 #ifdef FRINGE_HAVE_OPEN3D
 #include <open3d/geometry/KDTreeSearchParam.h>
@@ -59,9 +60,9 @@
 namespace fringe {
 namespace {
 
-constexpr double kSphereRadiusMm = 15;
-constexpr double kBarRadiusMm = 12.5;
-constexpr double kBarDistanceMm = 200;
+using bench::kBarDistanceMm;
+using bench::kBarRadiusMm;
+using bench::kSphereRadiusMm;
 
 struct Context {
   StereoRig rig_true = StereoRig::Reference();
@@ -216,13 +217,8 @@ int main(int argc, char** argv) {
   double pf_est_max = 0;
   nlohmann::json spheres = nlohmann::json::array();
   for (int k = 0; k < n_sphere; ++k) {
-    // Spread over the field of view and the depth of field (+-60 mm).
-    const double ax = -70 + 140.0 * (k % 5) / 4, ay = (k / 5 % 2 ? 45 : -45);
-    const double standoff = -60 + 120.0 * k / std::max(1, n_sphere - 1);
-    const Eigen::Vector3d centre(0, 0, kSphereRadiusMm);
-    const Rigid3d pose = sim::SensorPoseLookingAt(
-        ctx.rig_true, centre + Eigen::Vector3d(ax, ay, 0),
-        Eigen::Vector3d(0.1 * (k % 3 - 1), -0.45, 1).normalized(), 0.2 * k, standoff);
+    const Eigen::Vector3d centre = bench::SphereCentre();
+    const Rigid3d pose = bench::SpherePose(ctx.rig_true, k, n_sphere);
     const sim::ViewImages view = Render(ctx, sphere_scene, pose, 100 + k);
     const auto rec = recon_true.Reconstruct(view.left.images, view.right.images);
     const eval::SphereResult s =
@@ -268,11 +264,7 @@ int main(int argc, char** argv) {
   double sd_max = 0, sd_est_max = 0;
   nlohmann::json bars = nlohmann::json::array();
   for (int k = 0; k < n_bar; ++k) {
-    // Orientations of the bar in the volume: roll about the view axis and tilt in depth.
-    const double roll = M_PI * k / n_bar;
-    const Eigen::Vector3d from = Eigen::Vector3d(0.35 * std::sin(1.3 * k), -0.4, 1).normalized();
-    const Rigid3d pose = sim::SensorPoseLookingAt(ctx.rig_true, Eigen::Vector3d(0, 0, 40), from,
-                                                  roll, -40 + 15.0 * k);
+    const Rigid3d pose = bench::BallBarPose(ctx.rig_true, k, n_bar);
     const sim::ViewImages view = Render(ctx, bar_scene, pose, 200 + k);
     const auto rec = recon_true.Reconstruct(view.left.images, view.right.images);
     const eval::BallBarResult b =
@@ -297,10 +289,7 @@ int main(int argc, char** argv) {
   int64_t noise_n = 0;
   nlohmann::json plates = nlohmann::json::array();
   for (int k = 0; k < n_plate; ++k) {
-    const double roll = M_PI * k / n_plate;
-    const Eigen::Vector3d from = Eigen::Vector3d(0.3 * std::cos(1.7 * k), -0.3, 1).normalized();
-    const Rigid3d pose =
-        sim::SensorPoseLookingAt(ctx.rig_true, Eigen::Vector3d::Zero(), from, roll, -50 + 20.0 * k);
+    const Rigid3d pose = bench::PlatePose(ctx.rig_true, k, n_plate);
     const sim::ViewImages view = Render(ctx, plate_scene, pose, 300 + k);
     const auto rec = recon_true.Reconstruct(view.left.images, view.right.images);
     const eval::PlaneResult p = eval::EvaluatePlane(rec.cloud.Compact(), vdi);

@@ -113,6 +113,8 @@ struct Corr {
 // of this order holds every normal direction in proportion to its bins, not its area.
 constexpr int kNormalBins = 4;
 
+}  // namespace
+
 std::vector<uint32_t> NormalSpaceOrder(const std::vector<Vector3d>& normals, uint64_t seed) {
   std::vector<std::vector<uint32_t>> bins(6 * kNormalBins * kNormalBins);
   for (size_t k = 0; k < normals.size(); ++k) {
@@ -147,7 +149,7 @@ std::vector<uint32_t> NormalSpaceOrder(const std::vector<Vector3d>& normals, uin
   return order;
 }
 
-}  // namespace
+namespace {}  // namespace
 
 IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& options) {
   options.Check();

@@ -103,6 +103,10 @@ struct IcpResult {
   IcpSummary summary;
 };
 
+// Normal-space sampling order of points with these unit normals (see above; also used by
+// align_to_mesh.h): indices, one per normal bin in turn, seeded random within and across bins.
+std::vector<uint32_t> NormalSpaceOrder(const std::vector<Eigen::Vector3d>& normals, uint64_t seed);
+
 // Throws fringe::Error for bad options, a null or empty cloud, or a cloud without normals.
 IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& options = {});
 

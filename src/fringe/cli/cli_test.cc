@@ -13,9 +13,12 @@
 #include "fringe/calib/calibrate_folder.h"
 #include "fringe/cli/run_cli_for_test.h"
 #include "fringe/io/calibration_io.h"
+#include "fringe/io/mesh_io.h"
 #include "fringe/io/ply.h"
 #include "fringe/registration/markers.h"
 #include "fringe/registration/registration_io.h"
+#include "fringe/scan/truth.h"
+#include "fringe/sim/demo_part.h"
 #include "fringe/sim/scan.h"
 #include "fringe/util/error.h"
 #include "fringe/util/files.h"
@@ -367,6 +370,46 @@ TEST(Cli, InfoAndReadRigOnASingleCameraCalibration) {
 
 // fringe register on a folder of view PLYs with markers beside them: a wavy surface seen from
 // three poses, markers stuck on it; poses.json gets every view, relative to the first.
+// evaluate --align: points on the demo part's surface (float PLY), moved by a known 1 deg / 1 mm,
+// are best-fitted back onto the mesh, and the transform is reported.
+TEST(Cli, EvaluateAlignRecoversAKnownMotion) {
+  test::TempDir dir;
+  sim::DemoPartOptions part;
+  part.grid_mm = 1.0;
+  part.ribs = part.engraving = false;
+  const TriangleMesh mesh = sim::MakeDemoPart(part).CombinedMesh();
+  io::WriteMesh(dir / "part.ply", mesh);
+  const Rigid3d cloud_from_mesh = Rigid3d::FromAxisAngle(
+      Eigen::Vector3d(1, -2, 0.5).normalized(), M_PI / 180, Eigen::Vector3d(0.6, -0.5, 0.62));
+  PointCloud cloud;
+  for (size_t i = 0; i < mesh.triangles.size(); i += 5) {  // triangle centroids: walls too
+    const auto& t = mesh.triangles[i];
+    cloud.points.push_back(cloud_from_mesh *
+                           ((mesh.vertices[t[0]] + mesh.vertices[t[1]] + mesh.vertices[t[2]]) / 3));
+  }
+  io::WritePly(dir / "cloud.ply", cloud);
+  std::string out, err;
+  ASSERT_EQ(RunCli({"evaluate", (dir / "cloud.ply").string(), "--truth",
+                    (dir / "part.ply").string(), "--align", "--json"},
+                   &out, &err),
+            0)
+      << out << err;
+  const nlohmann::json j = nlohmann::json::parse(out);
+  const Rigid3d mesh_from_cloud =
+      io::RigidFromJson(j["align"]["mesh_from_cloud"], "align.mesh_from_cloud");
+  const RigidDifference d = Difference(mesh_from_cloud, cloud_from_mesh.Inverse());
+  EXPECT_LT(d.angle_rad * 180 / M_PI, 1e-4) << out;
+  EXPECT_LT(d.translation_mm, 1e-3) << out;
+  EXPECT_LT(j["deviation"]["rms_mm"].get<double>(), 1e-3) << out;
+  // Too few picked pairs: a clear message naming the file, exit 1.
+  WriteText(dir / "pairs.json", R"({"pairs": [{"cloud": [0, 0, 0], "mesh": [0, 0, 0]}]})");
+  EXPECT_EQ(RunCli({"evaluate", (dir / "cloud.ply").string(), "--truth",
+                    (dir / "part.ply").string(), "--align-pairs", (dir / "pairs.json").string()},
+                   &out, &err),
+            1);
+  EXPECT_NE(err.find("pairs.json: the point pairs do not fix a pose"), std::string::npos) << err;
+}
+
 TEST(Cli, RegisterWritesPoses) {
   test::TempDir dir;
   auto height = [](double x, double y) {
@@ -416,11 +459,12 @@ TEST(Cli, RegisterWritesPoses) {
                    &out, &err),
             0)
       << out << err;
-  const auto poses = registration::ReadPoses(dir / "reg" / "poses.json");
-  ASSERT_EQ(poses.size(), 3u);
+  const scan::TruthPoses poses = scan::ReadTruthPoses(dir / "reg" / "poses.json");
+  ASSERT_EQ(poses.views.size(), 3u);
   for (int v = 0; v < 3; ++v) {
     const Rigid3d expected = world_from_sensor[0].Inverse() * world_from_sensor[v];
-    const RigidDifference d = Difference(poses.at("view" + std::to_string(v)), expected);
+    const RigidDifference d =
+        Difference(poses.Find("view" + std::to_string(v))->world_from_sensor, expected);
     EXPECT_LT(d.angle_rad * 180 / M_PI, 0.01) << v;
     EXPECT_LT(d.translation_mm, 0.05) << v;
   }

@@ -8,10 +8,13 @@
 #include "fringe/cli/cli.h"
 #include "fringe/eval/deviation.h"
 #include "fringe/eval/vdi2634.h"
+#include "fringe/geometry/align.h"
 #include "fringe/io/calibration_io.h"
 #include "fringe/io/image_io.h"
+#include "fringe/io/json.h"
 #include "fringe/io/mesh_io.h"
 #include "fringe/io/ply.h"
+#include "fringe/registration/align_to_mesh.h"
 #include "fringe/util/error.h"
 #include "fringe/util/files.h"
 
@@ -29,6 +32,31 @@ fs::path TruthMesh(const fs::path& p) {
                            " has no truth mesh (truth/scene.ply, scene.ply, truth.ply, mesh.ply)"));
 }
 
+// --align-pairs: {"pairs": [{"cloud": [x, y, z], "mesh": [x, y, z]}, ...]}, at least three
+// picked point pairs (mm); their rigid fit is the start of the alignment.
+Rigid3d ReadAlignPairs(const fs::path& path) {
+  const nlohmann::json j = io::ReadJson(path);
+  const std::string ctx = path.string();
+  io::RequireObject(j, ctx);
+  if (!j.contains("pairs") || !j["pairs"].is_array() || j["pairs"].size() > 10000) {
+    throw Error(ctx + ".pairs: expected an array of at most 10000 point pairs");
+  }
+  std::vector<Eigen::Vector3d> in_cloud, in_mesh;
+  for (size_t k = 0; k < j["pairs"].size(); ++k) {
+    const std::string c = util::StrCat(ctx, ".pairs[", k, "]");
+    const std::vector<double> p = io::GetNumbers(j["pairs"][k], "cloud", 3, c);
+    const std::vector<double> q = io::GetNumbers(j["pairs"][k], "mesh", 3, c);
+    in_cloud.emplace_back(p[0], p[1], p[2]);
+    in_mesh.emplace_back(q[0], q[1], q[2]);
+  }
+  const RigidAlignment fit = AlignRigid(in_cloud, in_mesh);
+  if (!fit.ok()) {
+    throw Error(util::StrCat(ctx, ": the point pairs do not fix a pose (", fit.message,
+                             "); give three or more pairs not on one line"));
+  }
+  return fit.b_from_a;  // mesh_from_cloud
+}
+
 }  // namespace
 
 void AddEvaluateCommand(CLI::App& app) {
@@ -42,6 +70,9 @@ void AddEvaluateCommand(CLI::App& app) {
     std::string map;
     double range_mm = 0.1;
     bool json = false;
+    bool align = false;
+    std::string align_pairs;
+    registration::MeshAlignOptions align_options;
     eval::VdiOptions vdi;
     eval::DeviationOptions deviation;
   };
@@ -60,6 +91,16 @@ void AddEvaluateCommand(CLI::App& app) {
   sub->add_option("--pose", a->pose,
                   "JSON rigid transform mesh_from_cloud ({\"rotation\", \"translation_mm\"}); "
                   "default identity (cloud and mesh in the same frame)");
+  sub->add_flag("--align", a->align,
+                "Best-fit the cloud to the mesh first (point-to-plane ICP onto the mesh with a "
+                "shrinking threshold, starting from --pose, --align-pairs or identity); reports "
+                "the transform and its residual");
+  sub->add_option("--align-pairs", a->align_pairs,
+                  "JSON {\"pairs\": [{\"cloud\": [x,y,z], \"mesh\": [x,y,z]}, ...]}: three or "
+                  "more picked point pairs giving the start of --align when it is far");
+  sub->add_option("--align-threshold", a->align_options.initial_threshold_mm,
+                  "First correspondence threshold of --align, mm (cover the start's error)")
+      ->capture_default_str();
   sub->add_option("--map", a->map, "Deviation colour-map image to write (PNG)");
   sub->add_option("--range", a->range_mm, "Colour-map range +-mm")->capture_default_str();
   sub->add_option("--max-distance", a->deviation.max_distance_mm,
@@ -77,8 +118,18 @@ void AddEvaluateCommand(CLI::App& app) {
     if (a->artefact.empty() == a->truth.empty()) {
       throw CLI::ValidationError("evaluate", "give exactly one of --artefact and --truth");
     }
+    if ((a->align || !a->align_pairs.empty()) && a->truth.empty()) {
+      throw CLI::ValidationError("evaluate", "--align and --align-pairs need --truth");
+    }
+    if (!a->align_pairs.empty()) a->align = true;
+    if (!a->align_pairs.empty() && !a->pose.empty()) {
+      throw CLI::ValidationError("evaluate", "give at most one of --pose and --align-pairs");
+    }
+    a->align_options.min_threshold_mm =
+        std::min(a->align_options.min_threshold_mm, a->align_options.initial_threshold_mm);
+    a->align_options.Check();
     if (!a->map.empty()) {
-      util::CheckOutputFile(a->map, {a->cloud, a->truth, a->pose});
+      util::CheckOutputFile(a->map, {a->cloud, a->truth, a->pose, a->align_pairs});
       if (a->truth.empty()) throw CLI::ValidationError("evaluate", "--map needs --truth");
     }
     const io::PlyData ply = io::ReadPly(a->cloud);
@@ -95,10 +146,38 @@ void AddEvaluateCommand(CLI::App& app) {
                                    " is not finite (NaN or infinite coordinates)"));
         }
       }
-      // Move the mesh into the cloud's frame (keeps the cloud's grid for the colour map).
-      if (!a->pose.empty()) {
-        mesh.Transform(io::RigidFromJson(io::ReadJson(a->pose), a->pose).Inverse());
+      Rigid3d mesh_from_cloud;
+      if (!a->pose.empty()) mesh_from_cloud = io::RigidFromJson(io::ReadJson(a->pose), a->pose);
+      if (a->align) {
+        if (!a->align_pairs.empty()) mesh_from_cloud = ReadAlignPairs(a->align_pairs);
+        const eval::MeshDistance reference(mesh);  // mesh frame
+        const registration::MeshAlignResult r =
+            registration::AlignToMesh(cloud, reference, mesh_from_cloud, a->align_options);
+        nlohmann::json levels = nlohmann::json::array();
+        for (const auto& l : r.levels) {
+          levels.push_back({{"points", l.points_per_view},
+                            {"iterations", l.iterations},
+                            {"converged", l.converged},
+                            {"threshold_start_mm", l.threshold_start_mm},
+                            {"threshold_end_mm", l.threshold_end_mm},
+                            {"rms_start_mm", l.rms_start_mm},
+                            {"rms_end_mm", l.rms_end_mm}});
+        }
+        j["align"] = {{"status", registration::ToString(r.status)},
+                      {"message", r.message},
+                      {"mesh_from_cloud", io::RigidToJson(r.mesh_from_cloud)},
+                      {"rms_mm", r.rms_mm},
+                      {"points", r.correspondences},
+                      {"levels", levels}};
+        if (!a->json) std::cout << r.BriefReport() << "\n";
+        if (r.status == registration::IcpStatus::kNoOverlap) {
+          throw Error(
+              util::StrCat(a->cloud, ": cannot align to ", mesh_path.string(), ": ", r.message));
+        }
+        mesh_from_cloud = r.mesh_from_cloud;
       }
+      // Move the mesh into the cloud's frame (keeps the cloud's grid for the colour map).
+      if (!a->pose.empty() || a->align) mesh.Transform(mesh_from_cloud.Inverse());
       const eval::MeshDistance distance(std::move(mesh));
       std::vector<double> d;
       const eval::DeviationStats s = eval::DeviationFromMesh(cloud, distance, a->deviation, &d);

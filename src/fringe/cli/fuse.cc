@@ -11,6 +11,7 @@
 #include "fringe/fusion/mesh.h"
 #include "fringe/io/calibration_io.h"
 #include "fringe/io/ply.h"
+#include "fringe/scan/truth.h"
 #include "fringe/util/error.h"
 #include "fringe/util/files.h"
 
@@ -19,24 +20,15 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// world_from_sensor by view name from a poses.json (the schema of the simulator's
-// truth/poses.json and of `fringe register`'s DIR/poses.json; docs/scan-folder.md).
+// world_from_sensor by view name from a poses.json (scan::ReadTruthPoses: the schema of the
+// simulator's truth/poses.json and of `fringe register`'s DIR/poses.json).
 std::map<std::string, Rigid3d> ReadPoses(const fs::path& path) {
-  const nlohmann::json j = io::ReadJson(path);
-  return io::WithJsonContext(path.string(), [&] {
-    std::map<std::string, Rigid3d> poses;
-    for (const auto& v : j.at("views")) {
-      const std::string name = v.at("view").get<std::string>();
-      if (!poses
-               .emplace(name, io::RigidFromJson(v.at("world_from_sensor"),
-                                                path.string() + ": view " + name))
-               .second) {
-        throw Error(util::StrCat(path.string(), ": view '", name, "' appears twice"));
-      }
-    }
-    if (poses.empty()) throw Error(util::StrCat(path.string(), ": no views"));
-    return poses;
-  });
+  std::map<std::string, Rigid3d> poses;
+  for (const scan::ViewPose& v : scan::ReadTruthPoses(path).views) {
+    poses.emplace(v.view, v.world_from_sensor);
+  }
+  if (poses.empty()) throw Error(util::StrCat(path.string(), ": no views"));
+  return poses;
 }
 
 bool SameFile(const fs::path& a, const fs::path& b) {

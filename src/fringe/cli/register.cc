@@ -12,6 +12,7 @@
 #include "fringe/io/ply.h"
 #include "fringe/registration/register_views.h"
 #include "fringe/registration/registration_io.h"
+#include "fringe/scan/truth.h"
 #include "fringe/util/error.h"
 #include "fringe/util/files.h"
 
@@ -70,11 +71,10 @@ void AddRegisterCommand(CLI::App& app) {
       views.push_back(std::move(v));
     }
     if (!a->initial.empty()) {
-      const auto poses = registration::ReadPoses(a->initial);
+      const scan::TruthPoses poses = scan::ReadTruthPoses(a->initial);
       for (auto& v : views) {
-        auto it = poses.find(v.name);
-        if (it != poses.end()) {
-          Rigid3d t = it->second;
+        if (const scan::ViewPose* p = poses.Find(v.name)) {
+          Rigid3d t = p->world_from_sensor;
           if (scale != 1) t = Rigid3d(t.rotation(), t.translation() * scale);
           v.initial_world_from_sensor = t;
         }

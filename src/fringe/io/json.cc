@@ -173,6 +173,20 @@ double GetNumber(const json& j, const char* key, const std::string& context) {
   return AsNumber(j[key], Field(context, key));
 }
 
+std::vector<double> GetNumbers(const json& j, const char* key, size_t count,
+                               const std::string& context) {
+  RequireObject(j, context);
+  if (!j.contains(key)) throw Error(StrCat(context, ": missing field '", key, "'"));
+  const json& a = j[key];
+  const std::string where = Field(context, key);
+  if (!a.is_array() || a.size() != count) {
+    throw Error(StrCat(where, ": expected an array of ", count, " numbers, found ", Brief(a)));
+  }
+  std::vector<double> out;
+  for (size_t k = 0; k < count; ++k) out.push_back(AsNumber(a[k], StrCat(where, "[", k, "]")));
+  return out;
+}
+
 double OptionalNumber(const json& j, const char* key, double fallback, const std::string& context) {
   RequireObject(j, context);
   return j.contains(key) ? AsNumber(j[key], Field(context, key)) : fallback;

@@ -61,6 +61,11 @@ std::string GetString(const nlohmann::json& j, const char* key, const std::strin
 std::string OptionalString(const nlohmann::json& j, const char* key, const std::string& fallback,
                            const std::string& context);
 
+// j[key] as an array of exactly `count` finite numbers (a point, a pixel, a normal); throws
+// "<context>.<key>: ..." naming what is wrong.
+std::vector<double> GetNumbers(const nlohmann::json& j, const char* key, size_t count,
+                               const std::string& context);
+
 // Value-level versions (for array elements): `where` names the value ("<context>.images[3]").
 double AsNumber(const nlohmann::json& v, const std::string& where);
 long long AsInteger(const nlohmann::json& v, long long lo, long long hi, const std::string& where);

@@ -59,6 +59,18 @@ TEST(CheckKnownKeys, NamesUnknownKeyAndNearestKnownOne) {
   EXPECT_NO_THROW(CheckKnownKeys(json{{"rows", 1}}, {"rows"}, "t"));
 }
 
+TEST(GetNumbers, ExactCountOfFiniteNumbers) {
+  const json j = json::parse(R"({"p": [1, 2.5, -3], "short": [1, 2], "text": [1, "2", 3]})");
+  EXPECT_EQ(GetNumbers(j, "p", 3, "m"), (std::vector<double>{1, 2.5, -3}));
+  EXPECT_NE(
+      ErrorOf([&] { GetNumbers(j, "short", 3, "m"); }).find("m.short: expected an array of 3"),
+      std::string::npos);
+  EXPECT_NE(ErrorOf([&] { GetNumbers(j, "text", 3, "m"); }).find("m.text[1]: expected a number"),
+            std::string::npos);
+  EXPECT_NE(ErrorOf([&] { GetNumbers(j, "q", 3, "m"); }).find("missing field 'q'"),
+            std::string::npos);
+}
+
 TEST(GetInteger, RejectsNonIntegersOutOfRangeAndWrongTypes) {
   const json j = json::parse(
       R"({"width": 4294967936, "steps": 4.5, "n": "4", "neg": -3, "ok": 640, "huge": 18446744073709551615})");

@@ -104,7 +104,52 @@ struct Corr {
   double r = 0;     // point-to-plane residual
 };
 
+// Normal-space sampling (Rusinkiewicz & Levoy, "Efficient variants of the ICP algorithm",
+// 3DIM 2001): the points are binned by normal direction (cube map, kNormalBins x kNormalBins
+// cells per face) and the order takes one point of each non-empty bin in turn (seeded random
+// within and across bins). On a plane-dominated scene a uniform sample is nearly all plate:
+// the walls that fix the sliding directions are a few percent of it, fall under the trimming
+// and the percentile threshold as soon as a view slides, and the view keeps sliding. Any prefix
+// of this order holds every normal direction in proportion to its bins, not its area.
+constexpr int kNormalBins = 4;
+
 }  // namespace
+
+std::vector<uint32_t> NormalSpaceOrder(const std::vector<Vector3d>& normals, uint64_t seed) {
+  std::vector<std::vector<uint32_t>> bins(6 * kNormalBins * kNormalBins);
+  for (size_t k = 0; k < normals.size(); ++k) {
+    const Vector3d& n = normals[k];
+    int axis = 0;
+    n.cwiseAbs().maxCoeff(&axis);
+    const int face = 2 * axis + (n[axis] < 0 ? 1 : 0);
+    const double a = n[(axis + 1) % 3] / std::abs(n[axis]);  // in [-1, 1]
+    const double b = n[(axis + 2) % 3] / std::abs(n[axis]);
+    const int ia = std::clamp(static_cast<int>((a + 1) / 2 * kNormalBins), 0, kNormalBins - 1);
+    const int ib = std::clamp(static_cast<int>((b + 1) / 2 * kNormalBins), 0, kNormalBins - 1);
+    bins[(face * kNormalBins + ia) * kNormalBins + ib].push_back(static_cast<uint32_t>(k));
+  }
+  std::mt19937_64 rng(seed);
+  std::vector<std::vector<uint32_t>*> live;
+  for (auto& b : bins) {
+    if (b.empty()) continue;
+    std::shuffle(b.begin(), b.end(), rng);
+    live.push_back(&b);
+  }
+  std::vector<uint32_t> order;
+  order.reserve(normals.size());
+  for (size_t round = 0; !live.empty(); ++round) {
+    std::shuffle(live.begin(), live.end(), rng);
+    std::vector<std::vector<uint32_t>*> next;
+    for (auto* b : live) {
+      order.push_back((*b)[round]);
+      if (round + 1 < b->size()) next.push_back(b);
+    }
+    live.swap(next);
+  }
+  return order;
+}
+
+namespace {}  // namespace
 
 IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& options) {
   options.Check();
@@ -132,10 +177,7 @@ IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& o
       pv.data.pts.push_back(p);
       pv.normals.push_back(n);
     }
-    pv.order.resize(pv.data.pts.size());
-    std::iota(pv.order.begin(), pv.order.end(), 0u);
-    std::mt19937_64 rng(options.seed * 1000003u + static_cast<uint64_t>(i));
-    std::shuffle(pv.order.begin(), pv.order.end(), rng);
+    pv.order = NormalSpaceOrder(pv.normals, options.seed * 1000003u + static_cast<uint64_t>(i));
     if (!pv.data.pts.empty()) {
       pv.tree = std::make_unique<KdTree>(3, pv.data, nanoflann::KDTreeSingleIndexAdaptorParams(16));
     }
@@ -170,6 +212,7 @@ IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& o
     rep.level = static_cast<int>(level);
     rep.points_per_view = options.points_per_level[level];
     rep.threshold_start_mm = threshold;
+    std::vector<double> last_dists;
     for (int it = 0; it < options.max_iterations_per_level; ++it) {
       // Samples of every view in the world frame at the current poses.
       std::vector<Corr> corr;
@@ -319,19 +362,24 @@ IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& o
         max_rot_deg = std::max(max_rot_deg, angle * 180 / M_PI);
         max_trans_mm = std::max(max_trans_mm, (step * centroid - centroid).norm());
       }
-      // Dynamic threshold: min(previous, factor x percentile of the distances).
-      std::vector<double> sorted = dists;
-      const size_t q = std::min(sorted.size() - 1,
-                                static_cast<size_t>(options.shrink_percentile * sorted.size()));
-      std::nth_element(sorted.begin(), sorted.begin() + q, sorted.end());
-      threshold = std::max(options.min_threshold_mm,
-                           std::min(threshold, options.shrink_factor * sorted[q]));
+      last_dists.swap(dists);
       rep.iterations = it + 1;
       if (max_rot_deg < options.convergence_rotation_deg &&
           max_trans_mm < options.convergence_translation_mm) {
         rep.converged = true;
         break;
       }
+    }
+    // Dynamic threshold, per level: min(previous, factor x percentile of the last residuals).
+    // Shrinking it within a level would cut the correspondences that still carry the
+    // misalignment (on a plane-dominated scene the percentile is the plate's noise while the
+    // walls still see the view's slide) and the level would crawl instead of converging.
+    if (!last_dists.empty()) {
+      const size_t q = std::min(last_dists.size() - 1,
+                                static_cast<size_t>(options.shrink_percentile * last_dists.size()));
+      std::nth_element(last_dists.begin(), last_dists.begin() + q, last_dists.end());
+      threshold = std::max(options.min_threshold_mm,
+                           std::min(threshold, options.shrink_factor * last_dists[q]));
     }
     rep.threshold_end_mm = threshold;
     all_converged &= rep.converged;

@@ -8,18 +8,22 @@
 // clouds' common centroid, 6 unknowns per free view). Closed loops of views therefore share
 // the error instead of accumulating it; with two views, one fixed, it is ordinary pairwise ICP.
 //
-// Levels: the views are subsampled (a seeded random order of each view's valid points; level l
-// uses the first points_per_level[l]), coarse to fine. The correspondence threshold starts at
-// initial_threshold_mm (for registration: from the marker alignment error) and after every
-// iteration becomes min(previous, shrink_factor x the shrink_percentile of the residual
-// distances), never below min_threshold_mm: the dynamic threshold of the thesis, MeshLab
-// AlignPair's rule min(previous, 5 x 80th percentile). Rejection: distance over the threshold,
-// normals more than max_normal_angle_deg apart, then per view pair the worst (1 - trim_fraction)
-// of the distances (trimmed ICP). A view pair with fewer correspondences than
-// min_overlap_fraction of the source samples does not overlap and is left out of that
-// iteration. Iterations of a level stop when no view moves more than the convergence limits.
-// Directions the surfaces do not constrain (a plane, a sphere, a cylinder) are detected in the
-// eigenbasis of the normal matrix and left where the initial poses (the markers) put them.
+// Levels: the views are subsampled, coarse to fine: level l uses the first points_per_level[l]
+// points of a seeded normal-space order (Rusinkiewicz & Levoy 2001: the points binned by normal
+// direction, one per bin in turn), so that on a plane-dominated scene the few walls that fix the
+// sliding directions are not drowned by the plate. The correspondence threshold is fixed within
+// a level: initial_threshold_mm for the first (for registration: from the marker alignment
+// error), and after each level min(previous, shrink_factor x the shrink_percentile of the last
+// residual distances), never below min_threshold_mm: the dynamic threshold of the thesis,
+// MeshLab AlignPair's rule min(previous, 5 x 80th percentile), applied per level because
+// shrinking it within a level cuts the wall correspondences that still carry a slide.
+// Rejection: distance over the threshold, normals more than max_normal_angle_deg apart, then
+// per view pair the worst (1 - trim_fraction) of the distances (trimmed ICP). A view pair with
+// fewer correspondences than min_overlap_fraction of the source samples does not overlap and is
+// left out of that iteration. Iterations of a level stop when no view moves more than the
+// convergence limits. Directions the surfaces do not constrain at all (a plane, a sphere, a
+// cylinder) are detected in the eigenbasis of the normal matrix and left where the initial
+// poses (the markers) put them.
 //
 // Not done: projective association on the organized grid (the k-d tree search is exact and
 // costs ~1 us per point; projection would need the camera model, which fringe register's PLY
@@ -51,7 +55,9 @@ struct IcpOptions {
   double min_overlap_fraction = 0.02;                       // [0, 1)
   // Directions of the normal matrix with an eigenvalue below this fraction of the largest are
   // degenerate (the surfaces do not constrain them) and not moved, [0, 1).
-  double degeneracy_ratio = 1e-3;
+  // 1e-5: a plate with a few walls constrains its sliding directions ~1e-4 as strongly as the
+  // normal one; those are weak, not degenerate, and must move.
+  double degeneracy_ratio = 1e-5;
   double convergence_rotation_deg = 1e-4;    // > 0
   double convergence_translation_mm = 1e-4;  // > 0
   uint64_t seed = 1;                         // subsampling order
@@ -96,6 +102,10 @@ struct IcpResult {
   std::vector<std::vector<double>> overlap;
   IcpSummary summary;
 };
+
+// Normal-space sampling order of points with these unit normals (see above; also used by
+// align_to_mesh.h): indices, one per normal bin in turn, seeded random within and across bins.
+std::vector<uint32_t> NormalSpaceOrder(const std::vector<Eigen::Vector3d>& normals, uint64_t seed);
 
 // Throws fringe::Error for bad options, a null or empty cloud, or a cloud without normals.
 IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& options = {});

@@ -7,7 +7,7 @@
 #include <map>
 
 #include "fringe/io/calibration_io.h"
-#include "fringe/registration/json_util.h"
+#include "fringe/io/json.h"
 #include "fringe/stereo/triangulation.h"
 #include "fringe/util/error.h"
 #include "fringe/util/timer.h"
@@ -294,6 +294,20 @@ ViewMarkers DetectViewMarkers(const StereoRig& rig, const cv::Mat& texture_left,
 
 // ---- Files ----
 
+namespace {
+
+// A marker file of a real scan holds a few hundred markers; more is refused before reading.
+constexpr size_t kMaxMarkersInFile = 100000;
+
+json Vec(const Eigen::Vector3d& v) { return json::array({v.x(), v.y(), v.z()}); }
+json Vec(const Eigen::Vector2d& v) { return json::array({v.x(), v.y()}); }
+Eigen::Vector3d Vec3(const json& j, const char* key, const std::string& context) {
+  const std::vector<double> v = io::GetNumbers(j, key, 3, context);
+  return {v[0], v[1], v[2]};
+}
+
+}  // namespace
+
 std::filesystem::path MarkersPathForCloud(const std::filesystem::path& cloud_path) {
   std::filesystem::path p = cloud_path;
   p.replace_extension(".markers.json");
@@ -304,10 +318,10 @@ void WriteViewMarkers(const std::filesystem::path& path, const std::vector<ViewM
   json list = json::array();
   for (const ViewMarker& m : markers) {
     list.push_back({{"id", m.id},
-                    {"centre_in_sensor", internal::ToJson(m.centre_in_sensor)},
-                    {"normal_in_sensor", internal::ToJson(m.normal_in_sensor)},
-                    {"left_px", internal::ToJson(m.left_px)},
-                    {"right_px", internal::ToJson(m.right_px)},
+                    {"centre_in_sensor", Vec(m.centre_in_sensor)},
+                    {"normal_in_sensor", Vec(m.normal_in_sensor)},
+                    {"left_px", Vec(m.left_px)},
+                    {"right_px", Vec(m.right_px)},
                     {"outer_radius_mm", m.outer_radius_mm},
                     {"sigma_mm", m.sigma_mm},
                     {"depth_difference_mm", m.depth_difference_mm}});
@@ -319,29 +333,42 @@ void WriteViewMarkers(const std::filesystem::path& path, const std::vector<ViewM
 }
 
 std::vector<ViewMarker> ReadViewMarkers(const std::filesystem::path& path) {
-  const json j = internal::ReadJsonBounded(path);
+  const json j = io::ReadJson(path);  // bounded in size and depth
   const std::string ctx = path.string();
-  internal::CheckFormat(j, "fringe-view-markers", ctx);
-  const json& list = internal::BoundedArray(j, "markers", internal::kMaxMarkers, ctx);
+  io::RequireObject(j, ctx);
+  if (io::OptionalString(j, "format", "fringe-view-markers", ctx) != "fringe-view-markers") {
+    throw Error(ctx + ".format: expected \"fringe-view-markers\"");
+  }
+  io::OptionalInteger(j, "version", 1, 1, 1, ctx);
+  if (!j.contains("markers") || !j["markers"].is_array()) {
+    throw Error(ctx + ".markers: expected an array");
+  }
+  const json& list = j["markers"];
+  if (list.size() > kMaxMarkersInFile) {
+    throw Error(StrCat(ctx, ".markers: ", list.size(), " entries, more than the ",
+                       kMaxMarkersInFile, " accepted"));
+  }
   std::vector<ViewMarker> out;
   out.reserve(list.size());
   for (size_t k = 0; k < list.size(); ++k) {
     const json& e = list[k];
-    const std::string c = StrCat(ctx, ": markers[", k, "]");
+    const std::string c = StrCat(ctx, ".markers[", k, "]");
     ViewMarker m;
-    if (!e.is_object() || !e.contains("id") || !e["id"].is_number_integer()) {
-      throw Error(c + ".id: expected an integer");
+    m.id = static_cast<int>(io::GetInteger(e, "id", 0, std::numeric_limits<int>::max(), c));
+    m.centre_in_sensor = Vec3(e, "centre_in_sensor", c);
+    m.normal_in_sensor = Vec3(e, "normal_in_sensor", c);
+    if (std::abs(m.normal_in_sensor.norm() - 1) > 1e-3) {
+      throw Error(
+          StrCat(c, ".normal_in_sensor: not a unit vector (norm ", m.normal_in_sensor.norm(), ")"));
     }
-    m.id = e["id"].get<int>();
-    m.centre_in_sensor = internal::Vector3(e, "centre_in_sensor", c);
-    m.normal_in_sensor = internal::UnitVector3(e, "normal_in_sensor", c);
-    m.left_px = internal::Vector2(e, "left_px", c);
-    m.right_px = internal::Vector2(e, "right_px", c);
-    m.outer_radius_mm = internal::FiniteNumber(e, "outer_radius_mm", c);
-    m.sigma_mm = internal::FiniteNumber(e, "sigma_mm", c);
-    if (e.contains("depth_difference_mm")) {
-      m.depth_difference_mm = internal::FiniteNumber(e, "depth_difference_mm", c);
-    }
+    m.normal_in_sensor.normalize();
+    const std::vector<double> l = io::GetNumbers(e, "left_px", 2, c);
+    const std::vector<double> r = io::GetNumbers(e, "right_px", 2, c);
+    m.left_px = Eigen::Vector2d(l[0], l[1]);
+    m.right_px = Eigen::Vector2d(r[0], r[1]);
+    m.outer_radius_mm = io::GetNumber(e, "outer_radius_mm", c);
+    m.sigma_mm = io::GetNumber(e, "sigma_mm", c);
+    m.depth_difference_mm = io::OptionalNumber(e, "depth_difference_mm", 0, c);
     if (m.sigma_mm < 0) throw Error(c + ".sigma_mm: must be >= 0");
     if (m.outer_radius_mm <= 0) throw Error(c + ".outer_radius_mm: must be > 0");
     if (m.centre_in_sensor.z() <= 0) throw Error(c + ".centre_in_sensor: behind the sensor");

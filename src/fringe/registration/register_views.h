@@ -56,7 +56,15 @@ struct RegistrationOptions {
   MarkerMatchOptions matching;
   AdjustmentOptions adjustment;
   CoarseOptions coarse;
-  IcpOptions icp;  // initial_threshold_mm is used for views placed without markers
+  // initial_threshold_mm is used for views placed without markers. Directions weaker than
+  // 1e-3 of the strongest stay where the markers put them: on a scene like a plate with a few
+  // boxes and a ball, the data along them is biased by edge points by more than the markers'
+  // error (IcpOptions' own 1e-5 is for starts with no such knowledge).
+  IcpOptions icp = [] {
+    IcpOptions o;
+    o.degeneracy_ratio = 1e-3;
+    return o;
+  }();
   void Check() const;
 };
 

@@ -6,7 +6,10 @@
 #include <random>
 #include <tuple>
 
+#include "fringe/io/ply.h"
+#include "fringe/registration/registration_io.h"
 #include "fringe/registration/test_views.h"
+#include "fringe_test.h"
 
 namespace fringe::registration {
 namespace {
@@ -166,6 +169,39 @@ TEST(RegisterViews, BadViewsAreReportedAndGoodViewsKept) {
   for (int v = 1; v < 4; ++v) {
     EXPECT_LT(PoseError(f, Poses(r), v).angle_rad * 180 / M_PI, kRotTolDeg);
   }
+}
+
+// Bad input: an unorganized cloud without normals gets them estimated (and says so), oriented
+// toward the sensor; a cloud in metres read with --units m comes back in millimetres.
+constexpr double kEstimatedNormalTolDeg = 3;  // 20-neighbour PCA on a 1 mm grid, no noise
+
+TEST(ReadRegistrationView, MissingNormalsAreEstimatedTowardTheSensorAndReported) {
+  test::TempDir dir;
+  PointCloud c;  // a gently curved sheet 300 mm in front of the sensor, facing it
+  for (double x = -40; x <= 40; x += 1) {
+    for (double y = -30; y <= 30; y += 1) {
+      c.points.emplace_back(x, y, 300 + 0.002 * x * x);
+    }
+  }
+  io::WritePly(dir / "sheet.ply", c);
+  std::string note;
+  const RegistrationView v = ReadRegistrationView(dir / "sheet.ply", 1.0, false, &note);
+  EXPECT_NE(note.find("normals estimated"), std::string::npos) << note;
+  ASSERT_EQ(v.cloud.normals.size(), v.cloud.size());
+  for (size_t i = 0; i < v.cloud.size(); i += 97) {
+    const Eigen::Vector3d& p = v.cloud.points[i];
+    const Eigen::Vector3d truth = Eigen::Vector3d(0.004 * p.x(), 0, -1).normalized();
+    EXPECT_LT(std::acos(std::min(1.0, v.cloud.normals[i].dot(truth))) * 180 / M_PI,
+              kEstimatedNormalTolDeg)
+        << "point " << i;
+  }
+  // The same sheet written in metres and read with scale 1000 is the millimetre sheet.
+  PointCloud m = c;
+  for (auto& p : m.points) p *= 1e-3;
+  io::WritePly(dir / "sheet_m.ply", m);
+  const RegistrationView vm = ReadRegistrationView(dir / "sheet_m.ply", 1000.0, false, nullptr);
+  ASSERT_EQ(vm.cloud.size(), c.size());
+  EXPECT_LT((vm.cloud.points[5] - c.points[5]).norm(), 1e-3);
 }
 
 }  // namespace

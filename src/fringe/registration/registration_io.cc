@@ -7,14 +7,20 @@
 
 #include "fringe/geometry/normals.h"
 #include "fringe/io/calibration_io.h"
+#include "fringe/io/json.h"
 #include "fringe/io/ply.h"
-#include "fringe/registration/json_util.h"
+#include "fringe/scan/truth.h"
 #include "fringe/util/error.h"
 
 namespace fringe::registration {
 
 using nlohmann::json;
 using util::StrCat;
+
+namespace {
+json Vec(const Eigen::Vector3d& v) { return json::array({v.x(), v.y(), v.z()}); }
+json Vec(const Eigen::Vector2d& v) { return json::array({v.x(), v.y()}); }
+}  // namespace
 
 RegistrationView ReadRegistrationView(const std::filesystem::path& ply, double scale_to_mm,
                                       bool read_markers, std::string* normals_note) {
@@ -61,40 +67,13 @@ RegistrationView ReadRegistrationView(const std::filesystem::path& ply, double s
 
 void WritePoses(const std::filesystem::path& path, const std::vector<std::string>& names,
                 const std::vector<Rigid3d>& world_from_sensor) {
-  json views = json::array();
-  for (size_t i = 0; i < names.size(); ++i) {
-    views.push_back(
-        {{"view", names[i]}, {"world_from_sensor", io::RigidToJson(world_from_sensor[i])}});
-  }
-  io::WriteJson(path, {{"format", "fringe-poses"},
-                       {"version", 1},
-                       {"frame", "world_from_sensor (sensor = left camera), mm"},
-                       {"views", views}});
-}
-
-std::map<std::string, Rigid3d> ReadPoses(const std::filesystem::path& path) {
-  const json j = internal::ReadJsonBounded(path);
-  const std::string ctx = path.string();
-  internal::CheckFormat(j, "fringe-poses", ctx);
-  const json& views = internal::BoundedArray(j, "views", internal::kMaxViews, ctx);
-  std::map<std::string, Rigid3d> out;
-  for (size_t k = 0; k < views.size(); ++k) {
-    const std::string c = StrCat(ctx, ": views[", k, "]");
-    const json& e = views[k];
-    if (!e.is_object() || !e.contains("view") || !e["view"].is_string()) {
-      throw Error(c + ".view: expected a name");
-    }
-    if (!e.contains("world_from_sensor")) throw Error(c + ".world_from_sensor: missing");
-    const Rigid3d t = io::WithJsonContext(
-        c, [&] { return io::RigidFromJson(e["world_from_sensor"], c + ".world_from_sensor"); });
-    if (!t.translation().allFinite() || !t.rotation().coeffs().allFinite()) {
-      throw Error(c + ".world_from_sensor: not finite");
-    }
-    if (!out.emplace(e["view"].get<std::string>(), t).second) {
-      throw Error(StrCat(c, ".view: '", e["view"].get<std::string>(), "' appears twice"));
-    }
-  }
-  return out;
+  scan::TruthPoses poses;
+  for (size_t i = 0; i < names.size(); ++i) poses.views.push_back({names[i], world_from_sensor[i]});
+  json j = scan::PosesToJson(poses);
+  j.erase("turntable");  // a registration's world is the first view's frame, not a turntable
+  j["format"] = "fringe-poses";
+  j["version"] = 1;
+  io::WriteJson(path, j);
 }
 
 void WriteMarkerMap(const std::filesystem::path& path, const RegistrationResult& result,
@@ -106,17 +85,17 @@ void WriteMarkerMap(const std::filesystem::path& path, const RegistrationResult&
         views[m.sightings.front().view].markers[m.sightings.front().view_marker];
     const double ratio = 0.6;  // the markers' inner / outer radius (MarkerDetectionOptions)
     markers.push_back({{"id", m.id},
-                       {"centre_in_world", internal::ToJson(m.centre_in_world)},
-                       {"normal_in_world", internal::ToJson(m.normal_in_world)},
+                       {"centre_in_world", Vec(m.centre_in_world)},
+                       {"normal_in_world", Vec(m.normal_in_world)},
                        {"inner_radius_mm", ratio * first.outer_radius_mm},
                        {"outer_radius_mm", m.outer_radius_mm},
                        {"sightings", m.sightings.size()}});
     for (const auto& s : m.sightings) {
       const ViewMarker& vm = views[s.view].markers[s.view_marker];
       obs[s.view].push_back({{"id", m.id},
-                             {"centre_in_sensor", internal::ToJson(vm.centre_in_sensor)},
-                             {"left_px", internal::ToJson(vm.left_px)},
-                             {"right_px", internal::ToJson(vm.right_px)},
+                             {"centre_in_sensor", Vec(vm.centre_in_sensor)},
+                             {"left_px", Vec(vm.left_px)},
+                             {"right_px", Vec(vm.right_px)},
                              {"visible_left", true},
                              {"visible_right", true}});
     }

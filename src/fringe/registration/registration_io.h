@@ -8,7 +8,6 @@
 #pragma once
 
 #include <filesystem>
-#include <map>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -25,10 +24,10 @@ namespace fringe::registration {
 RegistrationView ReadRegistrationView(const std::filesystem::path& ply, double scale_to_mm,
                                       bool read_markers, std::string* normals_note);
 
-// world_from_sensor per view name; readers validate (rotation orthonormal, finite, bounded).
+// poses.json: scan::PosesToJson's schema plus format/version (read back with
+// scan::ReadTruthPoses, the one poses reader).
 void WritePoses(const std::filesystem::path& path, const std::vector<std::string>& names,
                 const std::vector<Rigid3d>& world_from_sensor);
-std::map<std::string, Rigid3d> ReadPoses(const std::filesystem::path& path);
 
 // The marker map in truth/markers.json's schema; "views" lists each view's sightings.
 void WriteMarkerMap(const std::filesystem::path& path, const RegistrationResult& result,

@@ -5,6 +5,7 @@
 #include <set>
 
 #include "fringe/io/calibration_io.h"
+#include "fringe/io/json.h"
 #include "fringe/util/error.h"
 
 namespace fringe::scan {
@@ -90,6 +91,11 @@ json PosesToJson(const TruthPoses& poses) {
 TruthPoses PosesFromJson(const json& j, const std::string& context) {
   return io::WithJsonContext(context, [&] {
     TruthPoses out;
+    io::RequireObject(j, context);
+    if (io::OptionalString(j, "format", "fringe-poses", context) != "fringe-poses") {
+      throw Error("'format' must be \"fringe-poses\"");
+    }
+    io::OptionalInteger(j, "version", 1, 1, 1, context);
     out.turntable = j.value("turntable", false);
     std::set<std::string> seen;
     for (const json& v : Array(j, "views")) {

@@ -39,7 +39,9 @@ struct MarkerObservation {
   bool visible_right = false;
 };
 
-// truth/poses.json
+// truth/poses.json, and fringe register's DIR/poses.json (the same schema plus "format":
+// "fringe-poses" and "version": 1, which the reader checks when present): the one poses reader
+// of the project (registration --initial, fuse --poses, benchmarks).
 struct ViewPose {
   std::string view;  // view folder name, "000"
   Rigid3d world_from_sensor;

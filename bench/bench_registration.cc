@@ -1,0 +1,423 @@
+// bench_registration: accuracy and speed of multi-view registration (issue 11).
+//
+// Simulated multi-view scan of the demo part (sim::ScanSimulator, --views around it, read noise
+// --noise DN), every view reconstructed from its fringe images with the true rig
+// (ViewReconstructor), its markers detected in the decoded textures (DetectViewMarkers, not taken
+// from the truth), then fringe::registration::RegisterViews. Pose errors at three stages: after
+// marker matching (marker_*), after the global marker adjustment (adjusted_*), after multi-level
+// multi-view ICP (icp_*). Gauge: the one rigid G minimising, over all placed views together, the
+// squared displacement of each view's own points (a seeded sample of <= 2000 per view) between
+// G * estimated world_from_sensor and the true pose; then per view the rotation error is the
+// angle of R_true^T R_(G est) and the translation error the displacement of the view's cloud
+// centroid; max and RMS over views (the world view included: it is not exempt from the gauge).
+//   icp_improvement      RMS centroid displacement after markers / after ICP;
+//   registered_rms_mm    RMS distance of the registered points (final poses, gauge removed) to
+//                        the truth mesh, points within 2 mm;
+//   marker_match_rate    fraction of detected markers whose triangulated centre lies within
+//                        1 mm of a true marker centre of that view (a wrong stereo match lands
+//                        far off the surface or on another marker);
+//   open3d_*             Open3D RegistrationICP point-to-plane from the same initial poses (the
+//                        adjusted ones), each non-world view against the union of the others at
+//                        their initial poses, threshold = ours' first; open3d_ms_* its
+//                        multi-scale variant (voxel 2, 1, 0.5 mm; threshold halved per scale);
+//   ours_icp_s, open3d_icp_s, open3d_ms_icp_s  wall time of those refinements.
+// Stanford bunny (real scans, no markers; ../shared/data/stanford-bunny): bun045 onto bun000,
+// reference bun.conf (p_common = R^T p_scan + t, quaternion x y z w; see the data's README):
+//   bunny_*              ours (AlignPointToPlane) from the reference perturbed by 5 deg / 5 mm;
+//   open3d_bunny_*       Open3D RegistrationICP point-to-plane from the same start;
+//   bunny_coarse_*       from no initial pose: Open3D FPFH + RANSAC (AlignCoarse), then ours.
+// Bunny errors: rotation angle and displacement of bun045's centroid, against bun.conf (itself
+// good to ~0.05-0.1 deg: agreement, not accuracy).
+//
+// Usage: bench_registration [--json] [--views 8] [--scale 0.5] [--noise 1.5] [--seed 1]
+//                           [--bunny DIR] [--no-bunny]
+#include <open3d/geometry/KDTreeSearchParam.h>
+#include <open3d/geometry/PointCloud.h>
+#include <open3d/pipelines/registration/Registration.h>
+#include <open3d/pipelines/registration/TransformationEstimation.h>
+
+#include <CLI/CLI.hpp>
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <random>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "fringe/eval/deviation.h"
+#include "fringe/geometry/align.h"
+#include "fringe/registration/coarse.h"
+#include "fringe/registration/icp.h"
+#include "fringe/registration/markers.h"
+#include "fringe/registration/register_views.h"
+#include "fringe/registration/registration_io.h"
+#include "fringe/sim/scan.h"
+#include "fringe/stereo/reconstruct_view.h"
+#include "fringe/util/error.h"
+#include "fringe/util/random.h"
+#include "fringe/util/timer.h"
+
+namespace fringe {
+namespace {
+
+namespace fs = std::filesystem;
+namespace o3reg = open3d::pipelines::registration;
+using Eigen::Vector3d;
+
+struct PoseStats {
+  double max_rot_deg = 0, rms_rot_deg = 0, max_trans_mm = 0, rms_trans_mm = 0;
+};
+
+Vector3d Centroid(const PointCloud& c) {
+  Vector3d s = Vector3d::Zero();
+  for (const Vector3d& p : c.points) s += p;
+  return s / static_cast<double>(std::max<size_t>(1, c.size()));
+}
+
+// Gauge G (see the header) from a seeded sample of each view's points.
+Rigid3d Gauge(const std::vector<Rigid3d>& est, const std::vector<Rigid3d>& truth,
+              const std::vector<PointCloud>& clouds, const std::vector<bool>& use) {
+  std::vector<Vector3d> a, b;
+  std::mt19937_64 rng(7);
+  for (size_t v = 0; v < est.size(); ++v) {
+    if (!use[v] || clouds[v].empty()) continue;
+    std::uniform_int_distribution<size_t> pick(0, clouds[v].size() - 1);
+    for (int k = 0; k < 2000; ++k) {
+      const Vector3d& p = clouds[v].points[pick(rng)];
+      a.push_back(est[v] * p);
+      b.push_back(truth[v] * p);
+    }
+  }
+  const RigidAlignment g = AlignRigid(a, b);
+  if (!g.ok()) throw Error("bench_registration: gauge fit failed: " + g.message);
+  return g.b_from_a;
+}
+
+PoseStats Errors(const std::vector<Rigid3d>& est, const std::vector<Rigid3d>& truth,
+                 const std::vector<PointCloud>& clouds, const std::vector<bool>& use) {
+  const Rigid3d g = Gauge(est, truth, clouds, use);
+  PoseStats s;
+  int n = 0;
+  for (size_t v = 0; v < est.size(); ++v) {
+    if (!use[v]) continue;
+    const Rigid3d e = g * est[v];
+    const double rot = (truth[v].rotation().inverse() * e.rotation())
+                           .angularDistance(Eigen::Quaterniond::Identity()) *
+                       180 / M_PI;
+    const Vector3d c = Centroid(clouds[v]);
+    const double tr = (e * c - truth[v] * c).norm();
+    // NaN-propagating max: a pose that went non-finite must not vanish from the figure.
+    s.max_rot_deg =
+        std::isnan(rot) || std::isnan(s.max_rot_deg) ? NAN : std::max(s.max_rot_deg, rot);
+    s.max_trans_mm =
+        std::isnan(tr) || std::isnan(s.max_trans_mm) ? NAN : std::max(s.max_trans_mm, tr);
+    s.rms_rot_deg += rot * rot;
+    s.rms_trans_mm += tr * tr;
+    ++n;
+  }
+  s.rms_rot_deg = std::sqrt(s.rms_rot_deg / std::max(1, n));
+  s.rms_trans_mm = std::sqrt(s.rms_trans_mm / std::max(1, n));
+  return s;
+}
+
+std::shared_ptr<open3d::geometry::PointCloud> ToOpen3d(const PointCloud& c, const Rigid3d& pose) {
+  auto o = std::make_shared<open3d::geometry::PointCloud>();
+  o->points_.reserve(c.size());
+  o->normals_.reserve(c.size());
+  for (size_t i = 0; i < c.size(); ++i) {
+    o->points_.push_back(pose * c.points[i]);
+    o->normals_.push_back(pose.RotateDirection(c.normals[i]));
+  }
+  return o;
+}
+
+Rigid3d FromMatrix(const Eigen::Matrix4d& m) {
+  return Rigid3d(Eigen::Quaterniond(Eigen::Matrix3d(m.block<3, 3>(0, 0))).normalized(),
+                 m.block<3, 1>(0, 3));
+}
+
+// Open3D point-to-plane ICP of `source` onto `target`; multi-scale: voxel 2, 1, 0.5 mm with the
+// threshold halved per scale.
+Rigid3d Open3dIcp(const PointCloud& source, const open3d::geometry::PointCloud& target,
+                  const Rigid3d& start, double threshold_mm, bool multi_scale) {
+  const auto src = ToOpen3d(source, Rigid3d());
+  Eigen::Matrix4d t = start.ToMatrix4();
+  const o3reg::ICPConvergenceCriteria crit(1e-7, 1e-7, 30);
+  if (!multi_scale) {
+    return FromMatrix(o3reg::RegistrationICP(*src, target, threshold_mm, t,
+                                             o3reg::TransformationEstimationPointToPlane(), crit)
+                          .transformation_);
+  }
+  double thr = threshold_mm;
+  for (double voxel : {2.0, 1.0, 0.5}) {
+    const auto s = src->VoxelDownSample(voxel);
+    const auto d = target.VoxelDownSample(voxel);
+    t = o3reg::RegistrationICP(*s, *d, thr, t, o3reg::TransformationEstimationPointToPlane(), crit)
+            .transformation_;
+    thr /= 2;
+  }
+  return FromMatrix(t);
+}
+
+// bun.conf: "bmesh FILE tx ty tz qx qy qz qw"; common_from_scan = (R^T, t) in mm.
+Rigid3d BunnyPose(const fs::path& conf, const std::string& file) {
+  std::ifstream in(conf);
+  if (!in) throw Error("bench_registration: cannot read " + conf.string());
+  std::string line;
+  while (std::getline(in, line)) {
+    std::istringstream ss(line);
+    std::string tag, name;
+    double tx, ty, tz, qx, qy, qz, qw;
+    if (ss >> tag >> name >> tx >> ty >> tz >> qx >> qy >> qz >> qw && tag == "bmesh" &&
+        name == file) {
+      const Eigen::Quaterniond q(qw, qx, qy, qz);
+      return Rigid3d(q.normalized().inverse(), 1000 * Vector3d(tx, ty, tz));
+    }
+  }
+  throw Error("bench_registration: " + conf.string() + " has no line for " + file);
+}
+
+std::pair<double, double> PairError(const Rigid3d& est, const Rigid3d& truth, const Vector3d& c) {
+  return {(truth.rotation().inverse() * est.rotation())
+                  .angularDistance(Eigen::Quaterniond::Identity()) *
+              180 / M_PI,
+          (est * c - truth * c).norm()};
+}
+
+int Run(int argc, char** argv) {
+  CLI::App app{"Multi-view registration: accuracy vs truth and Open3D, speed (issue 11)"};
+  bool json = false, no_bunny = false;
+  int views_n = 8;
+  double scale = 0.5, noise_dn = 1.5;
+  uint64_t seed = 1;
+  std::string bunny_dir;
+  if (const char* d = std::getenv("FRINGE_SHARED_DATA")) {
+    bunny_dir = (fs::path(d) / "stanford-bunny").string();
+  } else {
+    bunny_dir = "../shared/data/stanford-bunny";
+  }
+  app.add_flag("--json", json, "Print one JSON object");
+  app.add_option("--views", views_n, "Views around the part (>= 3)")->capture_default_str();
+  app.add_option("--scale", scale, "Rig resolution scale (1: 1280x1024 cameras)")
+      ->capture_default_str();
+  app.add_option("--noise", noise_dn, "Camera read noise, DN")->capture_default_str();
+  app.add_option("--seed", seed, "Scene, poses and noise seed")->capture_default_str();
+  app.add_option("--bunny", bunny_dir, "Stanford bunny folder (bun000.ply, bun045.ply, bun.conf)")
+      ->capture_default_str();
+  app.add_flag("--no-bunny", no_bunny, "Skip the bunny");
+  CLI11_PARSE(app, argc, argv);
+  if (views_n < 3) throw Error("bench_registration: --views must be >= 3");
+
+  // Simulate, reconstruct, detect markers.
+  const StereoRig rig =
+      scale == 1 ? StereoRig::Reference() : sim::ScaledRig(StereoRig::Reference(), scale);
+  sim::ScanOptions scan;
+  scan.scene = "demo";
+  scan.views = views_n;
+  scan.seed = seed;
+  scan.calibration_images = 0;
+  scan.truth_maps = false;
+  scan.render.sensor.read_noise_dn = noise_dn;
+  const sim::ScanSimulator simulator(rig, scan);
+  const stereo::ViewReconstructor reconstructor(rig, simulator.scheme());
+  std::vector<registration::RegistrationView> views;
+  std::vector<PointCloud> clouds;
+  int detected = 0, correct = 0;
+  util::Timer sim_timer;
+  for (int v = 0; v < views_n; ++v) {
+    const sim::ViewImages images = simulator.RenderView(v);
+    const stereo::ViewReconstruction rec =
+        reconstructor.Reconstruct(images.left.images, images.right.images);
+    registration::RegistrationView rv;
+    rv.name = std::to_string(v);
+    rv.cloud = rec.cloud.Compact();
+    rv.markers =
+        registration::DetectViewMarkers(rig, rec.texture_left, rec.texture_right, rec.cloud)
+            .markers;
+    for (const registration::ViewMarker& m : rv.markers) {
+      ++detected;
+      for (const sim::MarkerObservation& o : images.markers) {
+        if ((o.centre_in_sensor - m.centre_in_sensor).norm() < 1.0) {
+          ++correct;
+          break;
+        }
+      }
+    }
+    clouds.push_back(rv.cloud);
+    views.push_back(std::move(rv));
+  }
+  const double sim_s = sim_timer.ElapsedSeconds();
+  const std::vector<Rigid3d>& truth = simulator.view_poses();
+
+  const registration::RegistrationResult r = registration::RegisterViews(views);
+  std::vector<bool> placed(views_n);
+  std::vector<Rigid3d> markers_est, adjusted_est, final_est;
+  for (int v = 0; v < views_n; ++v) {
+    placed[v] = r.views[v].placed();
+    markers_est.push_back(r.views[v].world_from_sensor_markers);
+    adjusted_est.push_back(r.views[v].world_from_sensor_adjusted);
+    final_est.push_back(r.views[v].world_from_sensor);
+  }
+  const PoseStats em = Errors(markers_est, truth, clouds, placed);
+  const PoseStats ea = Errors(adjusted_est, truth, clouds, placed);
+  const PoseStats ei = Errors(final_est, truth, clouds, placed);
+
+  // Registered points against the truth mesh.
+  const Rigid3d g = Gauge(final_est, truth, clouds, placed);
+  const eval::MeshDistance mesh(simulator.scene().CombinedMesh());
+  double ss = 0;
+  int64_t n = 0;
+  for (int v = 0; v < views_n; ++v) {
+    if (!placed[v]) continue;
+    const Rigid3d pose = g * final_est[v];
+    for (size_t i = 0; i < clouds[v].size(); i += 4) {
+      const double d = mesh.SignedDistance(pose * clouds[v].points[i], 2.0);
+      if (std::isfinite(d)) {
+        ss += d * d;
+        ++n;
+      }
+    }
+  }
+  const double registered_rms = std::sqrt(ss / std::max<int64_t>(1, n));
+
+  // Open3D from the same initial (adjusted) poses, the same first threshold.
+  double start_threshold =
+      r.summary.icp.levels.empty() ? 1.0 : r.summary.icp.levels.front().threshold_start_mm;
+  std::vector<Rigid3d> o3d_est = adjusted_est, o3d_ms_est = adjusted_est;
+  double o3d_s = 0, o3d_ms_s = 0;
+  int world = -1;
+  for (int v = 0; v < views_n; ++v) {
+    if (r.views[v].path == registration::ViewPath::kWorld) world = v;
+  }
+  for (int v = 0; v < views_n; ++v) {
+    if (!placed[v] || v == world) continue;
+    open3d::geometry::PointCloud target;
+    for (int u = 0; u < views_n; ++u) {
+      if (u != v && placed[u]) target += *ToOpen3d(clouds[u], adjusted_est[u]);
+    }
+    util::Timer t;
+    o3d_est[v] = Open3dIcp(clouds[v], target, adjusted_est[v], start_threshold, false);
+    o3d_s += t.ElapsedSeconds();
+    util::Timer t2;
+    o3d_ms_est[v] = Open3dIcp(clouds[v], target, adjusted_est[v], start_threshold, true);
+    o3d_ms_s += t2.ElapsedSeconds();
+  }
+  const PoseStats eo = Errors(o3d_est, truth, clouds, placed);
+  const PoseStats eom = Errors(o3d_ms_est, truth, clouds, placed);
+
+  nlohmann::json j = {
+      {"views", views_n},
+      {"scale", scale},
+      {"cameras_px", {rig.left.width, rig.left.height}},
+      {"noise_dn", noise_dn},
+      {"placed", r.summary.placed},
+      {"registration_status", registration::ToString(r.summary.status)},
+      {"paths", nlohmann::json::array()},
+      {"markers_detected", detected},
+      {"marker_match_rate", detected > 0 ? static_cast<double>(correct) / detected : 0.0},
+      {"marker_rot_err_deg", em.max_rot_deg},
+      {"marker_trans_err_mm", em.max_trans_mm},
+      {"marker_rms_rot_err_deg", em.rms_rot_deg},
+      {"marker_rms_trans_err_mm", em.rms_trans_mm},
+      {"adjusted_rot_err_deg", ea.max_rot_deg},
+      {"adjusted_trans_err_mm", ea.max_trans_mm},
+      {"adjusted_rms_trans_err_mm", ea.rms_trans_mm},
+      {"icp_rot_err_deg", ei.max_rot_deg},
+      {"icp_trans_err_mm", ei.max_trans_mm},
+      {"icp_rms_rot_err_deg", ei.rms_rot_deg},
+      {"icp_rms_trans_err_mm", ei.rms_trans_mm},
+      {"icp_improvement", em.rms_trans_mm / std::max(1e-12, ei.rms_trans_mm)},
+      {"registered_rms_mm", registered_rms},
+      {"open3d_rot_err_deg", eo.max_rot_deg},
+      {"open3d_trans_err_mm", eo.max_trans_mm},
+      {"open3d_ms_rot_err_deg", eom.max_rot_deg},
+      {"open3d_ms_trans_err_mm", eom.max_trans_mm},
+      {"ours_icp_s", r.summary.icp.seconds},
+      {"open3d_icp_s", o3d_s},
+      {"open3d_ms_icp_s", o3d_ms_s},
+      {"open3d_time_ratio", o3d_s / std::max(1e-9, r.summary.icp.seconds)},
+      {"register_s", r.summary.seconds},
+      {"simulate_reconstruct_s", sim_s},
+      {"icp", r.summary.icp.BriefReport()}};
+  for (const auto& v : r.views) {
+    j["paths"].push_back(registration::ToString(v.path));
+    j["view_messages"].push_back(v.message);
+  }
+
+  if (!no_bunny) {
+    const fs::path dir(bunny_dir);
+    if (!fs::exists(dir / "bun.conf")) {
+      throw Error("bench_registration: " + dir.string() +
+                  " has no bun.conf (give --bunny DIR or --no-bunny)");
+    }
+    std::string note;
+    const registration::RegistrationView b0 =
+        registration::ReadRegistrationView(dir / "bun000.ply", 1000, false, &note);
+    const registration::RegistrationView b45 =
+        registration::ReadRegistrationView(dir / "bun045.ply", 1000, false, &note);
+    const Rigid3d ref = BunnyPose(dir / "bun.conf", "bun000.ply").Inverse() *
+                        BunnyPose(dir / "bun.conf", "bun045.ply");  // 000_from_045
+    const Vector3d c = Centroid(b45.cloud);
+    const Rigid3d turn = Rigid3d::FromAxisAngle(Vector3d(1, 2, -1).normalized(), 5 * M_PI / 180);
+    const Vector3d cw = ref * c;
+    const Rigid3d start = Rigid3d(turn.rotation(), cw - turn.RotateDirection(cw) +
+                                                       5 * Vector3d(-1, 1, 1).normalized()) *
+                          ref;
+    registration::IcpOptions io;
+    io.initial_threshold_mm = 15;  // 5 deg at the bunny's ~60 mm lever plus 5 mm
+    util::Timer t;
+    const registration::IcpResult ours =
+        registration::AlignPointToPlane(b45.cloud, b0.cloud, start, io);
+    const double ours_s = t.ElapsedSeconds();
+    util::Timer t2;
+    const auto target = ToOpen3d(b0.cloud, Rigid3d());
+    const Rigid3d o3d = Open3dIcp(b45.cloud, *target, start, io.initial_threshold_mm, false);
+    const double o3d_bs = t2.ElapsedSeconds();
+    const auto [br, bt] = PairError(ours.world_from_sensor[1], ref, c);
+    const auto [obr, obt] = PairError(o3d, ref, c);
+    const registration::CoarseResult coarse = registration::AlignCoarse(b45.cloud, b0.cloud);
+    double cr = NAN, ct = NAN;
+    if (coarse.ok()) {
+      registration::IcpOptions co;
+      co.initial_threshold_mm = 3 * registration::CoarseOptions().voxel_mm;
+      const registration::IcpResult ci =
+          registration::AlignPointToPlane(b45.cloud, b0.cloud, coarse.target_from_source, co);
+      std::tie(cr, ct) = PairError(ci.world_from_sensor[1], ref, c);
+    }
+    j.update({{"bunny_rot_err_deg", br},
+              {"bunny_trans_err_mm", bt},
+              {"bunny_icp_s", ours_s},
+              {"open3d_bunny_rot_err_deg", obr},
+              {"open3d_bunny_trans_err_mm", obt},
+              {"open3d_bunny_icp_s", o3d_bs},
+              {"bunny_coarse_status", registration::ToString(coarse.status)},
+              {"bunny_coarse_rot_err_deg", cr},
+              {"bunny_coarse_trans_err_mm", ct}});
+  }
+
+  if (json) {
+    std::cout << j.dump() << "\n";
+  } else {
+    std::printf("%-28s %s\n", "figure", "value");
+    for (const auto& [k, v] : j.items()) std::printf("%-28s %s\n", k.c_str(), v.dump().c_str());
+  }
+  return 0;
+}
+
+}  // namespace
+}  // namespace fringe
+
+int main(int argc, char** argv) {
+  try {
+    return fringe::Run(argc, argv);
+  } catch (const std::exception& e) {
+    std::cerr << e.what() << "\n";
+    return 1;
+  }
+}

@@ -131,6 +131,12 @@ std::shared_ptr<open3d::geometry::PointCloud> ToOpen3d(const PointCloud& c, cons
   o->points_.reserve(c.size());
   o->normals_.reserve(c.size());
   for (size_t i = 0; i < c.size(); ++i) {
+    // The points our ICP uses too: finite, with a finite unit normal (a reconstructed grid has
+    // a few points whose normal could not be estimated; Open3D would turn them into NaN poses).
+    if (!c.points[i].allFinite() || !c.normals[i].allFinite() ||
+        std::abs(c.normals[i].norm() - 1) > 1e-3) {
+      continue;
+    }
     o->points_.push_back(pose * c.points[i]);
     o->normals_.push_back(pose.RotateDirection(c.normals[i]));
   }

@@ -23,10 +23,7 @@ namespace fs = std::filesystem;
 // world_from_sensor by view name from a poses.json (scan::ReadTruthPoses: the schema of the
 // simulator's truth/poses.json and of `fringe register`'s DIR/poses.json).
 std::map<std::string, Rigid3d> ReadPoses(const fs::path& path) {
-  std::map<std::string, Rigid3d> poses;
-  for (const scan::ViewPose& v : scan::ReadTruthPoses(path).views) {
-    poses.emplace(v.view, v.world_from_sensor);
-  }
+  const std::map<std::string, Rigid3d> poses = scan::ReadTruthPoses(path).ByView();
   if (poses.empty()) throw Error(util::StrCat(path.string(), ": no views"));
   return poses;
 }

@@ -25,6 +25,7 @@
 #include "fringe/registration/markers.h"
 #include "fringe/registration/registration_io.h"
 #include "fringe/scan/scan_folder.h"
+#include "fringe/scan/truth.h"
 #include "fringe/sim/scan.h"
 #include "fringe/util/error.h"
 #include "fringe/util/files.h"
@@ -138,7 +139,7 @@ TEST_F(ScanTest, WholeChainMatchesTheTruth) {
 
   // Registration against the truth, recomputed here from poses.json (not the summary's own
   // figure): relative poses of views 1 and 2 to view 0 equal the true ones.
-  const auto poses = registration::ReadPoses(out / "poses.json");
+  const auto poses = scan::ReadTruthPoses(out / "poses.json").ByView();
   ASSERT_EQ(poses.size(), 3u);
   const Rigid3d true_0 = truth.Find("000")->world_from_sensor;
   for (const char* name : {"001", "002"}) {
@@ -229,7 +230,7 @@ TEST_F(ScanTest, KeepGoingFinishesWithoutATruncatedViewAndNamesIt) {
   EXPECT_TRUE(fs::exists(out / "views" / "000.ply"));
   EXPECT_TRUE(fs::exists(out / "views" / "001.ply"));
   EXPECT_FALSE(fs::exists(out / "views" / "002.ply"));
-  EXPECT_EQ(registration::ReadPoses(out / "poses.json").size(), 2u);
+  EXPECT_EQ(scan::ReadTruthPoses(out / "poses.json").ByView().size(), 2u);
   EXPECT_TRUE(fs::exists(out / "mesh.stl"));
   const auto summary = io::ReadJson(out / "summary.json");
   EXPECT_EQ(summary["status"].get<std::string>(), "partial");
@@ -320,7 +321,7 @@ TEST_F(ScanTest, ViewWithoutMarkersFailsRegistrationNamingIt) {
   EXPECT_FALSE(s.views[2].ok);
   EXPECT_EQ(s.views[2].failed_stage, "register");
   EXPECT_EQ(s.views[2].markers, 0);
-  const auto poses = registration::ReadPoses(out / "poses.json");
+  const auto poses = scan::ReadTruthPoses(out / "poses.json").ByView();
   EXPECT_EQ(poses.size(), 2u);
   EXPECT_EQ(poses.count("002"), 0u);
   EXPECT_FALSE(fs::exists(out / "registered" / "002.ply"));

@@ -56,6 +56,12 @@ std::string ViewName(const json& j, std::set<std::string>* seen, const char* lis
 
 }  // namespace
 
+std::map<std::string, Rigid3d> TruthPoses::ByView() const {
+  std::map<std::string, Rigid3d> poses;
+  for (const ViewPose& v : views) poses.emplace(v.view, v.world_from_sensor);
+  return poses;
+}
+
 const ViewPose* TruthPoses::Find(const std::string& view) const {
   for (const ViewPose& p : views) {
     if (p.view == view) return &p;

@@ -9,6 +9,7 @@
 
 #include <Eigen/Core>
 #include <filesystem>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
@@ -51,6 +52,8 @@ struct TruthPoses {
   std::vector<ViewPose> views;
   // The pose of a view by name, or nullptr.
   const ViewPose* Find(const std::string& view) const;
+  // world_from_sensor by view name.
+  std::map<std::string, Rigid3d> ByView() const;
 };
 
 // truth/markers.json

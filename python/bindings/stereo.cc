@@ -6,6 +6,8 @@
 #include "convert.h"
 #include "fringe/io/ply.h"
 #include "fringe/phase/stack_io.h"
+#include "fringe/stereo/camera_projector.h"
+#include "fringe/util/error.h"
 #include "fringe/stereo/reconstruct_view.h"
 
 namespace fringe::python {
@@ -20,6 +22,31 @@ ViewPtr Run(const stereo::ViewReconstructor& r, const py::object& left, const py
   auto view = std::make_shared<stereo::ViewReconstruction>();
   py::gil_scoped_release release;
   *view = r.Reconstruct(l.mats, rr.mats);
+  return view;
+}
+
+// Camera + projector (issue 14): the rig's left camera against its calibrated projector, one
+// stack per scheme (one fringe direction, or one of each).
+ViewPtr RunCameraProjector(const StereoRig& rig, const std::vector<phase::PatternScheme>& schemes,
+                           const std::vector<py::object>& stacks,
+                           const stereo::ReconstructionOptions& options) {
+  if (stacks.size() != schemes.size()) {
+    throw Error(util::StrCat("reconstruct_camera_projector: ", schemes.size(), " scheme(s) but ",
+                             stacks.size(), " stack(s)"));
+  }
+  std::vector<ImageStack> held;
+  for (size_t i = 0; i < stacks.size(); ++i) {
+    held.push_back(ImagesFromPython(stacks[i], util::StrCat("stack ", i)));
+  }
+  std::vector<std::vector<cv::Mat>> mats;
+  for (const auto& h : held) mats.push_back(h.mats);
+  auto view = std::make_shared<stereo::ViewReconstruction>();
+  py::gil_scoped_release release;
+  stereo::CameraProjectorOptions cp;
+  cp.reconstruction = options;
+  const stereo::CameraProjectorReconstructor r(stereo::CameraProjectorRig::FromLeftCamera(rig),
+                                               schemes, cp);
+  *view = r.Reconstruct(mats);
   return view;
 }
 
@@ -167,6 +194,7 @@ reconstruct(left, right) may be called from several threads.)doc")
          const py::object& right, const py::object& options, const py::kwargs& kwargs) {
         const auto opts =
             MakeOptions<stereo::ReconstructionOptions>(options, kwargs, "ReconstructionOptions");
+        if (right.is_none()) return RunCameraProjector(rig, {scheme}, {left}, opts);
         std::unique_ptr<stereo::ViewReconstructor> r;
         {
           py::gil_scoped_release release;
@@ -174,11 +202,28 @@ reconstruct(left, right) may be called from several threads.)doc")
         }
         return Run(*r, left, right);
       },
-      py::arg("rig"), py::arg("scheme"), py::arg("left"), py::arg("right"),
+      py::arg("rig"), py::arg("scheme"), py::arg("left"), py::arg("right") = py::none(),
       py::arg("options") = py::none(),
-      "One stereo view to 3D (as `fringe reconstruct`). Options: a ReconstructionOptions and/or "
-      "its\n"
-      "fields as keyword arguments (nested options as dicts, e.g. decode={'noise_sigma_dn': 3}).");
+      "One view to 3D (as `fringe reconstruct`): left and right stacks in stereo mode; with\n"
+      "right=None the left camera against the rig's calibrated projector (camera-projector\n"
+      "mode, as `fringe reconstruct --mode camera-projector`). Options: a ReconstructionOptions\n"
+      "and/or its fields as keyword arguments (nested options as dicts, e.g.\n"
+      "decode={'noise_sigma_dn': 3}).");
+
+  m.def(
+      "reconstruct_camera_projector",
+      [](const StereoRig& rig, const std::vector<phase::PatternScheme>& schemes,
+         const std::vector<py::object>& stacks, const py::object& options,
+         const py::kwargs& kwargs) {
+        const auto opts =
+            MakeOptions<stereo::ReconstructionOptions>(options, kwargs, "ReconstructionOptions");
+        return RunCameraProjector(rig, schemes, stacks, opts);
+      },
+      py::arg("rig"), py::arg("schemes"), py::arg("stacks"), py::arg("options") = py::none(),
+      "One camera against the rig's calibrated projector with one stack per scheme: one fringe\n"
+      "direction (ray against the projector column or row, exact in the distorted model) or one\n"
+      "stack of each direction (two-ray triangulation). The cloud is on the camera grid, camera\n"
+      "frame, mm; residuals are the round trip into the projector (px).");
 
   m.def(
       "write_ply",

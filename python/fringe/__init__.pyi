@@ -335,9 +335,16 @@ class Reconstructor:
     def reconstruct(self, left: Images, right: Images) -> ViewReconstruction: ...
 
 def reconstruct(
-    rig: Rig, scheme: Scheme, left: Images, right: Images, options: Optional[ReconstructionOptions] = None,
-    **fields: Any,
-) -> ViewReconstruction: ...
+    rig: Rig, scheme: Scheme, left: Images, right: Optional[Images] = None,
+    options: Optional[ReconstructionOptions] = None, **fields: Any,
+) -> ViewReconstruction:
+    """Stereo (left and right stacks) or, with right=None, camera-projector mode."""
+
+def reconstruct_camera_projector(
+    rig: Rig, schemes: List[Scheme], stacks: List[Images],
+    options: Optional[ReconstructionOptions] = None, **fields: Any,
+) -> ViewReconstruction:
+    """The left camera against the rig's projector; one stack per scheme (one or two directions)."""
 
 class VdiOptions:
     discard_fraction: float

@@ -95,6 +95,30 @@ def test_reconstruct_equals_fringe_reconstruct(tmp_path, scan, rig, scheme, stac
     assert (tmp_path / "ours.ply").read_bytes() == out.read_bytes()
 
 
+def test_camera_projector_equals_fringe_reconstruct(tmp_path, scan, rig, scheme, stacks):
+    # Issue 14 through the bindings: right=None is the left camera against the projector.
+    out = tmp_path / "cp.ply"
+    run_cli("reconstruct", scan / "views" / "000", "--calib", scan / "truth" / "rig.json",
+            "--scheme", scan / "scheme.json", "--mode", "camera-projector", "--out", out)
+    view = fringe.reconstruct(rig, scheme, stacks[0])
+    assert view.ok and view.summary["points"] > 1000
+    ply = fringe.read_ply(out)
+    index = ply.grid_index.astype(np.int64)
+    np.testing.assert_array_equal(np.flatnonzero(view.valid.ravel()), index)
+    np.testing.assert_array_equal(view.points.reshape(-1, 3)[index].astype(np.float32),
+                                  ply.cloud.points.astype(np.float32))
+    same = fringe.reconstruct_camera_projector(rig, [scheme], [stacks[0]])
+    np.testing.assert_array_equal(same.valid, view.valid)
+    # Against the truth: the camera-projector baseline is about half the stereo one.
+    sim = fringe.Simulator(rig, scene="vdi", views=1, calibration_images=0, seed=7)
+    truth = sim.render_view(0).left_truth["points"]
+    both = view.valid & np.isfinite(truth).all(axis=2)
+    median_tolerance_mm = 2 * 0.05 / RIG_SCALE
+    assert np.median(np.linalg.norm(view.points[both] - truth[both], axis=1)) < median_tolerance_mm
+    with pytest.raises(fringe.Error, match="stack"):
+        fringe.reconstruct_camera_projector(rig, [scheme, scheme], [stacks[0]])
+
+
 def test_reconstruct_against_truth(rig, scheme, stacks):
     sim = fringe.Simulator(rig, scene="vdi", views=1, calibration_images=0, seed=7)
     truth = sim.render_view(0).left_truth["points"]

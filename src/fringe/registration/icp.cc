@@ -177,7 +177,15 @@ IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& o
       pv.data.pts.push_back(p);
       pv.normals.push_back(n);
     }
-    pv.order = NormalSpaceOrder(pv.normals, options.seed * 1000003u + static_cast<uint64_t>(i));
+    const uint64_t order_seed = options.seed * 1000003u + static_cast<uint64_t>(i);
+    if (options.normal_space_sampling) {
+      pv.order = NormalSpaceOrder(pv.normals, order_seed);
+    } else {
+      pv.order.resize(pv.data.pts.size());
+      std::iota(pv.order.begin(), pv.order.end(), 0u);
+      std::mt19937_64 rng(order_seed);
+      std::shuffle(pv.order.begin(), pv.order.end(), rng);
+    }
     if (!pv.data.pts.empty()) {
       pv.tree = std::make_unique<KdTree>(3, pv.data, nanoflann::KDTreeSingleIndexAdaptorParams(16));
     }
@@ -362,6 +370,15 @@ IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& o
         max_rot_deg = std::max(max_rot_deg, angle * 180 / M_PI);
         max_trans_mm = std::max(max_trans_mm, (step * centroid - centroid).norm());
       }
+      if (options.shrink_within_level && !dists.empty()) {
+        // Dynamic threshold after every iteration: min(previous, factor x percentile).
+        std::vector<double> sorted = dists;
+        const size_t q = std::min(sorted.size() - 1,
+                                  static_cast<size_t>(options.shrink_percentile * sorted.size()));
+        std::nth_element(sorted.begin(), sorted.begin() + q, sorted.end());
+        threshold = std::max(options.min_threshold_mm,
+                             std::min(threshold, options.shrink_factor * sorted[q]));
+      }
       last_dists.swap(dists);
       rep.iterations = it + 1;
       if (max_rot_deg < options.convergence_rotation_deg &&
@@ -374,7 +391,7 @@ IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& o
     // Shrinking it within a level would cut the correspondences that still carry the
     // misalignment (on a plane-dominated scene the percentile is the plate's noise while the
     // walls still see the view's slide) and the level would crawl instead of converging.
-    if (!last_dists.empty()) {
+    if (!options.shrink_within_level && !last_dists.empty()) {
       const size_t q = std::min(last_dists.size() - 1,
                                 static_cast<size_t>(options.shrink_percentile * last_dists.size()));
       std::nth_element(last_dists.begin(), last_dists.begin() + q, last_dists.end());

@@ -63,6 +63,8 @@ struct RegistrationOptions {
   IcpOptions icp = [] {
     IcpOptions o;
     o.degeneracy_ratio = 1e-3;
+    o.normal_space_sampling = false;
+    o.shrink_within_level = true;
     return o;
   }();
   void Check() const;

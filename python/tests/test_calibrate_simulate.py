@@ -32,6 +32,23 @@ def folder_calibration(boards):
     return fringe.calibrate(cal, fringe.Target.load(cal / "target.json"))
 
 
+def assert_same_figures(ours, theirs, rel, where="calibration"):
+    """Nested dicts/lists equal; floats to a relative tolerance, everything else exactly."""
+    assert type(ours) is type(theirs) or {type(ours), type(theirs)} <= {int, float}, where
+    if isinstance(ours, dict):
+        assert ours.keys() == theirs.keys(), where
+        for k in ours:
+            assert_same_figures(ours[k], theirs[k], rel, f"{where}.{k}")
+    elif isinstance(ours, list):
+        assert len(ours) == len(theirs), where
+        for i, (a, b) in enumerate(zip(ours, theirs)):
+            assert_same_figures(a, b, rel, f"{where}[{i}]")
+    elif isinstance(ours, float):
+        assert ours == pytest.approx(theirs, rel=rel, abs=0), where
+    else:
+        assert ours == theirs, where
+
+
 def test_calibrate_folder_equals_fringe_calibrate(tmp_path, boards, folder_calibration):
     cal = boards / "calibration"
     run_cli("calibrate", cal, "--target", cal / "target.json", "--out", tmp_path / "rig.json")
@@ -39,7 +56,10 @@ def test_calibrate_folder_equals_fringe_calibrate(tmp_path, boards, folder_calib
     rig, summary = folder_calibration
     assert isinstance(rig, fringe.Rig) and summary["stereo"] and summary["success"]
     assert rig.to_dict()["cameras"] == written["cameras"]
-    assert {k: v for k, v in summary.items() if k in written["calibration"]} == written["calibration"]
+    # The standard deviations come from Ceres' covariance, whose dense linear algebra may sum in
+    # another order from run to run (1e-15 relative, seen in CI): equal to 1e-9, all else exact.
+    assert_same_figures({k: v for k, v in summary.items() if k in written["calibration"]},
+                        written["calibration"], rel=1e-9)
 
     # Against the true rig the simulator used (scaled reference rig).
     truth = fringe.Rig.load(boards / "truth" / "rig.json")

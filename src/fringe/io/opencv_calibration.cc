@@ -97,6 +97,27 @@ struct Found {
   cv::Mat m;  // CV_64F, one row
 };
 
+// An !!opencv-matrix node read by hand: OpenCV's own reader allocates rows x cols from the
+// file before it looks at the data, so a malformed header (fuzzing found "cols:atrix" read as
+// ~2^34) could ask for tens of gigabytes. Calibration matrices are small: rows and cols are
+// integers in [1, kMaxSide] and `data` must hold exactly rows x cols numbers. Returns an empty
+// matrix when the node is not such a matrix.
+cv::Mat ReadMatrixNode(const cv::FileNode& n) {
+  constexpr int kMaxSide = 64;
+  const cv::FileNode rows = n["rows"], cols = n["cols"], data = n["data"];
+  if (!rows.isInt() || !cols.isInt() || !data.isSeq()) return {};
+  const int r = static_cast<int>(rows), c = static_cast<int>(cols);
+  if (r < 1 || c < 1 || r > kMaxSide || c > kMaxSide) return {};
+  if (data.size() != static_cast<size_t>(r) * static_cast<size_t>(c)) return {};
+  cv::Mat m(1, r * c, CV_64F);
+  int i = 0;
+  for (const cv::FileNode& v : data) {
+    if (!v.isReal() && !v.isInt()) return {};
+    m.at<double>(i++) = static_cast<double>(v);
+  }
+  return m;
+}
+
 class Files {
  public:
   explicit Files(const std::vector<fs::path>& paths) {
@@ -136,7 +157,7 @@ class Files {
             node >> v;
             m = cv::Mat(v, true);
           } else {
-            node >> m;
+            m = ReadMatrixNode(node);
           }
         } catch (const cv::Exception&) {
           m = cv::Mat();
@@ -180,7 +201,7 @@ class Files {
           // A 2-element !!opencv-matrix (SLMaster's "S: [1280., 1024.]").
           cv::Mat m;
           try {
-            n >> m;
+            m = ReadMatrixNode(n);
           } catch (const cv::Exception&) {
             continue;
           }

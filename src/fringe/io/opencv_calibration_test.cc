@@ -151,5 +151,22 @@ TEST(OpenCvCalibration, SplitFilesAsStereoCalibWritesThem) {
   EXPECT_NE(cv.Describe().find("extrinsic.yml: R -> right_from_left rotation"), std::string::npos);
 }
 
+// Found by fuzz_opencv: a malformed matrix header ("cols:atrix") made OpenCV's own matrix reader
+// allocate ~50 GB; matrices are now read by hand with bounded, checked sizes.
+TEST(OpenCvCalibration, MalformedMatrixHeaderIsAnErrorNotAnAllocation) {
+  test::TempDir dir;
+  const fs::path f = Yaml(dir, "bad.yml",
+                          "image_width: 640\nimage_height: 480\nM1: !!opencv-matrix\n"
+                          "   rows: 3\n   cols:atrix\n   rows: 1\n   cols: 5\n   dt: d\n"
+                          "   data: [ 0.1, -0.2, 0., 0., 0. ]\n");
+  const std::string e = ErrorOf([&] { ReadOpenCvCalibration({f}); });
+  EXPECT_FALSE(e.empty());
+  // A declared size that the data does not fill is refused as well.
+  const fs::path g = Yaml(dir, "short.yml",
+                          "M1: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n"
+                          "   data: [ 1., 0., 320. ]\n");
+  EXPECT_NE(ErrorOf([&] { ReadOpenCvCalibration({g}); }).find("not a matrix"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace fringe::io

@@ -410,17 +410,20 @@ PlyData ReadPly(const std::filesystem::path& path) {
             throw Error(StrCat(file, ": ", ename, " ", item, ": bad list length ", n));
           }
           poly.clear();
+          const bool is_face = static_cast<int>(p) == face_list;
           for (int k = 0; k < static_cast<int>(n); ++k) {
-            poly.push_back(
-                static_cast<int64_t>(reader.Read(types[p], ename, item, e.properties[p].name)));
-          }
-          if (static_cast<int>(p) != face_list) continue;
-          for (int64_t idx : poly) {
-            if (idx < 0 || static_cast<size_t>(idx) >= out.cloud.size()) {
-              throw Error(StrCat(file, ": face ", item, ": vertex index ", idx, " out of range (",
-                                 out.cloud.size(), " vertices)"));
+            const double v = reader.Read(types[p], ename, item, e.properties[p].name);
+            if (!is_face) continue;
+            // Checked as a double: an ASCII value such as 6e49 must not reach the integer cast
+            // (undefined behaviour; found by fuzzing).
+            if (!(v >= 0 && v < static_cast<double>(out.cloud.size())) || v != std::floor(v)) {
+              throw Error(StrCat(file, ": face ", item, ": vertex index ", v,
+                                 " out of range or not an integer (", out.cloud.size(),
+                                 " vertices)"));
             }
+            poly.push_back(static_cast<int64_t>(v));
           }
+          if (!is_face) continue;
           for (size_t k = 2; k < poly.size(); ++k) {
             out.triangles.push_back({static_cast<int32_t>(poly[0]),
                                      static_cast<int32_t>(poly[k - 1]),

@@ -179,5 +179,22 @@ TEST(Ply, StanfordBunnyVertexCount) {
   EXPECT_LT((hi - lo).maxCoeff(), 0.3);  // metres: the bunny is ~15 cm
 }
 
+// Found by fuzz_ply: an ASCII face index of 6e49 reached an integer cast (undefined behaviour).
+TEST(Ply, HugeAsciiFaceIndexIsAnError) {
+  test::TempDir dir;
+  const auto path = dir / "huge.ply";
+  std::ofstream(path)
+      << "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n"
+         "property float y\nproperty float z\nelement face 1\n"
+         "property list uchar int vertex_indices\nend_header\n"
+         "0 0 0\n1 0 0\n0 1 0\n3 0 1 62222222222222222222222222222222222222222222\n";
+  try {
+    ReadPly(path);
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("vertex index"), std::string::npos) << e.what();
+  }
+}
+
 }  // namespace
 }  // namespace fringe::io

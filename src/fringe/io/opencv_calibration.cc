@@ -137,12 +137,24 @@ class Files {
     }
   }
 
+  // storage[key], with OpenCV's exception for a malformed document (found by fuzz_opencv)
+  // turned into an error naming the file.
+  static cv::FileNode Lookup(const fs::path& path, const cv::FileStorage& storage,
+                             const std::string& key) {
+    try {
+      return storage[key];
+    } catch (const cv::Exception& e) {
+      throw Error(
+          StrCat(path.string(), ": malformed OpenCV YAML/XML (looking up '", key, "'): ", e.err));
+    }
+  }
+
   // The first spelling present in any file; an error when two files (or two spellings) hold it.
   std::optional<Found> Matrix(const std::vector<std::string>& spellings, const char* what) const {
     std::optional<Found> found;
     for (const auto& [path, fs] : storages_) {
       for (const std::string& key : spellings) {
-        const cv::FileNode node = (*fs)[key];
+        const cv::FileNode node = Lookup(path, *fs, key);
         if (node.empty() || node.isNone()) continue;
         if (found) {
           throw Error(StrCat(path.string(), ": ", key, " and ", found->file.string(), ": ",
@@ -185,14 +197,14 @@ class Files {
                            const std::vector<std::string>& vectors, std::string* source) const {
     for (const auto& [path, fs] : storages_) {
       for (const auto& [wk, hk] : pairs) {
-        const cv::FileNode w = (*fs)[wk], h = (*fs)[hk];
+        const cv::FileNode w = Lookup(path, *fs, wk), h = Lookup(path, *fs, hk);
         if (w.isInt() && h.isInt()) {
           *source = StrCat(path.filename().string(), ": ", wk, " ", hk);
           return {static_cast<int>(w), static_cast<int>(h)};
         }
       }
       for (const std::string& k : vectors) {
-        const cv::FileNode n = (*fs)[k];
+        const cv::FileNode n = Lookup(path, *fs, k);
         if (n.isSeq() && n.size() == 2 && n[0].isInt() && n[1].isInt()) {
           *source = StrCat(path.filename().string(), ": ", k);
           return {static_cast<int>(n[0]), static_cast<int>(n[1])};
@@ -327,6 +339,9 @@ void CheckOpenCvFileBounds(const fs::path& path) {
       if (++indent > kMaxIndentColumns) fail(line, "indented deeper than fringe accepts");
       continue;
     }
+    // An empty mapping key (a line whose first character is ':') makes OpenCV's YAML parser
+    // abort the process (std::terminate inside cv::FileStorage; found by fuzz_opencv).
+    if (line_start && c == ':') fail(line, "a mapping key is empty (the line starts with ':')");
     line_start = false;
     // "- " opens a nested block sequence, also several on one line ("key: - - - 1").
     if (c == '-' && i + 1 < text.size() && text[i + 1] == ' ' &&

@@ -168,5 +168,33 @@ TEST(OpenCvCalibration, MalformedMatrixHeaderIsAnErrorNotAnAllocation) {
   EXPECT_NE(ErrorOf([&] { ReadOpenCvCalibration({g}); }).find("not a matrix"), std::string::npos);
 }
 
+// Found by fuzz_opencv: a garbled document on which OpenCV's FileNode lookup throws its own
+// exception; it must come out as a fringe error naming the file.
+TEST(OpenCvCalibration, GarbledDocumentIsAnErrorNamingTheFile) {
+  test::TempDir dir;
+  const fs::path f = dir / "garbled.yml";
+  const std::string bytes(
+      "\x25\x59\x41\x4d\x4c\x3a\x31\x2e\x30\x0a\x2d\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00"
+      "\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00"
+      "\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00"
+      "\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00"
+      "\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x2d\x2d\x0a\x69\x2d\xff\x60\x40\x00\x01\x2f\x4d\x64"
+      "\x0a\x20\x20\x20\x64\x61\x74\x61\x3a\x20\x5b\x20\x35\x30\x30\x2e\x2c\x20\x30\x2e\x2c\x20\x33"
+      "\x32\x30\x2e\x2c\x20\x30\x2e\x2c\x20\x36\x2e\x30\x20\x30\x2c\x5d\x30\x0a\x44\x31\x3a\x20\x21"
+      "\x21\x6f\x70\x65\x6e\x63\x76\x2d\x6d\xa3\xa3\xa3\xa3\xa3\xa3\xa3\xa3\xa3\xa3\xa3\xa3\xa3\xa3"
+      "\xa3\xa3\x83\x20\x5d\x0a",
+      190);
+  std::ofstream(f, std::ios::binary) << bytes;
+  EXPECT_NE(ErrorOf([&] { ReadOpenCvCalibration({f}); }).find("garbled.yml"), std::string::npos);
+}
+
+// Found by fuzz_opencv: an empty key in a nested map made cv::FileStorage call std::terminate.
+TEST(OpenCvCalibration, EmptyNestedKeyIsAnErrorNotAnAbort) {
+  test::TempDir dir;
+  const fs::path f = Yaml(dir, "empty_key.yml", "M1: !!opencv-matrix\n   rows: 3\n   :d 5\n");
+  EXPECT_NE(ErrorOf([&] { ReadOpenCvCalibration({f}); }).find("line 5: a mapping key is empty"),
+            std::string::npos);
+}
+
 }  // namespace
 }  // namespace fringe::io

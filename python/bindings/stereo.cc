@@ -7,8 +7,8 @@
 #include "fringe/io/ply.h"
 #include "fringe/phase/stack_io.h"
 #include "fringe/stereo/camera_projector.h"
-#include "fringe/util/error.h"
 #include "fringe/stereo/reconstruct_view.h"
+#include "fringe/util/error.h"
 
 namespace fringe::python {
 

@@ -1043,15 +1043,17 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
     fusion::FusionOptions fusion_options = options.fusion;
     fusion_options.registration_rms_mm =
         s.icp_rms_mm > 0 ? s.icp_rms_mm : std::max(s.marker_adjusted_rms_mm, 0.0);
+    // A whole-scan stage without a usable result ends the scan with nothing written.
+    const auto stage_failed = [&](const char* stage, const char* status,
+                                  const std::string& message) {
+      return Error(StrCat("scan: ", project.string(), ": stage '", stage, "' failed: ", status,
+                          ": ", message, "; nothing was written to ", out.string()));
+    };
     m.fused = fusion::FuseViews(fusion_views, fusion_options);
     const fusion::FusionSummary& fs_ = m.fused.summary;
     s.fusion = fusion::SummaryToJson(fs_);
     s.fusion["registration_rms_mm"] = fusion_options.registration_rms_mm;
-    if (!fs_.has_output()) {
-      throw Error(StrCat("scan: ", project.string(),
-                         ": stage 'fuse' failed: ", fusion::ToString(fs_.status), ": ", fs_.message,
-                         "; nothing was written to ", out.string()));
-    }
+    if (!fs_.has_output()) throw stage_failed("fuse", fusion::ToString(fs_.status), fs_.message);
     s.fused_points = fs_.fused_points;
     s.overlap_points = fs_.overlap_points;
     s.clusters = fs_.clusters;
@@ -1065,11 +1067,7 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
     m.mesh = fusion::MeshPoisson(m.fused.fused, options.mesh);
     const fusion::MeshSummary& ms = m.mesh.summary;
     s.meshing = fusion::SummaryToJson(ms);
-    if (!ms.ok()) {
-      throw Error(StrCat("scan: ", project.string(),
-                         ": stage 'mesh' failed: ", fusion::ToString(ms.status), ": ", ms.message,
-                         "; nothing was written to ", out.string()));
-    }
+    if (!ms.ok()) throw stage_failed("mesh", fusion::ToString(ms.status), ms.message);
     s.mesh_vertices = ms.vertices;
     s.mesh_triangles = ms.triangles;
     s.mesh_watertight = ms.watertight;

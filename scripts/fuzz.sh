@@ -10,9 +10,9 @@ build="$root/build-fuzz"
 cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
   -DCMAKE_CXX_COMPILER=clang++ -DFRINGE_FUZZ=ON -DFRINGE_BUILD_TESTS=OFF \
   -DFRINGE_BUILD_BENCH=OFF >/dev/null
-cmake --build "$build" -j2 --target fuzz_ply fuzz_json fuzz_opencv fuzz_image fuzz_names fuzz_mesh
+cmake --build "$build" -j2 --target fuzz_ply fuzz_json fuzz_opencv fuzz_image fuzz_names fuzz_mesh fuzz_markers
 status=0
-for target in ply json opencv image names mesh; do
+for target in ply json opencv image names mesh markers; do
   corpus="$build/fuzz/corpus/$target"
   findings="$build/fuzz/findings/$target"
   mkdir -p "$corpus" "$findings"

@@ -333,8 +333,10 @@ void WriteViewMarkers(const std::filesystem::path& path, const std::vector<ViewM
 }
 
 std::vector<ViewMarker> ReadViewMarkers(const std::filesystem::path& path) {
-  const json j = io::ReadJson(path);  // bounded in size and depth
-  const std::string ctx = path.string();
+  return ViewMarkersFromJson(io::ReadJson(path), path.string());  // bounded in size and depth
+}
+
+std::vector<ViewMarker> ViewMarkersFromJson(const json& j, const std::string& ctx) {
   io::RequireObject(j, ctx);
   if (io::OptionalString(j, "format", "fringe-view-markers", ctx) != "fringe-view-markers") {
     throw Error(ctx + ".format: expected \"fringe-view-markers\"");

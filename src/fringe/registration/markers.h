@@ -24,6 +24,7 @@
 
 #include <Eigen/Core>
 #include <filesystem>
+#include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 #include <string>
 #include <vector>
@@ -112,6 +113,8 @@ void WriteViewMarkers(const std::filesystem::path& path, const std::vector<ViewM
 // Reads it back; throws fringe::Error naming the file and field for anything malformed (wrong
 // format, non-finite numbers, non-unit normals, negative sigma, more markers than the bound).
 std::vector<ViewMarker> ReadViewMarkers(const std::filesystem::path& path);
+// The same from a parsed document; `context` (the file name) starts every error message.
+std::vector<ViewMarker> ViewMarkersFromJson(const nlohmann::json& j, const std::string& context);
 
 // The path of the markers file beside a cloud: view.ply -> view.markers.json.
 std::filesystem::path MarkersPathForCloud(const std::filesystem::path& cloud_path);

@@ -223,6 +223,17 @@ void AddReconstructCommand(CLI::App& app) {
     }
     const auto right =
         camera_projector ? std::vector<cv::Mat>{} : phase::ReadStack(right_dir, scheme);
+    // Images of another size than the rig's camera: name the folder (the library cannot).
+    auto require_size = [&](const std::vector<cv::Mat>& imgs, const CameraModel& cam,
+                            const fs::path& dir) {
+      if (!imgs.empty() && (imgs[0].cols != cam.width || imgs[0].rows != cam.height)) {
+        throw Error(util::StrCat(dir.string(), ": images are ", imgs[0].cols, "x", imgs[0].rows,
+                                 " but the camera of ", rig_name, " is ", cam.width, "x",
+                                 cam.height));
+      }
+    };
+    require_size(left, rig.left, left_dir);
+    if (!camera_projector) require_size(right, rig.right, right_dir);
     // In a scan folder the full scale follows the bit depth its manifest states.
     if (a->bit_depth == 0 && scan_root) {
       a->bit_depth = scan::ScanFolder::Open(*scan_root).manifest().bit_depth;

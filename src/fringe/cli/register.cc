@@ -83,6 +83,10 @@ void AddRegisterCommand(CLI::App& app) {
     registration::RegistrationOptions options;
     options.use_markers = !a->no_markers;
     const registration::RegistrationResult r = registration::RegisterViews(views, options);
+    // No result, no output folder: fail before anything is written.
+    if (r.summary.status == registration::RegistrationStatus::kFailed) {
+      throw Error(util::StrCat("register: ", r.summary.message));
+    }
 
     std::vector<std::string> placed_names;
     std::vector<Rigid3d> placed_poses;
@@ -120,9 +124,9 @@ void AddRegisterCommand(CLI::App& app) {
                 << r.summary.icp.BriefReport() << "\n"
                 << r.summary.BriefReport() << "\nwrote " << a->out << "\n";
     }
-    if (r.summary.status == registration::RegistrationStatus::kFailed) {
-      throw Error(util::StrCat("register: ", r.summary.message));
-    }
+    // Some views not placed: the others are written, and the exit code says it was partial
+    // (as `fringe scan --keep-going`), so that scripts notice.
+    if (r.summary.status == registration::RegistrationStatus::kPartial) throw ExitWithCode(3);
   });
 }
 

@@ -121,8 +121,9 @@ void PatternScheme::Check() const {
                   intensity_mean + intensity_amplitude <= 1.0 + 1e-12,
               o, "intensity_amplitude", intensity_amplitude,
               "must be in (0, intensity_mean] with mean + amplitude <= 1");
-  CheckOption(gamma_precompensation > 0 && std::isfinite(gamma_precompensation), o,
-              "gamma_precompensation", gamma_precompensation, "must be > 0");
+  // Projector gammas lie near 1.8-2.6; beyond 10 the value is a typo or a hostile file.
+  CheckOption(gamma_precompensation > 0 && gamma_precompensation <= 10, o, "gamma_precompensation",
+              gamma_precompensation, "must be in (0, 10]");
   CheckOption(projector_width <= util::kMaxImageSidePx, o, "projector_width", projector_width,
               StrCat("must be <= ", util::kMaxImageSidePx).c_str());
   CheckOption(projector_height <= util::kMaxImageSidePx, o, "projector_height", projector_height,

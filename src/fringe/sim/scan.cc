@@ -114,9 +114,11 @@ Scene MakeSceneByName(const std::string& name, uint64_t seed) {
 
 void ScanOptions::Check() const {
   using util::CheckOption;
-  CheckOption(views >= 0, "ScanOptions", "views", views, "must be >= 0");
-  CheckOption(calibration_images >= 0, "ScanOptions", "calibration_images", calibration_images,
-              "must be >= 0");
+  // A bound, not a physical limit: each view is ~25 MB of images at full size, and a typo such
+  // as 100000 would otherwise run for days and fill the disk.
+  CheckOption(views >= 0 && views <= 1000, "ScanOptions", "views", views, "must be in [0, 1000]");
+  CheckOption(calibration_images >= 0 && calibration_images <= 1000, "ScanOptions",
+              "calibration_images", calibration_images, "must be in [0, 1000]");
   CheckOption(precompensate_gamma > 0 && precompensate_gamma <= 10, "ScanOptions",
               "precompensate_gamma", precompensate_gamma, "must be in (0, 10]");
   target.Check();

@@ -203,6 +203,13 @@ void CheckNotAnInput(const fs::path& output, const std::vector<fs::path>& inputs
       throw Error(StrCat(output.string(), ": contains the input ", input.string(),
                          "; replacing the folder would delete it (choose another output folder)"));
     }
+    // A file that already exists inside an input folder (a view's image, a scan's calibration)
+    // may be read by this command: never replace it. New files there are fine.
+    if (!output_is_folder && fs::exists(output, ec) && fs::is_directory(input, ec) &&
+        IsWithin(out, in)) {
+      throw Error(StrCat(output.string(), ": exists inside the input folder ", input.string(),
+                         "; an output never replaces a file of its inputs (choose another name)"));
+    }
   }
 }
 

@@ -123,6 +123,15 @@ TEST(CheckOutputFile, RefusesAnInputAndAMissingFolder) {
   EXPECT_THROW(CheckDistinctOutputs({dir / "a.ply", dir / "./a.ply"}), Error);
 }
 
+TEST(CheckOutputFile, NeverReplacesAFileInsideAnInputFolder) {
+  // `reconstruct VIEW --out VIEW/left/00.png` once replaced an input image with the cloud.
+  test::TempDir dir;
+  fs::create_directories(dir / "view" / "left");
+  std::ofstream(dir / "view" / "left" / "00.png") << "image";
+  EXPECT_THROW(CheckOutputFile(dir / "view" / "left" / "00.png", {dir / "view"}), Error);
+  EXPECT_NO_THROW(CheckOutputFile(dir / "view" / "cloud.ply", {dir / "view"}));
+}
+
 TEST(CheckRelativeName, RejectsEscapesAndOddNames) {
   const auto& img = ImageExtensions();
   EXPECT_NO_THROW(CheckRelativeName("00.png", "m.json", img));

@@ -23,8 +23,6 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <cstring>
-#include <ctime>
 #include <iostream>
 #include <nlohmann/json.hpp>
 #include <opencv2/calib3d.hpp>
@@ -32,6 +30,7 @@
 #include <string>
 #include <vector>
 
+#include "bench_timing.h"
 #include "fringe/calib/calibrate.h"
 #include "fringe/calib/detect.h"
 #include "fringe/sim/board.h"
@@ -98,20 +97,48 @@ bool OpenCvCircles(const cv::Mat& img, const CalibrationTarget& t, std::vector<c
 
 double PctErr(double a, double b) { return 100 * std::abs(a - b) / std::abs(b); }
 
-Result RunBoard(const StereoRig& rig, const CalibrationTarget& target,
-                const std::vector<Rigid3d>& poses) {
-  Result r;
-  r.board = TargetTypeName(target.type);
-  r.ours_tilt.resize(kTiltBins);
-  r.opencv_tilt.resize(kTiltBins);
-  sim::BoardRenderOptions ro;
-  ro.sensor.read_noise_dn = 1.5;
+// Per pose and camera: our detections and the true centres; OpenCV's centres reordered to the
+// true (row, col) order (NaN where missing), and whether both of its boards are complete.
+struct Detections {
   std::vector<calib::TargetDetection> left, right;
   std::vector<std::vector<Eigen::Vector2d>> truth_l, truth_r;
-  std::vector<Rigid3d> lfb;
-  // OpenCV: points reordered to the true (row, col) order, per camera, complete boards only.
   std::vector<std::vector<cv::Point2f>> cv_l, cv_r;
   std::vector<bool> cv_ok;
+};
+
+// OpenCV's centres matched to the nearest true centre (gives OpenCV the correct order; its
+// 180-degree flips do not count); their errors go to r. False when a feature is missing.
+bool OrderOpenCvCentres(const std::vector<cv::Point2f>& c, const sim::BoardImage& bi,
+                        const CalibrationTarget& target, Result* r,
+                        std::vector<cv::Point2f>* ordered) {
+  ordered->assign(target.NumFeatures(), cv::Point2f(NAN, NAN));
+  const double tilt = TiltDeg(bi.cam_from_board);
+  for (const auto& p : c) {
+    int best = -1;
+    double bd = 1e300;
+    for (int k = 0; k < target.NumFeatures(); ++k) {
+      const double d = std::hypot(p.x - bi.centres_px[k].x(), p.y - bi.centres_px[k].y());
+      if (d < bd) {
+        bd = d;
+        best = k;
+      }
+    }
+    (*ordered)[best] = p;
+    r->opencv.Add(bd);
+    r->opencv_tilt[TiltBin(tilt)].Add(bd);
+  }
+  for (const auto& p : *ordered) {
+    if (std::isnan(p.x)) return false;
+  }
+  return true;
+}
+
+// Renders the board in every pose and detects it with ours and OpenCV's finder (timed).
+Detections DetectBoards(const StereoRig& rig, const CalibrationTarget& target,
+                        const std::vector<Rigid3d>& poses, Result* r) {
+  Detections d;
+  sim::BoardRenderOptions ro;
+  ro.sensor.read_noise_dn = 1.5;
   for (size_t i = 0; i < poses.size(); ++i) {
     const auto imgs = sim::RenderStereoBoard(rig, target, poses[i], ro, i);
     std::vector<cv::Point2f> ordered[2];
@@ -120,136 +147,131 @@ Result RunBoard(const StereoRig& rig, const CalibrationTarget& target,
       const sim::BoardImage& bi = cam == 0 ? imgs.left : imgs.right;
       util::Timer t;
       auto det = calib::DetectTarget(bi.image, target);
-      r.ours_ms += t.ElapsedMs();
-      ++r.images;
+      r->ours_ms += t.ElapsedMs();
+      ++r->images;
       if (det.ok()) {
-        ++r.ours_found;
+        ++r->ours_found;
       } else if (std::getenv("FRINGE_BENCH_VERBOSE")) {
-        std::cerr << r.board << " pose " << i << " cam " << cam << ": " << det.BriefReport()
+        std::cerr << r->board << " pose " << i << " cam " << cam << ": " << det.BriefReport()
                   << "\n";
       }
       for (const auto& f : det.features) {
-        r.ours_detect.Add((f.centre_px - bi.centres_px[f.row * target.cols + f.col]).norm());
+        r->ours_detect.Add((f.centre_px - bi.centres_px[f.row * target.cols + f.col]).norm());
       }
-      (cam == 0 ? left : right).push_back(std::move(det));
-      (cam == 0 ? truth_l : truth_r).push_back(bi.centres_px);
+      (cam == 0 ? d.left : d.right).push_back(std::move(det));
+      (cam == 0 ? d.truth_l : d.truth_r).push_back(bi.centres_px);
       t.Restart();
       std::vector<cv::Point2f> c;
       const bool found = OpenCvCircles(bi.image, target, &c);
-      r.opencv_ms += t.ElapsedMs();
+      r->opencv_ms += t.ElapsedMs();
       if (!found) {
         ok_both = false;
         continue;
       }
-      ++r.opencv_found;
-      // Match to the truth (gives OpenCV the correct order; its 180-degree flips do not count).
-      ordered[cam].assign(target.NumFeatures(), cv::Point2f(NAN, NAN));
-      const double tilt = TiltDeg(bi.cam_from_board);
-      for (const auto& p : c) {
-        int best = -1;
-        double bd = 1e300;
-        for (int k = 0; k < target.NumFeatures(); ++k) {
-          const double d = std::hypot(p.x - bi.centres_px[k].x(), p.y - bi.centres_px[k].y());
-          if (d < bd) {
-            bd = d;
-            best = k;
-          }
-        }
-        ordered[cam][best] = p;
-        r.opencv.Add(bd);
-        r.opencv_tilt[TiltBin(tilt)].Add(bd);
-      }
-      for (const auto& p : ordered[cam]) {
-        if (std::isnan(p.x)) ok_both = false;
-      }
+      ++r->opencv_found;
+      if (!OrderOpenCvCentres(c, bi, target, r, &ordered[cam])) ok_both = false;
     }
-    lfb.push_back(poses[i]);
-    cv_l.push_back(ordered[0]);
-    cv_r.push_back(ordered[1]);
-    cv_ok.push_back(ok_both);
+    d.cv_l.push_back(ordered[0]);
+    d.cv_r.push_back(ordered[1]);
+    d.cv_ok.push_back(ok_both);
   }
-  r.ours_ms /= std::max(1, r.images);
-  r.opencv_ms /= std::max(1, r.images);
+  r->ours_ms /= std::max(1, r->images);
+  r->opencv_ms /= std::max(1, r->images);
+  return d;
+}
 
-  // Ours: joint stereo calibration.
+// Ours: joint stereo calibration (timed), final centres and parameters against the truth.
+void CalibrateOurs(const StereoRig& rig, const CalibrationTarget& target,
+                   const std::vector<Rigid3d>& poses, const Detections& d, Result* r) {
   util::Timer calib_timer;
-  const std::clock_t calib_cpu = std::clock();
-  const auto cal = calib::CalibrateStereo(left, right, target, rig.left.width, rig.left.height);
-  r.calib_ms = calib_timer.ElapsedMs();
-  r.calib_cpu_ms = 1e3 * double(std::clock() - calib_cpu) / CLOCKS_PER_SEC;
+  const double calib_cpu = bench::CpuMs();
+  const auto cal = calib::CalibrateStereo(d.left, d.right, target, rig.left.width, rig.left.height);
+  r->calib_ms = calib_timer.ElapsedMs();
+  r->calib_cpu_ms = bench::CpuMs() - calib_cpu;
   if (std::getenv("FRINGE_BENCH_VERBOSE")) std::cerr << cal.BriefReport() << "\n";
-  if (cal.summary.success) {
-    r.rms_px = cal.rms_px;
-    for (int cam = 0; cam < 2; ++cam) {
-      const auto& cc = cam == 0 ? cal.left : cal.right;
-      const auto& dets = cam == 0 ? left : right;
-      const auto& truth = cam == 0 ? truth_l : truth_r;
-      for (size_t v = 0; v < dets.size(); ++v) {
-        const double tilt = TiltDeg(cam == 0 ? poses[v] : rig.right_from_left * poses[v]);
-        for (size_t k = 0; k < cc.centres_px[v].size(); ++k) {
-          const auto& f = dets[v].features[k];
-          const double e = (cc.centres_px[v][k] - truth[v][f.row * target.cols + f.col]).norm();
-          r.ours.Add(e);
-          r.ours_tilt[TiltBin(tilt)].Add(e);
-        }
+  if (!cal.summary.success) return;
+  r->rms_px = cal.rms_px;
+  for (int cam = 0; cam < 2; ++cam) {
+    const auto& cc = cam == 0 ? cal.left : cal.right;
+    const auto& dets = cam == 0 ? d.left : d.right;
+    const auto& truth = cam == 0 ? d.truth_l : d.truth_r;
+    for (size_t v = 0; v < dets.size(); ++v) {
+      const double tilt = TiltDeg(cam == 0 ? poses[v] : rig.right_from_left * poses[v]);
+      for (size_t k = 0; k < cc.centres_px[v].size(); ++k) {
+        const auto& f = dets[v].features[k];
+        const double e = (cc.centres_px[v][k] - truth[v][f.row * target.cols + f.col]).norm();
+        r->ours.Add(e);
+        r->ours_tilt[TiltBin(tilt)].Add(e);
       }
     }
-    const auto& L = cal.rig.left;
-    const auto& R = cal.rig.right;
-    r.focal_err_pct = std::max({PctErr(L.fx, rig.left.fx), PctErr(L.fy, rig.left.fy),
-                                PctErr(R.fx, rig.right.fx), PctErr(R.fy, rig.right.fy)});
-    r.cxcy_err_px = std::max({std::abs(L.cx - rig.left.cx), std::abs(L.cy - rig.left.cy),
-                              std::abs(R.cx - rig.right.cx), std::abs(R.cy - rig.right.cy)});
-    r.k1_err = std::max(std::abs(L.k1 - rig.left.k1), std::abs(R.k1 - rig.right.k1));
-    r.k2_err = std::max(std::abs(L.k2 - rig.left.k2), std::abs(R.k2 - rig.right.k2));
-    r.baseline_err_mm = std::abs(cal.rig.BaselineMm() - rig.BaselineMm());
-    r.angle_err_deg =
-        Difference(cal.rig.right_from_left, rig.right_from_left).angle_rad * 180 / M_PI;
   }
+  const auto& L = cal.rig.left;
+  const auto& R = cal.rig.right;
+  r->focal_err_pct = std::max({PctErr(L.fx, rig.left.fx), PctErr(L.fy, rig.left.fy),
+                               PctErr(R.fx, rig.right.fx), PctErr(R.fy, rig.right.fy)});
+  r->cxcy_err_px = std::max({std::abs(L.cx - rig.left.cx), std::abs(L.cy - rig.left.cy),
+                             std::abs(R.cx - rig.right.cx), std::abs(R.cy - rig.right.cy)});
+  r->k1_err = std::max(std::abs(L.k1 - rig.left.k1), std::abs(R.k1 - rig.right.k1));
+  r->k2_err = std::max(std::abs(L.k2 - rig.left.k2), std::abs(R.k2 - rig.right.k2));
+  r->baseline_err_mm = std::abs(cal.rig.BaselineMm() - rig.BaselineMm());
+  r->angle_err_deg =
+      Difference(cal.rig.right_from_left, rig.right_from_left).angle_rad * 180 / M_PI;
+}
 
-  // OpenCV: calibrateCamera per camera then stereoCalibrate, complete pairs only.
+// OpenCV: calibrateCamera per camera then stereoCalibrate, complete pairs only.
+void CalibrateOpenCv(const StereoRig& rig, const CalibrationTarget& target, const Detections& d,
+                     Result* r) {
   std::vector<std::vector<cv::Point3f>> obj;
   std::vector<std::vector<cv::Point2f>> il, ir;
   std::vector<cv::Point3f> board;
   for (const auto& p : target.FeatureCentres()) board.emplace_back(p.x(), p.y(), 0.f);
-  for (size_t v = 0; v < cv_ok.size(); ++v) {
-    if (!cv_ok[v]) continue;
+  for (size_t v = 0; v < d.cv_ok.size(); ++v) {
+    if (!d.cv_ok[v]) continue;
     obj.push_back(board);
-    il.push_back(cv_l[v]);
-    ir.push_back(cv_r[v]);
+    il.push_back(d.cv_l[v]);
+    ir.push_back(d.cv_r[v]);
   }
-  if (obj.size() >= 3) {
-    const cv::Size size(rig.left.width, rig.left.height);
-    cv::Mat k1, d1, k2, d2, rr, tt, e, f;
-    std::vector<cv::Mat> rv, tv;
-    const int flags = cv::CALIB_FIX_K3;
-    util::Timer opencv_timer;
-    const std::clock_t opencv_cpu = std::clock();
-    cv::calibrateCamera(obj, il, size, k1, d1, rv, tv, flags);
-    cv::calibrateCamera(obj, ir, size, k2, d2, rv, tv, flags);
-    r.opencv_rms_px = cv::stereoCalibrate(obj, il, ir, k1, d1, k2, d2, size, rr, tt, e, f,
-                                          flags | cv::CALIB_USE_INTRINSIC_GUESS);
-    r.opencv_calib_ms = opencv_timer.ElapsedMs();
-    r.opencv_calib_cpu_ms = 1e3 * double(std::clock() - opencv_cpu) / CLOCKS_PER_SEC;
-    r.opencv_focal_err_pct = std::max(
-        {PctErr(k1.at<double>(0, 0), rig.left.fx), PctErr(k1.at<double>(1, 1), rig.left.fy),
-         PctErr(k2.at<double>(0, 0), rig.right.fx), PctErr(k2.at<double>(1, 1), rig.right.fy)});
-    r.opencv_cxcy_err_px = std::max({std::abs(k1.at<double>(0, 2) - rig.left.cx),
-                                     std::abs(k1.at<double>(1, 2) - rig.left.cy),
-                                     std::abs(k2.at<double>(0, 2) - rig.right.cx),
-                                     std::abs(k2.at<double>(1, 2) - rig.right.cy)});
-    r.opencv_k1_err = std::max(std::abs(d1.at<double>(0) - rig.left.k1),
-                               std::abs(d2.at<double>(0) - rig.right.k1));
-    r.opencv_k2_err = std::max(std::abs(d1.at<double>(1) - rig.left.k2),
-                               std::abs(d2.at<double>(1) - rig.right.k2));
-    Eigen::Matrix3d re;
-    for (int i = 0; i < 3; ++i) {
-      for (int j = 0; j < 3; ++j) re(i, j) = rr.at<double>(i, j);
-    }
-    const Rigid3d rfl(re, Eigen::Vector3d(tt.at<double>(0), tt.at<double>(1), tt.at<double>(2)));
-    r.opencv_baseline_err_mm = std::abs(rfl.translation().norm() - rig.BaselineMm());
-    r.opencv_angle_err_deg = Difference(rfl, rig.right_from_left).angle_rad * 180 / M_PI;
+  if (obj.size() < 3) return;
+  const cv::Size size(rig.left.width, rig.left.height);
+  cv::Mat k1, d1, k2, d2, rr, tt, e, f;
+  std::vector<cv::Mat> rv, tv;
+  const int flags = cv::CALIB_FIX_K3;
+  util::Timer opencv_timer;
+  const double opencv_cpu = bench::CpuMs();
+  cv::calibrateCamera(obj, il, size, k1, d1, rv, tv, flags);
+  cv::calibrateCamera(obj, ir, size, k2, d2, rv, tv, flags);
+  r->opencv_rms_px = cv::stereoCalibrate(obj, il, ir, k1, d1, k2, d2, size, rr, tt, e, f,
+                                         flags | cv::CALIB_USE_INTRINSIC_GUESS);
+  r->opencv_calib_ms = opencv_timer.ElapsedMs();
+  r->opencv_calib_cpu_ms = bench::CpuMs() - opencv_cpu;
+  r->opencv_focal_err_pct = std::max(
+      {PctErr(k1.at<double>(0, 0), rig.left.fx), PctErr(k1.at<double>(1, 1), rig.left.fy),
+       PctErr(k2.at<double>(0, 0), rig.right.fx), PctErr(k2.at<double>(1, 1), rig.right.fy)});
+  r->opencv_cxcy_err_px = std::max(
+      {std::abs(k1.at<double>(0, 2) - rig.left.cx), std::abs(k1.at<double>(1, 2) - rig.left.cy),
+       std::abs(k2.at<double>(0, 2) - rig.right.cx), std::abs(k2.at<double>(1, 2) - rig.right.cy)});
+  r->opencv_k1_err =
+      std::max(std::abs(d1.at<double>(0) - rig.left.k1), std::abs(d2.at<double>(0) - rig.right.k1));
+  r->opencv_k2_err =
+      std::max(std::abs(d1.at<double>(1) - rig.left.k2), std::abs(d2.at<double>(1) - rig.right.k2));
+  Eigen::Matrix3d re;
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) re(i, j) = rr.at<double>(i, j);
   }
+  const Rigid3d rfl(re, Eigen::Vector3d(tt.at<double>(0), tt.at<double>(1), tt.at<double>(2)));
+  r->opencv_baseline_err_mm = std::abs(rfl.translation().norm() - rig.BaselineMm());
+  r->opencv_angle_err_deg = Difference(rfl, rig.right_from_left).angle_rad * 180 / M_PI;
+}
+
+Result RunBoard(const StereoRig& rig, const CalibrationTarget& target,
+                const std::vector<Rigid3d>& poses) {
+  Result r;
+  r.board = TargetTypeName(target.type);
+  r.ours_tilt.resize(kTiltBins);
+  r.opencv_tilt.resize(kTiltBins);
+  const Detections d = DetectBoards(rig, target, poses, &r);
+  CalibrateOurs(rig, target, poses, d, &r);
+  CalibrateOpenCv(rig, target, d, &r);
   return r;
 }
 

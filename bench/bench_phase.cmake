@@ -1,7 +1,9 @@
 # OpenCV contrib's structured_light is the peer this benchmark measures against: without it
 # (FRINGE_HAVE_OPENCV_CONTRIB off, see the top-level CMakeLists.txt) the benchmark is not built.
 if(FRINGE_HAVE_OPENCV_CONTRIB)
-  fringe_add_bench(bench_phase SOURCES ${CMAKE_CURRENT_SOURCE_DIR}/bench_phase.cc
+  fringe_add_bench(bench_phase
+    SOURCES ${CMAKE_CURRENT_SOURCE_DIR}/bench_phase.cc
+            ${CMAKE_CURRENT_SOURCE_DIR}/phase_accuracy.cc
     DEPS fringe_phase fringe_io fringe_util opencv_structured_light opencv_phase_unwrapping
          TBB::tbb nlohmann_json::nlohmann_json)
 elseif(FRINGE_BUILD_BENCH)

@@ -19,6 +19,9 @@
 //
 // Usage: bench_reconstruction [--json] [--quick] [--finest-set-only]   (--quick: fewer positions,
 // no calibration; --finest-set-only: absolute phase from the finest set alone, as before issue 10)
+//
+// One Measure* function per artefact kind (and the demo part, the normals), each returning its
+// figures; main collects them into one JSON object (AddFigures) and prints it or the table.
 #include <tbb/global_control.h>
 #include <CLI/CLI.hpp>
 
@@ -177,6 +180,346 @@ double AngleDeg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
   return std::acos(std::clamp(a.normalized().dot(b.normalized()), -1.0, 1.0)) * 180 / M_PI;
 }
 
+// The reconstructors of one run: with the true calibration and, unless --quick, with the one
+// estimated from simulated board images.
+struct Reconstructors {
+  const stereo::ViewReconstructor& true_calib;
+  const stereo::ViewReconstructor* est_calib = nullptr;  // null: calibration not run
+  const stereo::Rectification& rect;                     // of the true rig (noise floors)
+};
+
+// Sphere figures: maxima over the positions (true / estimated calibration, noise floor) and the
+// per-position JSON.
+struct SphereFigures {
+  double ps_max = 0, pf_max = 0, pf_floor_max = 0, pf_ratio_max = 0;
+  double ps_est_max = 0, pf_est_max = 0;
+  nlohmann::json positions = nlohmann::json::array();
+};
+
+SphereFigures MeasureSpheres(const Context& ctx, const Reconstructors& recon, int n_sphere) {
+  SphereFigures fig;
+  const eval::VdiOptions vdi;
+  const sim::Scene sphere_scene = sim::MakeSphereScene(kSphereRadiusMm);
+  for (int k = 0; k < n_sphere; ++k) {
+    const Eigen::Vector3d centre = bench::SphereCentre();
+    const Rigid3d pose = bench::SpherePose(ctx.rig_true, k, n_sphere);
+    const sim::ViewImages view = Render(ctx, sphere_scene, pose, 100 + k);
+    const auto rec = recon.true_calib.Reconstruct(view.left.images, view.right.images);
+    const eval::SphereResult s =
+        eval::EvaluateSphere(rec.cloud.Compact(), 2 * kSphereRadiusMm, vdi);
+    const Eigen::Vector3d c_in_sensor = pose.Inverse() * centre;
+    const FloorPoints f = NoiseFloor(
+        ctx, recon.rect, view, rec.cloud,
+        [&](int, int, const Eigen::Vector3d& p) {
+          return std::abs((p - c_in_sensor).norm() - kSphereRadiusMm) < 1e-3;
+        },
+        util::MixSeed(7, k));
+    const eval::SphereResult fs = eval::SphereFigures(f.floor, 2 * kSphereRadiusMm);
+    nlohmann::json e = {{"position", k},
+                        {"distance_mm", c_in_sensor.norm()},
+                        {"points", rec.summary.points},
+                        {"status", eval::ToString(s.status)},
+                        {"PS_mm", s.PS_mm},
+                        {"PF_mm", s.PF_mm},
+                        {"PF_floor_mm", fs.PF_mm}};
+    if (s.ok()) {
+      fig.ps_max = std::max(fig.ps_max, std::abs(s.PS_mm));
+      fig.pf_max = std::max(fig.pf_max, s.PF_mm);
+      fig.pf_floor_max = std::max(fig.pf_floor_max, fs.PF_mm);
+      if (fs.ok() && fs.PF_mm > 0)
+        fig.pf_ratio_max = std::max(fig.pf_ratio_max, s.PF_mm / fs.PF_mm);
+    }
+    if (recon.est_calib) {
+      const auto re = recon.est_calib->Reconstruct(view.left.images, view.right.images);
+      const eval::SphereResult se =
+          eval::EvaluateSphere(re.cloud.Compact(), 2 * kSphereRadiusMm, vdi);
+      e["PS_est_calib_mm"] = se.PS_mm;
+      e["PF_est_calib_mm"] = se.PF_mm;
+      if (se.ok()) {
+        fig.ps_est_max = std::max(fig.ps_est_max, std::abs(se.PS_mm));
+        fig.pf_est_max = std::max(fig.pf_est_max, se.PF_mm);
+      }
+    }
+    fig.positions.push_back(e);
+  }
+
+  return fig;
+}
+
+struct BallBarFigures {
+  double sd_max = 0, sd_est_max = 0;
+  nlohmann::json positions = nlohmann::json::array();
+};
+
+BallBarFigures MeasureBallBars(const Context& ctx, const Reconstructors& recon, int n_bar) {
+  BallBarFigures fig;
+  const eval::VdiOptions vdi;
+  const sim::Scene bar_scene = sim::MakeBallBarScene(kBarRadiusMm, kBarDistanceMm);
+  for (int k = 0; k < n_bar; ++k) {
+    const Rigid3d pose = bench::BallBarPose(ctx.rig_true, k, n_bar);
+    const sim::ViewImages view = Render(ctx, bar_scene, pose, 200 + k);
+    const auto rec = recon.true_calib.Reconstruct(view.left.images, view.right.images);
+    const eval::BallBarResult b =
+        eval::EvaluateBallBar(rec.cloud.Compact(), 2 * kBarRadiusMm, kBarDistanceMm, vdi);
+    nlohmann::json e = {{"position", k}, {"status", eval::ToString(b.status)}, {"SD_mm", b.SD_mm}};
+    if (b.ok()) fig.sd_max = std::max(fig.sd_max, std::abs(b.SD_mm));
+    if (recon.est_calib) {
+      const auto re = recon.est_calib->Reconstruct(view.left.images, view.right.images);
+      const eval::BallBarResult be =
+          eval::EvaluateBallBar(re.cloud.Compact(), 2 * kBarRadiusMm, kBarDistanceMm, vdi);
+      e["SD_est_calib_mm"] = be.SD_mm;
+      if (be.ok()) fig.sd_est_max = std::max(fig.sd_est_max, std::abs(be.SD_mm));
+    }
+    fig.positions.push_back(e);
+  }
+
+  return fig;
+}
+
+// Plate figures; the depth noise sums are over every plate (depth_noise_ratio).
+struct PlateFigures {
+  double f_max = 0, f_floor_max = 0, f_ratio_max = 0, f_est_max = 0;
+  double noise_measured = 0, noise_predicted = 0;
+  int64_t noise_n = 0;
+  nlohmann::json positions = nlohmann::json::array();
+};
+
+PlateFigures MeasurePlates(const Context& ctx, const Reconstructors& recon, int n_plate) {
+  PlateFigures fig;
+  const eval::VdiOptions vdi;
+  const sim::Scene plate_scene = sim::MakePlateScene();
+  for (int k = 0; k < n_plate; ++k) {
+    const Rigid3d pose = bench::PlatePose(ctx.rig_true, k, n_plate);
+    const sim::ViewImages view = Render(ctx, plate_scene, pose, 300 + k);
+    const auto rec = recon.true_calib.Reconstruct(view.left.images, view.right.images);
+    const eval::PlaneResult p = eval::EvaluatePlane(rec.cloud.Compact(), vdi);
+    const Rigid3d world_from_sensor = pose;
+    const FloorPoints f = NoiseFloor(
+        ctx, recon.rect, view, rec.cloud,
+        [&](int, int, const Eigen::Vector3d& q) {
+          return std::abs((world_from_sensor * q).z()) < 1e-6;
+        },
+        util::MixSeed(11, k));
+    const eval::PlaneResult fp = eval::PlaneFigures(f.floor);
+    fig.noise_measured += f.sum_sq_measured;
+    fig.noise_predicted += f.sum_sq_predicted;
+    fig.noise_n += f.n;
+    nlohmann::json e = {{"position", k},
+                        {"status", eval::ToString(p.status)},
+                        {"F_mm", p.F_mm},
+                        {"F_floor_mm", fp.F_mm},
+                        {"depth_noise_mm", f.n ? std::sqrt(f.sum_sq_measured / f.n) : 0.0},
+                        {"predicted_noise_mm", f.n ? std::sqrt(f.sum_sq_predicted / f.n) : 0.0}};
+    if (p.ok()) {
+      fig.f_max = std::max(fig.f_max, p.F_mm);
+      fig.f_floor_max = std::max(fig.f_floor_max, fp.F_mm);
+      if (fp.ok() && fp.F_mm > 0) fig.f_ratio_max = std::max(fig.f_ratio_max, p.F_mm / fp.F_mm);
+    }
+    if (recon.est_calib) {
+      const auto re = recon.est_calib->Reconstruct(view.left.images, view.right.images);
+      const eval::PlaneResult pe = eval::EvaluatePlane(re.cloud.Compact(), vdi);
+      e["F_est_calib_mm"] = pe.F_mm;
+      if (pe.ok()) fig.f_est_max = std::max(fig.f_est_max, pe.F_mm);
+    }
+    fig.positions.push_back(e);
+  }
+
+  return fig;
+}
+
+// The demo part in one position: time per view (median of 3), deviation from the truth mesh,
+// coverage of the lit pixels, the left camera's truth (normals).
+struct DemoFigures {
+  stereo::ViewReconstruction rec;
+  double view_time_s = 0;
+  eval::DeviationStats dev;
+  double coverage = 0;
+  sim::CameraTruth truth;
+};
+
+DemoFigures MeasureDemoPart(const Context& ctx, const stereo::ViewReconstructor& recon) {
+  DemoFigures fig;
+  const sim::Scene demo = sim::MakeDemoPart();
+  Eigen::Vector3d bmin, bmax;
+  demo.Bounds(&bmin, &bmax);
+  const Eigen::Vector3d target(0.5 * (bmin.x() + bmax.x()), 0.5 * (bmin.y() + bmax.y()), 10);
+  const Rigid3d demo_pose =
+      sim::SensorPoseLookingAt(ctx.rig_true, target, Eigen::Vector3d(0.2, -0.5, 1).normalized());
+  const sim::ViewImages demo_view = Render(ctx, demo, demo_pose, 400);
+  std::vector<double> times;
+  for (int rep = 0; rep < 3; ++rep) {
+    util::Timer t;
+    fig.rec = recon.Reconstruct(demo_view.left.images, demo_view.right.images);
+    times.push_back(t.ElapsedSeconds());
+  }
+  std::sort(times.begin(), times.end());
+  const PointCloud demo_cloud = fig.rec.cloud.Compact();
+  TriangleMesh mesh = demo.CombinedMesh();
+  mesh.Transform(demo_pose.Inverse());
+  const eval::MeshDistance mesh_distance(std::move(mesh));
+  fig.dev = eval::DeviationFromMesh(demo_cloud, mesh_distance);
+  int lit = 0, covered = 0;
+  fig.truth = demo_view.left.truth;
+  const sim::CameraTruth& dt = fig.truth;
+  for (int r = 0; r < fig.rec.cloud.height; ++r) {
+    for (int c = 0; c < fig.rec.cloud.width; ++c) {
+      if (!dt.valid.at<uint8_t>(r, c)) continue;
+      ++lit;
+      covered += fig.rec.cloud.valid[fig.rec.cloud.index(c, r)];
+    }
+  }
+  fig.view_time_s = times[times.size() / 2];
+  fig.coverage = lit ? static_cast<double>(covered) / lit : 0.0;
+  return fig;
+}
+
+// Normals on the demo cloud: ours (already in the reconstruction, re-timed alone) vs Open3D
+// KNN 30, mean angle to the simulator's true normals.
+struct NormalFigures {
+  double ours_err = 0, ours_s = 0;
+  double o3d_err = std::nan(""), speedup = std::nan("");
+  nlohmann::json json;
+};
+
+NormalFigures CompareNormals(const OrganizedPointCloud& cloud, const sim::CameraTruth& truth,
+                             const GridNormalOptions& options) {
+  NormalFigures fig;
+  OrganizedPointCloud grid = cloud;
+  util::Timer nt;
+  EstimateGridNormals(&grid, options);
+  fig.ours_s = nt.ElapsedSeconds();
+  std::vector<Eigen::Vector3d> true_normals;
+  std::vector<size_t> grid_ids;
+  for (int r = 0; r < grid.height; ++r) {
+    for (int c = 0; c < grid.width; ++c) {
+      const size_t i = grid.index(c, r);
+      if (!grid.valid[i]) continue;
+      grid_ids.push_back(i);
+      true_normals.push_back(Vec(truth.normals.at<cv::Vec3d>(r, c)));
+    }
+  }
+  int ours_n = 0;
+  for (size_t k = 0; k < grid_ids.size(); ++k) {
+    const Eigen::Vector3d& n = grid.cloud.normals[grid_ids[k]];
+    if (!n.allFinite() || !true_normals[k].allFinite()) continue;
+    fig.ours_err += AngleDeg(n, true_normals[k]);
+    ++ours_n;
+  }
+  fig.ours_err /= std::max(ours_n, 1);
+  fig.json = {{"points", grid_ids.size()},
+              {"grid_mean_err_deg", fig.ours_err},
+              {"grid_time_s", fig.ours_s}};
+#ifdef FRINGE_HAVE_OPEN3D
+  {
+    open3d::geometry::PointCloud pc;
+    for (size_t i : grid_ids) pc.points_.push_back(grid.cloud.points[i]);
+    util::Timer ot;
+    pc.EstimateNormals(open3d::geometry::KDTreeSearchParamKNN(30));
+    const double est_s = ot.ElapsedSeconds();
+    pc.OrientNormalsTowardsCameraLocation(Eigen::Vector3d::Zero());
+    const double o3d_s = ot.ElapsedSeconds();
+    double err = 0;
+    int n = 0;
+    for (size_t k = 0; k < pc.normals_.size(); ++k) {
+      if (!true_normals[k].allFinite()) continue;
+      err += AngleDeg(pc.normals_[k], true_normals[k]);
+      ++n;
+    }
+    fig.o3d_err = err / std::max(n, 1);
+    fig.speedup = est_s / fig.ours_s;
+    fig.json["open3d_mean_err_deg"] = fig.o3d_err;
+    fig.json["open3d_estimate_s"] = est_s;
+    fig.json["open3d_estimate_and_orient_s"] = o3d_s;
+  }
+#endif
+
+  return fig;
+}
+
+struct Figures {
+  SphereFigures spheres;
+  BallBarFigures bars;
+  PlateFigures plates;
+  DemoFigures demo;
+  NormalFigures normals;
+};
+
+// The figures' JSON keys (docs/benchmarks.md): the headline VDI figures from the estimated
+// calibration when it was run, else from the true one.
+void AddFigures(const Context& ctx, const Figures& fig, nlohmann::json* j) {
+  (*j)["spheres"] = fig.spheres.positions;
+  (*j)["ball_bars"] = fig.bars.positions;
+  (*j)["plates"] = fig.plates.positions;
+  (*j)["PS_mm"] = ctx.rig_est ? fig.spheres.ps_est_max : fig.spheres.ps_max;
+  (*j)["PF_mm"] = ctx.rig_est ? fig.spheres.pf_est_max : fig.spheres.pf_max;
+  (*j)["SD_mm"] = ctx.rig_est ? fig.bars.sd_est_max : fig.bars.sd_max;
+  (*j)["F_mm"] = ctx.rig_est ? fig.plates.f_est_max : fig.plates.f_max;
+  (*j)["figures_from"] = ctx.rig_est ? "estimated calibration (max |.| over positions)"
+                                     : "true calibration (calibration not run: --quick)";
+  (*j)["PS_true_calib_mm"] = fig.spheres.ps_max;
+  (*j)["PF_true_calib_mm"] = fig.spheres.pf_max;
+  (*j)["SD_true_calib_mm"] = fig.bars.sd_max;
+  (*j)["F_true_calib_mm"] = fig.plates.f_max;
+  (*j)["PF_floor_mm"] = fig.spheres.pf_floor_max;
+  (*j)["F_floor_mm"] = fig.plates.f_floor_max;
+  (*j)["PF_over_floor_max"] = fig.spheres.pf_ratio_max;
+  (*j)["F_over_floor_max"] = fig.plates.f_ratio_max;
+  (*j)["plate_depth_noise_mm"] =
+      fig.plates.noise_n > 0 ? std::sqrt(fig.plates.noise_measured / fig.plates.noise_n) : 0.0;
+  (*j)["depth_noise_ratio"] =
+      fig.plates.noise_predicted > 0
+          ? std::sqrt(fig.plates.noise_measured / fig.plates.noise_predicted)
+          : 0;
+  (*j)["demo_rms_mm"] = fig.demo.dev.rms_mm;
+  (*j)["demo_deviation"] = {{"mean_mm", fig.demo.dev.mean_mm},
+                            {"p95_mm", fig.demo.dev.p95_mm},
+                            {"max_mm", fig.demo.dev.max_mm},
+                            {"points", fig.demo.dev.points},
+                            {"unmatched", fig.demo.dev.unmatched}};
+  (*j)["coverage"] = fig.demo.coverage;
+  (*j)["normals_err_deg"] = fig.normals.ours_err;
+  (*j)["open3d_normals_err_deg"] = fig.normals.o3d_err;
+  (*j)["normals_speedup_vs_open3d"] = fig.normals.speedup;
+  (*j)["normals"] = fig.normals.json;
+  (*j)["view_time_s"] = fig.demo.view_time_s;
+  (*j)["view_breakdown_s"] = {{"decode", fig.demo.rec.summary.decode_s},
+                              {"match", fig.demo.rec.summary.match_s},
+                              {"outliers", fig.demo.rec.summary.outliers_s},
+                              {"normals", fig.demo.rec.summary.normals_s}};
+  (*j)["demo_points"] = fig.demo.rec.summary.points;
+}
+
+// The human-readable table, from the JSON object.
+void PrintTable(const Context& ctx, const nlohmann::json& j) {
+  const auto num = [&](const char* key) { return j.at(key).get<double>(); };
+  const auto& breakdown = j.at("view_breakdown_s");
+  std::printf("bench_reconstruction (reference rig, %s, sigma %.1f DN)\n", ctx.scheme.name.c_str(),
+              ctx.render.sensor.read_noise_dn);
+  std::printf("%-34s %12s %12s %12s\n", "figure", "true calib", "est. calib", "floor");
+  auto row = [&](const char* name, const char* key, const char* floor_key) {
+    std::printf("%-34s %12.4f %12.4f %12.4f\n", name,
+                num((std::string(key) + "_true_calib_mm").c_str()),
+                ctx.rig_est ? num((std::string(key) + "_mm").c_str()) : std::nan(""),
+                floor_key ? num(floor_key) : std::nan(""));
+  };
+  row("PS max |.| (mm), 10 spheres", "PS", nullptr);
+  row("PF max (mm)", "PF", "PF_floor_mm");
+  row("SD max |.| (mm), 7 ball bars", "SD", nullptr);
+  row("F max (mm), 6 plates", "F", "F_floor_mm");
+  std::printf("PF / floor max %.2f, F / floor max %.2f, depth noise ratio %.2f\n",
+              num("PF_over_floor_max"), num("F_over_floor_max"), num("depth_noise_ratio"));
+  std::printf("demo part: RMS deviation %.4f mm, coverage %.3f, %d points\n", num("demo_rms_mm"),
+              num("coverage"), j.at("demo_points").get<int>());
+  std::printf("normals: grid %.2f deg in %.3f s; Open3D KNN30 %.2f deg; speedup %.1fx\n",
+              num("normals_err_deg"), j.at("normals").at("grid_time_s").get<double>(),
+              num("open3d_normals_err_deg"), num("normals_speedup_vs_open3d"));
+  std::printf("time per view: %.3f s (decode %.3f, match %.3f, outliers %.3f, normals %.3f)\n",
+              num("view_time_s"), breakdown.at("decode").get<double>(),
+              breakdown.at("match").get<double>(), breakdown.at("outliers").get<double>(),
+              breakdown.at("normals").get<double>());
+  if (!ctx.calib_json.empty()) std::printf("calibration: %s\n", ctx.calib_json.dump().c_str());
+}
+
 }  // namespace
 }  // namespace fringe
 
@@ -208,264 +551,19 @@ int main(int argc, char** argv) {
   std::optional<stereo::ViewReconstructor> recon_est;
   if (ctx.rig_est) recon_est.emplace(*ctx.rig_est, ctx.scheme, options);
   const stereo::Rectification rect(ctx.rig_true);
-  const eval::VdiOptions vdi;
+  const Reconstructors recon{recon_true, recon_est ? &*recon_est : nullptr, rect};
 
-  // ---- Spheres ----
-  const sim::Scene sphere_scene = sim::MakeSphereScene(kSphereRadiusMm);
-  const int n_sphere = quick ? 3 : 10;
-  double ps_max = 0, pf_max = 0, pf_floor_max = 0, pf_ratio_max = 0, ps_est_max = 0;
-  double pf_est_max = 0;
-  nlohmann::json spheres = nlohmann::json::array();
-  for (int k = 0; k < n_sphere; ++k) {
-    const Eigen::Vector3d centre = bench::SphereCentre();
-    const Rigid3d pose = bench::SpherePose(ctx.rig_true, k, n_sphere);
-    const sim::ViewImages view = Render(ctx, sphere_scene, pose, 100 + k);
-    const auto rec = recon_true.Reconstruct(view.left.images, view.right.images);
-    const eval::SphereResult s =
-        eval::EvaluateSphere(rec.cloud.Compact(), 2 * kSphereRadiusMm, vdi);
-    const Eigen::Vector3d c_in_sensor = pose.Inverse() * centre;
-    const FloorPoints f = NoiseFloor(
-        ctx, rect, view, rec.cloud,
-        [&](int, int, const Eigen::Vector3d& p) {
-          return std::abs((p - c_in_sensor).norm() - kSphereRadiusMm) < 1e-3;
-        },
-        util::MixSeed(7, k));
-    const eval::SphereResult fs = eval::SphereFigures(f.floor, 2 * kSphereRadiusMm);
-    nlohmann::json e = {{"position", k},
-                        {"distance_mm", c_in_sensor.norm()},
-                        {"points", rec.summary.points},
-                        {"status", eval::ToString(s.status)},
-                        {"PS_mm", s.PS_mm},
-                        {"PF_mm", s.PF_mm},
-                        {"PF_floor_mm", fs.PF_mm}};
-    if (s.ok()) {
-      ps_max = std::max(ps_max, std::abs(s.PS_mm));
-      pf_max = std::max(pf_max, s.PF_mm);
-      pf_floor_max = std::max(pf_floor_max, fs.PF_mm);
-      if (fs.ok() && fs.PF_mm > 0) pf_ratio_max = std::max(pf_ratio_max, s.PF_mm / fs.PF_mm);
-    }
-    if (recon_est) {
-      const auto re = recon_est->Reconstruct(view.left.images, view.right.images);
-      const eval::SphereResult se =
-          eval::EvaluateSphere(re.cloud.Compact(), 2 * kSphereRadiusMm, vdi);
-      e["PS_est_calib_mm"] = se.PS_mm;
-      e["PF_est_calib_mm"] = se.PF_mm;
-      if (se.ok()) {
-        ps_est_max = std::max(ps_est_max, std::abs(se.PS_mm));
-        pf_est_max = std::max(pf_est_max, se.PF_mm);
-      }
-    }
-    spheres.push_back(e);
-  }
-
-  // ---- Ball bar ----
-  const sim::Scene bar_scene = sim::MakeBallBarScene(kBarRadiusMm, kBarDistanceMm);
-  const int n_bar = quick ? 2 : 7;
-  double sd_max = 0, sd_est_max = 0;
-  nlohmann::json bars = nlohmann::json::array();
-  for (int k = 0; k < n_bar; ++k) {
-    const Rigid3d pose = bench::BallBarPose(ctx.rig_true, k, n_bar);
-    const sim::ViewImages view = Render(ctx, bar_scene, pose, 200 + k);
-    const auto rec = recon_true.Reconstruct(view.left.images, view.right.images);
-    const eval::BallBarResult b =
-        eval::EvaluateBallBar(rec.cloud.Compact(), 2 * kBarRadiusMm, kBarDistanceMm, vdi);
-    nlohmann::json e = {{"position", k}, {"status", eval::ToString(b.status)}, {"SD_mm", b.SD_mm}};
-    if (b.ok()) sd_max = std::max(sd_max, std::abs(b.SD_mm));
-    if (recon_est) {
-      const auto re = recon_est->Reconstruct(view.left.images, view.right.images);
-      const eval::BallBarResult be =
-          eval::EvaluateBallBar(re.cloud.Compact(), 2 * kBarRadiusMm, kBarDistanceMm, vdi);
-      e["SD_est_calib_mm"] = be.SD_mm;
-      if (be.ok()) sd_est_max = std::max(sd_est_max, std::abs(be.SD_mm));
-    }
-    bars.push_back(e);
-  }
-
-  // ---- Plate ----
-  const sim::Scene plate_scene = sim::MakePlateScene();
-  const int n_plate = quick ? 2 : 6;
-  double f_max = 0, f_floor_max = 0, f_ratio_max = 0, f_est_max = 0;
-  double noise_measured = 0, noise_predicted = 0;
-  int64_t noise_n = 0;
-  nlohmann::json plates = nlohmann::json::array();
-  for (int k = 0; k < n_plate; ++k) {
-    const Rigid3d pose = bench::PlatePose(ctx.rig_true, k, n_plate);
-    const sim::ViewImages view = Render(ctx, plate_scene, pose, 300 + k);
-    const auto rec = recon_true.Reconstruct(view.left.images, view.right.images);
-    const eval::PlaneResult p = eval::EvaluatePlane(rec.cloud.Compact(), vdi);
-    const Rigid3d world_from_sensor = pose;
-    const FloorPoints f = NoiseFloor(
-        ctx, rect, view, rec.cloud,
-        [&](int, int, const Eigen::Vector3d& q) {
-          return std::abs((world_from_sensor * q).z()) < 1e-6;
-        },
-        util::MixSeed(11, k));
-    const eval::PlaneResult fp = eval::PlaneFigures(f.floor);
-    noise_measured += f.sum_sq_measured;
-    noise_predicted += f.sum_sq_predicted;
-    noise_n += f.n;
-    nlohmann::json e = {{"position", k},
-                        {"status", eval::ToString(p.status)},
-                        {"F_mm", p.F_mm},
-                        {"F_floor_mm", fp.F_mm},
-                        {"depth_noise_mm", f.n ? std::sqrt(f.sum_sq_measured / f.n) : 0.0},
-                        {"predicted_noise_mm", f.n ? std::sqrt(f.sum_sq_predicted / f.n) : 0.0}};
-    if (p.ok()) {
-      f_max = std::max(f_max, p.F_mm);
-      f_floor_max = std::max(f_floor_max, fp.F_mm);
-      if (fp.ok() && fp.F_mm > 0) f_ratio_max = std::max(f_ratio_max, p.F_mm / fp.F_mm);
-    }
-    if (recon_est) {
-      const auto re = recon_est->Reconstruct(view.left.images, view.right.images);
-      const eval::PlaneResult pe = eval::EvaluatePlane(re.cloud.Compact(), vdi);
-      e["F_est_calib_mm"] = pe.F_mm;
-      if (pe.ok()) f_est_max = std::max(f_est_max, pe.F_mm);
-    }
-    plates.push_back(e);
-  }
-
-  // ---- Demo part: deviation, coverage, normals, time ----
-  const sim::Scene demo = sim::MakeDemoPart();
-  Eigen::Vector3d bmin, bmax;
-  demo.Bounds(&bmin, &bmax);
-  const Eigen::Vector3d target(0.5 * (bmin.x() + bmax.x()), 0.5 * (bmin.y() + bmax.y()), 10);
-  const Rigid3d demo_pose =
-      sim::SensorPoseLookingAt(ctx.rig_true, target, Eigen::Vector3d(0.2, -0.5, 1).normalized());
-  const sim::ViewImages demo_view = Render(ctx, demo, demo_pose, 400);
-  std::vector<double> times;
-  stereo::ViewReconstruction demo_rec;
-  for (int rep = 0; rep < 3; ++rep) {
-    util::Timer t;
-    demo_rec = recon_true.Reconstruct(demo_view.left.images, demo_view.right.images);
-    times.push_back(t.ElapsedSeconds());
-  }
-  std::sort(times.begin(), times.end());
-  const PointCloud demo_cloud = demo_rec.cloud.Compact();
-  TriangleMesh mesh = demo.CombinedMesh();
-  mesh.Transform(demo_pose.Inverse());
-  const eval::MeshDistance mesh_distance(std::move(mesh));
-  const eval::DeviationStats dev = eval::DeviationFromMesh(demo_cloud, mesh_distance);
-  int lit = 0, covered = 0;
-  const sim::CameraTruth& dt = demo_view.left.truth;
-  for (int r = 0; r < demo_rec.cloud.height; ++r) {
-    for (int c = 0; c < demo_rec.cloud.width; ++c) {
-      if (!dt.valid.at<uint8_t>(r, c)) continue;
-      ++lit;
-      covered += demo_rec.cloud.valid[demo_rec.cloud.index(c, r)];
-    }
-  }
-
-  // Normals on the demo cloud: ours (already in demo_rec, re-timed alone) vs Open3D KNN 30.
-  OrganizedPointCloud grid = demo_rec.cloud;
-  util::Timer nt;
-  EstimateGridNormals(&grid, options.normals);
-  const double ours_s = nt.ElapsedSeconds();
-  std::vector<Eigen::Vector3d> true_normals;
-  std::vector<size_t> grid_ids;
-  for (int r = 0; r < grid.height; ++r) {
-    for (int c = 0; c < grid.width; ++c) {
-      const size_t i = grid.index(c, r);
-      if (!grid.valid[i]) continue;
-      grid_ids.push_back(i);
-      true_normals.push_back(Vec(dt.normals.at<cv::Vec3d>(r, c)));
-    }
-  }
-  double ours_err = 0;
-  int ours_n = 0;
-  for (size_t k = 0; k < grid_ids.size(); ++k) {
-    const Eigen::Vector3d& n = grid.cloud.normals[grid_ids[k]];
-    if (!n.allFinite() || !true_normals[k].allFinite()) continue;
-    ours_err += AngleDeg(n, true_normals[k]);
-    ++ours_n;
-  }
-  ours_err /= std::max(ours_n, 1);
-  nlohmann::json normals_json = {
-      {"points", grid_ids.size()}, {"grid_mean_err_deg", ours_err}, {"grid_time_s", ours_s}};
-  double o3d_err = std::nan(""), speedup = std::nan("");
-#ifdef FRINGE_HAVE_OPEN3D
-  {
-    open3d::geometry::PointCloud pc;
-    for (size_t i : grid_ids) pc.points_.push_back(grid.cloud.points[i]);
-    util::Timer ot;
-    pc.EstimateNormals(open3d::geometry::KDTreeSearchParamKNN(30));
-    const double est_s = ot.ElapsedSeconds();
-    pc.OrientNormalsTowardsCameraLocation(Eigen::Vector3d::Zero());
-    const double o3d_s = ot.ElapsedSeconds();
-    double err = 0;
-    int n = 0;
-    for (size_t k = 0; k < pc.normals_.size(); ++k) {
-      if (!true_normals[k].allFinite()) continue;
-      err += AngleDeg(pc.normals_[k], true_normals[k]);
-      ++n;
-    }
-    o3d_err = err / std::max(n, 1);
-    speedup = est_s / ours_s;
-    normals_json["open3d_mean_err_deg"] = o3d_err;
-    normals_json["open3d_estimate_s"] = est_s;
-    normals_json["open3d_estimate_and_orient_s"] = o3d_s;
-  }
-#endif
-
-  j["spheres"] = spheres;
-  j["ball_bars"] = bars;
-  j["plates"] = plates;
-  j["PS_mm"] = ctx.rig_est ? ps_est_max : ps_max;
-  j["PF_mm"] = ctx.rig_est ? pf_est_max : pf_max;
-  j["SD_mm"] = ctx.rig_est ? sd_est_max : sd_max;
-  j["F_mm"] = ctx.rig_est ? f_est_max : f_max;
-  j["figures_from"] = ctx.rig_est ? "estimated calibration (max |.| over positions)"
-                                  : "true calibration (calibration not run: --quick)";
-  j["PS_true_calib_mm"] = ps_max;
-  j["PF_true_calib_mm"] = pf_max;
-  j["SD_true_calib_mm"] = sd_max;
-  j["F_true_calib_mm"] = f_max;
-  j["PF_floor_mm"] = pf_floor_max;
-  j["F_floor_mm"] = f_floor_max;
-  j["PF_over_floor_max"] = pf_ratio_max;
-  j["F_over_floor_max"] = f_ratio_max;
-  j["plate_depth_noise_mm"] = noise_n > 0 ? std::sqrt(noise_measured / noise_n) : 0.0;
-  j["depth_noise_ratio"] = noise_predicted > 0 ? std::sqrt(noise_measured / noise_predicted) : 0;
-  j["demo_rms_mm"] = dev.rms_mm;
-  j["demo_deviation"] = {{"mean_mm", dev.mean_mm},
-                         {"p95_mm", dev.p95_mm},
-                         {"max_mm", dev.max_mm},
-                         {"points", dev.points},
-                         {"unmatched", dev.unmatched}};
-  j["coverage"] = lit ? static_cast<double>(covered) / lit : 0.0;
-  j["normals_err_deg"] = ours_err;
-  j["open3d_normals_err_deg"] = o3d_err;
-  j["normals_speedup_vs_open3d"] = speedup;
-  j["normals"] = normals_json;
-  j["view_time_s"] = times[times.size() / 2];
-  j["view_breakdown_s"] = {{"decode", demo_rec.summary.decode_s},
-                           {"match", demo_rec.summary.match_s},
-                           {"outliers", demo_rec.summary.outliers_s},
-                           {"normals", demo_rec.summary.normals_s}};
-  j["demo_points"] = demo_rec.summary.points;
-
+  Figures fig;
+  fig.spheres = MeasureSpheres(ctx, recon, quick ? 3 : 10);
+  fig.bars = MeasureBallBars(ctx, recon, quick ? 2 : 7);
+  fig.plates = MeasurePlates(ctx, recon, quick ? 2 : 6);
+  fig.demo = MeasureDemoPart(ctx, recon_true);
+  fig.normals = CompareNormals(fig.demo.rec.cloud, fig.demo.truth, options.normals);
+  AddFigures(ctx, fig, &j);
   if (json_out) {
     std::cout << j.dump() << "\n";
-    return 0;
+  } else {
+    PrintTable(ctx, j);
   }
-  std::printf("bench_reconstruction (reference rig, %s, sigma %.1f DN)\n", ctx.scheme.name.c_str(),
-              ctx.render.sensor.read_noise_dn);
-  std::printf("%-34s %12s %12s %12s\n", "figure", "true calib", "est. calib", "floor");
-  auto row = [&](const char* name, double t, double e, double f) {
-    std::printf("%-34s %12.4f %12.4f %12.4f\n", name, t, ctx.rig_est ? e : std::nan(""), f);
-  };
-  row("PS max |.| (mm), 10 spheres", ps_max, ps_est_max, std::nan(""));
-  row("PF max (mm)", pf_max, pf_est_max, pf_floor_max);
-  row("SD max |.| (mm), 7 ball bars", sd_max, sd_est_max, std::nan(""));
-  row("F max (mm), 6 plates", f_max, f_est_max, f_floor_max);
-  std::printf("PF / floor max %.2f, F / floor max %.2f, depth noise ratio %.2f\n", pf_ratio_max,
-              f_ratio_max, j["depth_noise_ratio"].get<double>());
-  std::printf("demo part: RMS deviation %.4f mm, coverage %.3f, %d points\n", dev.rms_mm,
-              j["coverage"].get<double>(), demo_rec.summary.points);
-  std::printf("normals: grid %.2f deg in %.3f s; Open3D KNN30 %.2f deg; speedup %.1fx\n", ours_err,
-              ours_s, o3d_err, speedup);
-  std::printf("time per view: %.3f s (decode %.3f, match %.3f, outliers %.3f, normals %.3f)\n",
-              j["view_time_s"].get<double>(), demo_rec.summary.decode_s, demo_rec.summary.match_s,
-              demo_rec.summary.outliers_s, demo_rec.summary.normals_s);
-  if (!ctx.calib_json.empty()) std::printf("calibration: %s\n", ctx.calib_json.dump().c_str());
   return 0;
 }

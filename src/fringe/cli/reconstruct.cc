@@ -263,8 +263,10 @@ void AddReconstructCommand(CLI::App& app) {
     if (a->options.compute_normals) text << rec.summary.normals.BriefReport() << "\n";
     text << rec.summary.BriefReport() << "\n";
     if (!rec.summary.ok()) {
+      // Name the calibration too: a wrong or foreign rig is the usual cause of no points.
       throw Error(util::StrCat("reconstruct: ", view.string(), ": ",
-                               stereo::ToString(rec.summary.status), ": ", rec.summary.message));
+                               stereo::ToString(rec.summary.status), ": ", rec.summary.message,
+                               " (calibration ", rig_name, ")"));
     }
     // The cloud, the residual image and the markers are committed together or not at all.
     util::OutputTransaction outputs;

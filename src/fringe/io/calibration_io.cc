@@ -115,6 +115,11 @@ Rigid3d RigidFromJson(const json& j, const std::string& context) {
   for (int i = 0; i < 3; ++i) {
     t[i] = AsNumber(j["translation_mm"][i], StrCat(context, ".translation_mm[", i, "]"));
   }
+  // A kilometre is beyond any structured-light set-up: such a value is a unit mistake or a
+  // hostile file, and would make every later computation meaningless.
+  if (t.norm() > 1e6) {
+    throw Error(StrCat(context, ".translation_mm: ", t.norm(), " mm is beyond 1 km"));
+  }
   if (j.contains("rotation")) {
     const json& r = j["rotation"];
     Eigen::Matrix3d m;

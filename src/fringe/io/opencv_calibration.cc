@@ -331,6 +331,13 @@ void CheckOpenCvFileBounds(const fs::path& path) {
       in_quote = false;
       continue;
     }
+    // Calibration files are text: a NUL or other control byte means a binary or corrupt file,
+    // and OpenCV's XML parser dereferences null on some of them (SEGV found by fuzz_opencv).
+    const unsigned char u = static_cast<unsigned char>(c);
+    if ((u < 0x20 && c != '\t' && c != '\r') || u == 0x7f) {
+      fail(line, StrCat("control byte 0x", "0123456789abcdef"[u >> 4], "0123456789abcdef"[u & 15],
+                        ": not a text calibration file"));
+    }
     if (in_quote) {
       if (c == quote) in_quote = false;
       continue;

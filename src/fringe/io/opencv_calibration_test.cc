@@ -196,5 +196,17 @@ TEST(OpenCvCalibration, EmptyNestedKeyIsAnErrorNotAnAbort) {
             std::string::npos);
 }
 
+TEST(OpenCvCalibration, ControlBytesAreAnErrorNotASegfault) {
+  // fuzz_opencv: an XML document with NUL bytes in a tag made cv::FileStorage dereference null
+  // (reproducer fuzz/known/opencv-xml-control-bytes-segv.xml).
+  test::TempDir dir;
+  const std::string text = std::string("<?xml ve_id=") + std::string(32, '\0') +
+                           "\"opencv-matrix\"<rows>ols><dt>d</dt></opencv_storage>\n";
+  const fs::path f = dir / "nul.xml";
+  std::ofstream(f, std::ios::binary) << text;
+  EXPECT_NE(ErrorOf([&] { ReadOpenCvCalibration({f}); }).find("control byte 0x00"),
+            std::string::npos);
+}
+
 }  // namespace
 }  // namespace fringe::io

@@ -2,10 +2,12 @@
 
 #include <algorithm>
 #include <iomanip>
+#include <limits>
 #include <sstream>
 
 #include "fringe/io/calibration_io.h"
 #include "fringe/io/image_io.h"
+#include "fringe/io/json.h"
 #include "fringe/io/mesh_io.h"
 #include "fringe/phase/stack_io.h"
 #include "fringe/util/error.h"
@@ -73,29 +75,34 @@ ScanManifest ManifestFromJson(const json& j, const std::string& context) {
     if (format != kFormat) {
       throw Error(StrCat("format '", format, "' is not '", kFormat, "'"));
     }
-    const int version = j.at("version").get<int>();
-    if (version < 1 || version > ScanManifest::kVersion) {
+    const long long version = io::GetInteger(j, "version", 1, 1000000, context);
+    if (version > ScanManifest::kVersion) {
       throw Error(StrCat("version ", version, " is not supported (this fringe reads version ",
                          ScanManifest::kVersion, ")"));
     }
+    // Strict: a misspelt key is an error naming the nearest valid one (issue 10), and every
+    // count is a JSON integer in range (4294967936 must not wrap to 640).
+    io::CheckKnownKeys(
+        j,
+        {"format", "version", "generator", "scene", "seed", "views", "image_width", "image_height",
+         "bit_depth", "scheme", "calibration_images", "calibration_target", "truth"},
+        context);
+    constexpr long long kMaxCount = 100000;  // views or board images: far beyond any scan
+    constexpr long long kMaxSide = 65536;    // pixels
     ScanManifest m;
-    m.generator = j.value("generator", std::string());
-    m.scene = j.value("scene", std::string());
-    m.seed = j.value("seed", uint64_t{0});
-    m.views = j.at("views").get<int>();
-    m.image_width = j.at("image_width").get<int>();
-    m.image_height = j.at("image_height").get<int>();
-    m.bit_depth = j.value("bit_depth", 8);
+    m.generator = io::OptionalString(j, "generator", "", context);
+    m.scene = io::OptionalString(j, "scene", "", context);
+    m.seed = static_cast<uint64_t>(
+        io::OptionalInteger(j, "seed", 0, 0, std::numeric_limits<long long>::max(), context));
+    m.views = static_cast<int>(io::GetInteger(j, "views", 0, kMaxCount, context));
+    m.image_width = static_cast<int>(io::GetInteger(j, "image_width", 1, kMaxSide, context));
+    m.image_height = static_cast<int>(io::GetInteger(j, "image_height", 1, kMaxSide, context));
+    m.bit_depth = static_cast<int>(io::OptionalInteger(j, "bit_depth", 8, 1, 16, context));
     m.scheme = OptionalPath(j, "scheme");
-    m.calibration_images = j.at("calibration_images").get<int>();
+    m.calibration_images =
+        static_cast<int>(io::GetInteger(j, "calibration_images", 0, kMaxCount, context));
     m.calibration_target = OptionalPath(j, "calibration_target");
     m.truth = j.contains("truth") ? OptionalPath(j, "truth") : std::string();
-    if (m.views < 0 || m.calibration_images < 0) {
-      throw Error("'views' and 'calibration_images' must be >= 0");
-    }
-    if (m.image_width <= 0 || m.image_height <= 0) {
-      throw Error("'image_width' and 'image_height' must be > 0");
-    }
     if (m.bit_depth != 8 && m.bit_depth != 12 && m.bit_depth != 16) {
       throw Error(StrCat("'bit_depth' = ", m.bit_depth, " must be 8, 12 or 16"));
     }
@@ -164,10 +171,11 @@ ScanFolder ScanFolder::Open(const fs::path& root) {
       util::RequireDirectory(l.CameraDir(s.views_[v], c), "camera image folder");
     }
   }
-  if (!m.scheme.empty()) util::RequireFile(root / m.scheme, "scheme manifest");
+  if (!m.scheme.empty()) util::RequireFile(root / m.scheme, "scheme manifest named by scan.json");
 
   // Calibration images: the same names for both cameras.
-  if (!m.calibration_target.empty()) util::RequireFile(root / m.calibration_target, "target");
+  if (!m.calibration_target.empty())
+    util::RequireFile(root / m.calibration_target, "calibration target named by scan.json");
   if (m.calibration_images > 0) {
     const std::vector<std::string> left = io::ListImageFiles(l.CalibrationDir(Camera::kLeft));
     const std::vector<std::string> right = io::ListImageFiles(l.CalibrationDir(Camera::kRight));
@@ -185,7 +193,7 @@ ScanFolder ScanFolder::Open(const fs::path& root) {
     }
     s.calibration_images_ = left;
   }
-  if (!m.truth.empty()) util::RequireDirectory(root / m.truth, "truth folder");
+  if (!m.truth.empty()) util::RequireDirectory(root / m.truth, "truth folder named by scan.json");
   return s;
 }
 

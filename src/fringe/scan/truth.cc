@@ -146,13 +146,14 @@ TruthMarkers MarkersFromJson(const json& j, const std::string& context) {
     std::set<int> ids;
     for (const json& m : Array(j, "markers")) {
       Marker k;
-      k.id = m.at("id").get<int>();
+      k.id = static_cast<int>(
+          io::AsInteger(m.at("id"), 0, std::numeric_limits<int>::max(), context + ": marker id"));
       const std::string where = StrCat("marker ", k.id, ": ");
       if (!ids.insert(k.id).second) throw Error(StrCat(where, "id listed twice"));
       k.centre_in_world = ReadVec<3>(m.at("centre_in_world"), where + "centre_in_world");
       k.normal_in_world = ReadVec<3>(m.at("normal_in_world"), where + "normal_in_world");
-      k.inner_radius_mm = m.at("inner_radius_mm").get<double>();
-      k.outer_radius_mm = m.at("outer_radius_mm").get<double>();
+      k.inner_radius_mm = io::AsNumber(m.at("inner_radius_mm"), where + "inner_radius_mm");
+      k.outer_radius_mm = io::AsNumber(m.at("outer_radius_mm"), where + "outer_radius_mm");
       if (!(k.inner_radius_mm > 0 && k.inner_radius_mm < k.outer_radius_mm)) {
         throw Error(StrCat(where, "radii must satisfy 0 < inner_radius_mm < outer_radius_mm"));
       }
@@ -164,7 +165,8 @@ TruthMarkers MarkersFromJson(const json& j, const std::string& context) {
       vm.view = ViewName(v, &seen, "views");
       for (const json& o : Array(v, "observations")) {
         MarkerObservation ob;
-        ob.id = o.at("id").get<int>();
+        ob.id = static_cast<int>(io::AsInteger(o.at("id"), 0, std::numeric_limits<int>::max(),
+                                               context + ": observation id"));
         const std::string where = StrCat("view ", vm.view, ", marker ", ob.id, ": ");
         if (!ids.count(ob.id)) throw Error(StrCat(where, "not in 'markers'"));
         ob.centre_in_sensor = ReadVec<3>(o.at("centre_in_sensor"), where + "centre_in_sensor");
@@ -208,7 +210,8 @@ TruthScene SceneFromJson(const json& j, const std::string& context) {
       t.name = o.at("name").get<std::string>();
       const std::string where = StrCat("object '", t.name, "': ");
       if (!o.at("albedo").is_null()) t.albedo = o.at("albedo").get<double>();
-      t.triangles = o.at("triangles").get<size_t>();
+      t.triangles = static_cast<size_t>(io::AsInteger(
+          o.at("triangles"), 0, std::numeric_limits<int>::max(), where + "triangles"));
       if (o.contains("sphere")) {
         const json& s = o["sphere"];
         TruthSphere sphere;

@@ -64,12 +64,13 @@ struct Bench {
     o.decode.noise_sigma_dn = sigma_dn;
     return o;
   }();
-  stereo::CameraProjectorReconstructor cp_recon{cp, {scheme}, {options}};
+  stereo::ViewReconstructor cp_recon =
+      stereo::MakeCameraProjectorReconstructor(cp, {scheme}, options);
   stereo::ViewReconstructor stereo_recon{rig, scheme, options};
   double cp_s = 0, stereo_s = 0;
   int views = 0;
 
-  std::optional<stereo::CameraProjectorReconstructor> cp_est_recon;
+  std::optional<stereo::ViewReconstructor> cp_est_recon;
 
   struct Reconstructions {
     sim::ViewImages view;
@@ -79,12 +80,12 @@ struct Bench {
     Reconstructions r;
     r.view = sim::Renderer(scene, rig, render).RenderView(pose, patterns, index);
     util::Timer t;
-    r.cp = cp_recon.Reconstruct({r.view.left.images});
+    r.cp = cp_recon.Reconstruct(r.view.left.images, {});
     cp_s += t.ElapsedSeconds();
     t.Restart();
     r.stereo = stereo_recon.Reconstruct(r.view.left.images, r.view.right.images);
     stereo_s += t.ElapsedSeconds();
-    if (cp_est_recon) r.cp_est = cp_est_recon->Reconstruct({r.view.left.images});
+    if (cp_est_recon) r.cp_est = cp_est_recon->Reconstruct(r.view.left.images, {});
     ++views;
     return r;
   }
@@ -189,9 +190,8 @@ int main(int argc, char** argv) {
   j["stereo_baseline_mm"] = b.rig.BaselineMm();
   const std::optional<StereoRig> est = CalibrateProjector(b.rig, quick ? 6 : 15, &j);
   if (est) {
-    b.cp_est_recon.emplace(stereo::CameraProjectorRig::FromLeftCamera(*est),
-                           std::vector<phase::PatternScheme>{b.scheme},
-                           stereo::CameraProjectorOptions{b.options});
+    b.cp_est_recon.emplace(stereo::MakeCameraProjectorReconstructor(
+        stereo::CameraProjectorRig::FromLeftCamera(*est), {b.scheme}, b.options));
   }
 
   // ---- Spheres (positions of bench_reconstruction) ----

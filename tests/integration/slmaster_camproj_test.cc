@@ -106,10 +106,10 @@ TEST(SlmasterCameraProjector, RealReliefReconstructsPlausibly) {
                                                   scheme.projector_width, scheme.projector_height)
                             .ToCameraProjectorRig("caliInfo.yml");
   const stereo::CameraProjectorRig cp = stereo::CameraProjectorRig::FromLeftCamera(rig);
-  stereo::CameraProjectorOptions options;
-  options.reconstruction.compute_normals = false;
+  stereo::ReconstructionOptions options;
+  options.compute_normals = false;
   const stereo::ViewReconstruction rec =
-      stereo::CameraProjectorReconstructor(cp, {scheme}, options).Reconstruct({images});
+      stereo::MakeCameraProjectorReconstructor(cp, {scheme}, options).Reconstruct(images, {});
   ASSERT_TRUE(rec.summary.ok()) << rec.summary.BriefReport();
   std::cout << rec.summary.decode_left.BriefReport() << "\n"
             << rec.summary.matching.BriefReport() << "\n"
@@ -153,7 +153,7 @@ TEST(SlmasterCameraProjector, RealReliefReconstructsPlausibly) {
   stereo::CameraProjectorRig pinhole = cp;
   pinhole.projector.SetDistortion({0, 0, 0, 0, 0});
   const stereo::ViewReconstruction rec_pinhole =
-      stereo::CameraProjectorReconstructor(pinhole, {scheme}, options).Reconstruct({images});
+      stereo::MakeCameraProjectorReconstructor(pinhole, {scheme}, options).Reconstruct(images, {});
   double ss = 0;
   int both = 0;
   for (size_t i = 0; i < rec.cloud.valid.size(); ++i) {

@@ -110,6 +110,85 @@ TEST(ProjectorCalibration, SimulatedBoardsUnderBothFringeDirections) {
   EXPECT_EQ(cal.rig.BaselineMm(), 0.0);  // a camera-projector rig
 }
 
+// Two cameras + projector: both cameras see the boards under both fringe directions; the joint
+// refinement of the three devices recovers the true rig (both cameras' extrinsics and the
+// projector).
+TEST(ProjectorCalibration, TwoCamerasAndProjectorRecoverTheTrueRig) {
+  // Half resolution, 6 poses, as the camera + projector test above (its tolerances); the
+  // stereo extrinsics as calibrate_test's stereo bounds at this scale.
+  constexpr double kMaxFocalErrPct = 0.03;
+  constexpr double kMaxPrincipalErrPx = 0.3;
+  constexpr double kMaxTranslationErrMm = 0.1;
+  constexpr double kMaxRotationErrDeg = 0.015;
+  constexpr double kMaxRmsPx = 0.1;
+  constexpr double kStereoSlack = 1.2;  // right_from_left vs the stereo-only calibration's error
+  constexpr double kStereoFloorMm = 0.01, kStereoFloorDeg = 0.001;
+  const StereoRig rig = HalfRig();
+  const CameraModel& proj = *rig.projector;
+  const CalibrationTarget target = CalibrationTarget::Reference();
+  const auto schemes = sim::BothDirectionSchemes(proj);
+  sim::BoardPoseOptions po;
+  po.count = 6;
+  po.seed = 5;
+  po.both_cameras = true;
+  sim::FringeBoardOptions fb;
+  fb.supersampling = 1;  // keeps the test short; the mono test above renders with 2
+  std::vector<TargetDetection> left, right;
+  std::vector<ProjectorCoordinates> left_uv, right_uv;
+  const Rigid3d projector_from_right = rig.projector_from_left * rig.right_from_left.Inverse();
+  for (const Rigid3d& pose : sim::GenerateBoardPoses(rig, target, po)) {
+    const uint64_t i = left.size();
+    const Rigid3d right_from_board = rig.right_from_left * pose;
+    left.push_back(
+        DetectTarget(sim::RenderBoardImage(rig.left, target, pose, {}, i).image, target));
+    right.push_back(DetectTarget(
+        sim::RenderBoardImage(rig.right, target, right_from_board, {}, 1000 + i).image, target));
+    const auto dl = sim::DecodeBoardUnderBothDirections(rig.left, proj, rig.projector_from_left,
+                                                        target, pose, schemes, fb, i);
+    const auto dr = sim::DecodeBoardUnderBothDirections(
+        rig.right, proj, projector_from_right, target, right_from_board, schemes, fb, 1000 + i);
+    left_uv.push_back({dl[0].absolute_phase, dl[1].absolute_phase, dl[0].mask, dl[1].mask});
+    right_uv.push_back({dr[0].absolute_phase, dr[1].absolute_phase, dr[0].mask, dr[1].mask});
+  }
+  ProjectorFeatureOptions fo;
+  fo.window_radius_px = 10;  // half resolution
+  const CamerasProjectorCalibration cal = CalibrateCamerasProjector(
+      left, right, left_uv, right_uv, target, cv::Size(rig.left.width, rig.left.height),
+      cv::Size(rig.right.width, rig.right.height), cv::Size(proj.width, proj.height), {}, fo);
+  std::cout << cal.BriefReport() << "\n";
+  ASSERT_TRUE(cal.ok()) << cal.joint.summary.message;
+  const CameraModel& p = *cal.rig.projector;
+  const double focal_err_pct = 100 * std::abs(p.fx - proj.fx) / proj.fx;
+  const double principal_err_px = std::hypot(p.cx - proj.cx, p.cy - proj.cy);
+  const auto dp = Difference(cal.rig.projector_from_left, rig.projector_from_left);
+  const auto ds = Difference(cal.rig.right_from_left, rig.right_from_left);
+  std::cout << "projector: focal error " << focal_err_pct << " %, principal point "
+            << principal_err_px << " px, rotation " << dp.angle_rad * 180 / M_PI
+            << " deg, translation " << dp.translation_mm << " mm; right camera: rotation "
+            << ds.angle_rad * 180 / M_PI << " deg, translation " << ds.translation_mm << " mm\n";
+  EXPECT_LT(focal_err_pct, kMaxFocalErrPct);
+  EXPECT_LT(principal_err_px, kMaxPrincipalErrPx);
+  EXPECT_LT(dp.translation_mm, kMaxTranslationErrMm);
+  EXPECT_LT(dp.angle_rad * 180 / M_PI, kMaxRotationErrDeg);
+  // The stereo extrinsics: as good as the two cameras calibrated without the projector (the
+  // same detections; the projector's observations must not pull them off).
+  const StereoCalibration stereo_only =
+      CalibrateStereo(left, right, target, rig.left.width, rig.left.height);
+  ASSERT_TRUE(stereo_only.summary.success);
+  const auto ds_only = Difference(stereo_only.rig.right_from_left, rig.right_from_left);
+  std::cout << "right camera without the projector: rotation " << ds_only.angle_rad * 180 / M_PI
+            << " deg, translation " << ds_only.translation_mm << " mm\n";
+  EXPECT_LT(ds.translation_mm, kStereoSlack * ds_only.translation_mm + kStereoFloorMm);
+  EXPECT_LT(ds.angle_rad, kStereoSlack * ds_only.angle_rad + kStereoFloorDeg * M_PI / 180);
+  for (int d = 0; d < 3; ++d) EXPECT_LT(cal.joint.device_rms_px[d], kMaxRmsPx) << "device " << d;
+  EXPECT_GT(cal.joint.extrinsic_std_dev[2][3], 0);  // standard deviations were estimated
+  EXPECT_GT(cal.rig.BaselineMm(), 0);
+  // Mismatched counts are refused.
+  EXPECT_THROW(CalibrateCamerasProjector(left, {}, left_uv, right_uv, target, cv::Size(1, 1),
+                                         cv::Size(1, 1), cv::Size(1, 1)),
+               Error);
+}
+
 TEST(ProjectorCalibration, BadInputs) {
   ProjectorFeatureOptions small;
   small.window_radius_px = 1;

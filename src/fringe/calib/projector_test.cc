@@ -4,10 +4,13 @@
 
 #include <cmath>
 
+#include "fringe/calib/projector_folder.h"
+#include "fringe/io/image_io.h"
 #include "fringe/sim/board.h"
 #include "fringe/sim/projector_board.h"
 #include "fringe/sim/renderer.h"
 #include "fringe/util/error.h"
+#include "fringe_test.h"
 
 namespace fringe::calib {
 namespace {
@@ -126,35 +129,28 @@ TEST(ProjectorCalibration, TwoCamerasAndProjectorRecoverTheTrueRig) {
   const StereoRig rig = HalfRig();
   const CameraModel& proj = *rig.projector;
   const CalibrationTarget target = CalibrationTarget::Reference();
-  const auto schemes = sim::BothDirectionSchemes(proj);
-  sim::BoardPoseOptions po;
-  po.count = 6;
-  po.seed = 5;
-  po.both_cameras = true;
-  sim::FringeBoardOptions fb;
-  fb.supersampling = 1;  // keeps the test short; the mono test above renders with 2
+  // Written as `fringe calibrate` reads it (DIR/KKK/left/, DIR/KKK/right/), calibrated through
+  // the folder function: the layout, the reading and the joint refinement in one go.
+  const test::TempDir tmp;
+  sim::ProjectorCalibrationFolderOptions so;
+  so.poses.count = 6;  // 4 poses miss the projector bounds (0.38 px principal point)
+  so.poses.seed = 5;
+  so.two_cameras = true;
+  so.fringes.supersampling = 1;  // keeps the test short; the mono test above renders with 2
+  sim::WriteProjectorCalibrationFolder(rig, target, tmp.path(), so);
+  ProjectorFolderOptions fo;
+  fo.features.window_radius_px = 10;  // half resolution
+  const ProjectorFolderCalibration folder = CalibrateProjectorFolder(tmp.path(), target, fo);
+  ASSERT_EQ(folder.layout, ProjectorFolderLayout::kCamerasProjector);
+  ASSERT_EQ(folder.names.size(), 6u);
+  EXPECT_TRUE(folder.CalibrationJson().contains("right_from_left_std_dev"));
+  const CamerasProjectorCalibration& cal = folder.cameras;
+  // The plain board images of both cameras, for the stereo-only reference below.
   std::vector<TargetDetection> left, right;
-  std::vector<ProjectorCoordinates> left_uv, right_uv;
-  const Rigid3d projector_from_right = rig.projector_from_left * rig.right_from_left.Inverse();
-  for (const Rigid3d& pose : sim::GenerateBoardPoses(rig, target, po)) {
-    const uint64_t i = left.size();
-    const Rigid3d right_from_board = rig.right_from_left * pose;
-    left.push_back(
-        DetectTarget(sim::RenderBoardImage(rig.left, target, pose, {}, i).image, target));
-    right.push_back(DetectTarget(
-        sim::RenderBoardImage(rig.right, target, right_from_board, {}, 1000 + i).image, target));
-    const auto dl = sim::DecodeBoardUnderBothDirections(rig.left, proj, rig.projector_from_left,
-                                                        target, pose, schemes, fb, i);
-    const auto dr = sim::DecodeBoardUnderBothDirections(
-        rig.right, proj, projector_from_right, target, right_from_board, schemes, fb, 1000 + i);
-    left_uv.push_back({dl[0].absolute_phase, dl[1].absolute_phase, dl[0].mask, dl[1].mask});
-    right_uv.push_back({dr[0].absolute_phase, dr[1].absolute_phase, dr[0].mask, dr[1].mask});
+  for (const std::string& name : folder.names) {
+    left.push_back(DetectTarget(io::ReadGrayImage(tmp / name / "left" / "board.png"), target));
+    right.push_back(DetectTarget(io::ReadGrayImage(tmp / name / "right" / "board.png"), target));
   }
-  ProjectorFeatureOptions fo;
-  fo.window_radius_px = 10;  // half resolution
-  const CamerasProjectorCalibration cal = CalibrateCamerasProjector(
-      left, right, left_uv, right_uv, target, cv::Size(rig.left.width, rig.left.height),
-      cv::Size(rig.right.width, rig.right.height), cv::Size(proj.width, proj.height), {}, fo);
   std::cout << cal.BriefReport() << "\n";
   ASSERT_TRUE(cal.ok()) << cal.joint.summary.message;
   const CameraModel& p = *cal.rig.projector;
@@ -184,8 +180,8 @@ TEST(ProjectorCalibration, TwoCamerasAndProjectorRecoverTheTrueRig) {
   EXPECT_GT(cal.joint.extrinsic_std_dev[2][3], 0);  // standard deviations were estimated
   EXPECT_GT(cal.rig.BaselineMm(), 0);
   // Mismatched counts are refused.
-  EXPECT_THROW(CalibrateCamerasProjector(left, {}, left_uv, right_uv, target, cv::Size(1, 1),
-                                         cv::Size(1, 1), cv::Size(1, 1)),
+  EXPECT_THROW(CalibrateCamerasProjector(left, {}, {}, {}, target, cv::Size(1, 1), cv::Size(1, 1),
+                                         cv::Size(1, 1)),
                Error);
 }
 

@@ -18,6 +18,12 @@
 //   truth at the pixel centre) plus Gaussian noise of the decoder's phase-noise limit
 //   (phase::AbsolutePhaseSigmaPx at the pixel's modulation), triangulated with the same
 //   function. cp_*_over_floor = max over positions of figure / floor (targets <= 1.3).
+//   Trinocular use (stereo + the left pixels the right camera cannot see, from the left camera +
+//   projector; stereo/camera_projector.h) on the demo part, 6 orbit views (the demo's), true rig:
+//   demo_stereo_coverage / demo_trinocular_coverage = points on left pixels the simulator marks
+//   lit and visible / those pixels; trinocular_coverage_gain = (trinocular points - stereo
+//   points) / stereo points; trinocular_added_rms_mm = the added points against the true
+//   surface point of their pixel.
 //
 // Usage: bench_camera_projector [--json] [--quick]   (--quick: 3 spheres, 2 bars, 2 plates)
 #include <CLI/CLI.hpp>
@@ -35,6 +41,7 @@
 #include "fringe/eval/vdi2634.h"
 #include "fringe/phase/decode.h"
 #include "fringe/sim/board.h"
+#include "fringe/sim/demo_part.h"
 #include "fringe/sim/poses.h"
 #include "fringe/sim/projector_board.h"
 #include "fringe/sim/renderer.h"
@@ -64,12 +71,13 @@ struct Bench {
     o.decode.noise_sigma_dn = sigma_dn;
     return o;
   }();
-  stereo::CameraProjectorReconstructor cp_recon{cp, {scheme}, {options}};
+  stereo::ViewReconstructor cp_recon =
+      stereo::MakeCameraProjectorReconstructor(cp, {scheme}, options);
   stereo::ViewReconstructor stereo_recon{rig, scheme, options};
   double cp_s = 0, stereo_s = 0;
   int views = 0;
 
-  std::optional<stereo::CameraProjectorReconstructor> cp_est_recon;
+  std::optional<stereo::ViewReconstructor> cp_est_recon;
 
   struct Reconstructions {
     sim::ViewImages view;
@@ -79,12 +87,12 @@ struct Bench {
     Reconstructions r;
     r.view = sim::Renderer(scene, rig, render).RenderView(pose, patterns, index);
     util::Timer t;
-    r.cp = cp_recon.Reconstruct({r.view.left.images});
+    r.cp = cp_recon.Reconstruct(r.view.left.images, {});
     cp_s += t.ElapsedSeconds();
     t.Restart();
     r.stereo = stereo_recon.Reconstruct(r.view.left.images, r.view.right.images);
     stereo_s += t.ElapsedSeconds();
-    if (cp_est_recon) r.cp_est = cp_est_recon->Reconstruct({r.view.left.images});
+    if (cp_est_recon) r.cp_est = cp_est_recon->Reconstruct(r.view.left.images, {});
     ++views;
     return r;
   }
@@ -166,6 +174,62 @@ std::optional<StereoRig> CalibrateProjector(const StereoRig& rig, int poses, nlo
   return cal.rig;
 }
 
+// Trinocular coverage on the demo part (header); writes the demo_* / trinocular_* keys.
+void TrinocularCoverage(const Bench& b, int views, nlohmann::json* j) {
+  util::Timer timer;
+  const sim::Scene scene = sim::MakeDemoPart();
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e9), hi = -lo;
+  for (const sim::SceneObject& o : scene.objects()) {
+    if (o.name == "base_plate") continue;
+    Eigen::Vector3d a, c;
+    o.mesh.Bounds(&a, &c);
+    lo = lo.cwiseMin(a);
+    hi = hi.cwiseMax(c);
+  }
+  sim::OrbitOptions oo;
+  oo.views = views;
+  const std::vector<Rigid3d> poses = sim::OrbitPoses(b.rig, 0.5 * (lo + hi), oo);
+  const stereo::ViewReconstructor trinocular(
+      stereo::MakeTrinocularCorrespondence(b.rig, b.options.matching), {b.scheme}, b.options);
+  const sim::Renderer renderer(scene, b.rig, b.render);
+  long lit = 0, stereo_covered = 0, tri_covered = 0, stereo_points = 0, tri_points = 0, added = 0;
+  double added_ss = 0;
+  for (size_t v = 0; v < poses.size(); ++v) {
+    const sim::ViewImages view = renderer.RenderView(poses[v], b.patterns, 500 + v);
+    const stereo::ViewReconstruction st =
+        b.stereo_recon.Reconstruct(view.left.images, view.right.images);
+    const stereo::ViewReconstruction tri =
+        trinocular.Reconstruct(view.left.images, view.right.images);
+    const sim::CameraTruth& t = view.left.truth;
+    stereo_points += st.summary.points;
+    tri_points += tri.summary.points;
+    for (int r = 0; r < t.valid.rows; ++r) {
+      for (int c = 0; c < t.valid.cols; ++c) {
+        const size_t i = st.cloud.index(c, r);
+        if (t.valid.at<uint8_t>(r, c)) {
+          ++lit;
+          stereo_covered += st.cloud.valid[i];
+          tri_covered += tri.cloud.valid[i];
+        }
+        if (tri.cloud.valid[i] && !st.cloud.valid[i] && t.valid.at<uint8_t>(r, c)) {
+          const cv::Vec3d p = t.points.at<cv::Vec3d>(r, c);
+          added_ss += (tri.cloud.cloud.points[i] - Eigen::Vector3d(p[0], p[1], p[2])).squaredNorm();
+          ++added;
+        }
+      }
+    }
+  }
+  (*j)["demo_views"] = views;
+  (*j)["demo_stereo_coverage"] = lit ? static_cast<double>(stereo_covered) / lit : 0.0;
+  (*j)["demo_trinocular_coverage"] = lit ? static_cast<double>(tri_covered) / lit : 0.0;
+  (*j)["demo_stereo_points"] = stereo_points;
+  (*j)["demo_trinocular_points"] = tri_points;
+  (*j)["trinocular_coverage_gain"] =
+      stereo_points ? static_cast<double>(tri_points - stereo_points) / stereo_points : 0.0;
+  (*j)["trinocular_added_rms_mm"] = added ? std::sqrt(added_ss / added) : 0.0;
+  (*j)["trinocular_time_s"] = timer.ElapsedSeconds();
+}
+
 }  // namespace
 }  // namespace fringe
 
@@ -189,9 +253,8 @@ int main(int argc, char** argv) {
   j["stereo_baseline_mm"] = b.rig.BaselineMm();
   const std::optional<StereoRig> est = CalibrateProjector(b.rig, quick ? 6 : 15, &j);
   if (est) {
-    b.cp_est_recon.emplace(stereo::CameraProjectorRig::FromLeftCamera(*est),
-                           std::vector<phase::PatternScheme>{b.scheme},
-                           stereo::CameraProjectorOptions{b.options});
+    b.cp_est_recon.emplace(stereo::MakeCameraProjectorReconstructor(
+        stereo::CameraProjectorRig::FromLeftCamera(*est), {b.scheme}, b.options));
   }
 
   // ---- Spheres (positions of bench_reconstruction) ----
@@ -341,6 +404,7 @@ int main(int argc, char** argv) {
   j["figures"] = e ? "max |.| (PS, SD) or max (PF, F) over positions; cp_* with the estimated "
                      "calibration, cp_*_true_calib with the true rig, stereo_* true rig"
                    : "projector calibration failed: every figure with the true rig";
+  TrinocularCoverage(b, quick ? 2 : 6, &j);
   j["cp_time_per_view_s"] = b.views ? b.cp_s / b.views : 0.0;
   j["stereo_time_per_view_s"] = b.views ? b.stereo_s / b.views : 0.0;
   j["total_s"] = total.ElapsedSeconds();
@@ -374,5 +438,12 @@ int main(int argc, char** argv) {
       "stereo %.3f s\n",
       cp_pf_ratio, cp_f_ratio, j["cp_time_per_view_s"].get<double>(),
       j["stereo_time_per_view_s"].get<double>());
+  std::printf(
+      "trinocular on the demo part (%d views): coverage of the lit left pixels %.4f (stereo) -> "
+      "%.4f, points +%.2f %%, added points RMS %.4f mm\n",
+      j["demo_views"].get<int>(), j["demo_stereo_coverage"].get<double>(),
+      j["demo_trinocular_coverage"].get<double>(),
+      100 * j["trinocular_coverage_gain"].get<double>(),
+      j["trinocular_added_rms_mm"].get<double>());
   return 0;
 }

@@ -7,6 +7,7 @@
 #include "bindings.h"
 #include "convert.h"
 #include "fringe/calib/calibrate_folder.h"
+#include "fringe/calib/projector_folder.h"
 
 namespace fringe::python {
 
@@ -22,6 +23,19 @@ py::tuple Result(const calib::FolderCalibration& r) {
   d["report"] = r.Report();
   if (r.stereo) return py::make_tuple(r.pair.rig, d);
   return py::make_tuple(py::cast(r.mono.camera), d);
+}
+
+// DetectionOptions from an options object or a dict of its fields.
+calib::DetectionOptions DetectionFrom(const py::object& detection_options) {
+  py::dict detection_kw;
+  py::object detection_base = py::none();
+  if (py::isinstance<py::dict>(detection_options)) {
+    detection_kw = py::reinterpret_borrow<py::dict>(detection_options);
+  } else {
+    detection_base = detection_options;
+  }
+  return MakeOptions<calib::DetectionOptions>(detection_base, py::kwargs(detection_kw),
+                                              "DetectionOptions");
 }
 
 }  // namespace
@@ -79,15 +93,7 @@ void BindCalib(py::module_& m) {
       [](const py::object& images_or_dir, const CalibrationTarget& target,
          const py::object& detection_options, const py::object& options, const py::kwargs& kw) {
         const auto opts = MakeOptions<calib::CalibrationOptions>(options, kw, "CalibrationOptions");
-        py::dict detection_kw;
-        py::object detection_base = py::none();
-        if (py::isinstance<py::dict>(detection_options)) {
-          detection_kw = py::reinterpret_borrow<py::dict>(detection_options);
-        } else {
-          detection_base = detection_options;
-        }
-        const auto detection = MakeOptions<calib::DetectionOptions>(
-            detection_base, py::kwargs(detection_kw), "DetectionOptions");
+        const auto detection = DetectionFrom(detection_options);
         calib::FolderCalibration r;
         if (py::isinstance<py::str>(images_or_dir) ||
             py::isinstance(images_or_dir, py::module_::import("os").attr("PathLike"))) {
@@ -142,6 +148,48 @@ void BindCalib(py::module_& m) {
       "detection: DetectionOptions or a dict of its fields; options: a CalibrationOptions and/or\n"
       "its fields as keyword arguments.\n"
       "Returns (Rig, summary) for a pair and (Camera, summary) for one camera.");
+
+  py::class_<calib::ProjectorFeatureOptions>(
+      m, "ProjectorFeatureOptions",
+      "Local homographies mapping board features into the projector (Moreno & Taubin).")
+      .def(OptionsInit<calib::ProjectorFeatureOptions>("ProjectorFeatureOptions"))
+      .def_readwrite("window_radius_px", &calib::ProjectorFeatureOptions::window_radius_px)
+      .def_readwrite("min_points", &calib::ProjectorFeatureOptions::min_points);
+
+  m.def(
+      "calibrate_projector",
+      [](const std::filesystem::path& dir, const CalibrationTarget& target,
+         const py::object& detection_options, const py::object& features, const py::object& options,
+         const py::kwargs& kw) {
+        calib::ProjectorFolderOptions o;
+        o.calibration = MakeOptions<calib::CalibrationOptions>(options, kw, "CalibrationOptions");
+        o.detection = DetectionFrom(detection_options);
+        if (!features.is_none()) o.features = features.cast<calib::ProjectorFeatureOptions>();
+        calib::ProjectorFolderCalibration r;
+        {
+          py::gil_scoped_release release;
+          r = calib::CalibrateProjectorFolder(dir, target, o);
+        }
+        py::dict d;
+        if (r.ok()) d = FromJson(r.CalibrationJson()).cast<py::dict>();
+        d["layout"] = r.layout == calib::ProjectorFolderLayout::kCamerasProjector
+                          ? "cameras-projector"
+                          : "camera-projector";
+        d["success"] = r.ok();
+        d["message"] = r.message();
+        d["report"] = r.BriefReport();
+        d["names"] = r.names;
+        return py::make_tuple(r.rig, d);
+      },
+      py::arg("dir"), py::arg("target"), py::arg("detection") = py::none(),
+      py::arg("features") = py::none(), py::arg("options") = py::none(),
+      "Calibrates camera(s) + projector from board pose folders, as `fringe calibrate DIR` when\n"
+      "DIR holds fringe stacks: DIR/KKK/{board image, vertical/, horizontal/} (one camera) or\n"
+      "DIR/KKK/left/... and DIR/KKK/right/... (two cameras), each stack with its manifest.json.\n"
+      "detection: DetectionOptions or a dict; features: ProjectorFeatureOptions; options: a\n"
+      "CalibrationOptions and/or its fields as keyword arguments.\n"
+      "Returns (Rig, summary): the rig with its projector (no right camera for one camera) and\n"
+      "the 'calibration' object `fringe calibrate` writes, with layout, success, message, report.");
 }
 
 }  // namespace fringe::python

@@ -5,6 +5,7 @@
 #include "bindings.h"
 #include "convert.h"
 #include "fringe/io/calibration_io.h"
+#include "fringe/sim/projector_board.h"
 #include "fringe/sim/scan.h"
 
 namespace fringe::python {
@@ -247,6 +248,32 @@ The virtual scanner in memory (the same images `fringe simulate` writes): a scen
       },
       py::arg("out"), py::arg("rig") = py::none(), py::arg("options") = py::none(),
       "Writes a scan folder (docs/scan-folder.md) as `fringe simulate` does; returns its summary.");
+  m.def(
+      "simulate_projector_calibration",
+      [](const std::filesystem::path& out, const StereoRig& rig, const CalibrationTarget& target,
+         int poses, uint64_t seed, bool two_cameras, int supersampling, const std::string& preset) {
+        sim::ProjectorCalibrationFolderOptions o;
+        o.poses.count = poses;
+        o.poses.seed = seed;
+        o.two_cameras = two_cameras;
+        o.fringes.supersampling = supersampling;
+        o.preset = preset;
+        std::vector<Rigid3d> left_from_board;
+        {
+          py::gil_scoped_release release;
+          left_from_board = sim::WriteProjectorCalibrationFolder(rig, target, out, o);
+        }
+        py::list poses_out;
+        for (const Rigid3d& t : left_from_board) poses_out.append(MatrixFromRigid(t));
+        return poses_out;
+      },
+      py::arg("out"), py::arg("rig"), py::arg("target"), py::arg("poses") = 5, py::arg("seed") = 1,
+      py::arg("two_cameras") = false, py::arg("supersampling") = 1,
+      py::arg("preset") = "heterodyne-4x3",
+      "Writes a projector calibration folder (docs/scan-folder.md: per board pose the plain board\n"
+      "image and fringe stacks of both directions with manifests, for one camera or two) and\n"
+      "out/target.json, rendered with the rig (the truth); returns the poses left_from_board\n"
+      "(4x4 matrices).");
   // Defined here because ScaledRig belongs to the simulator (quick scaled-down scans).
   py::object rig_class = m.attr("Rig");
   rig_class.attr("scaled") = py::cpp_function(&sim::ScaledRig, py::name("scaled"),

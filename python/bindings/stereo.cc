@@ -42,11 +42,9 @@ ViewPtr RunCameraProjector(const StereoRig& rig, const std::vector<phase::Patter
   for (const auto& h : held) mats.push_back(h.mats);
   auto view = std::make_shared<stereo::ViewReconstruction>();
   py::gil_scoped_release release;
-  stereo::CameraProjectorOptions cp;
-  cp.reconstruction = options;
-  const stereo::CameraProjectorReconstructor r(stereo::CameraProjectorRig::FromLeftCamera(rig),
-                                               schemes, cp);
-  *view = r.Reconstruct(mats);
+  const stereo::ViewReconstructor r = stereo::MakeCameraProjectorReconstructor(
+      stereo::CameraProjectorRig::FromLeftCamera(rig), schemes, options);
+  *view = r.Reconstruct(stereo::ViewStacks{mats, {}});
   return view;
 }
 

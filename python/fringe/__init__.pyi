@@ -247,6 +247,18 @@ def calibrate(
     options: Optional[CalibrationOptions] = None, **fields: Any,
 ) -> Tuple[Union[Rig, Camera], Dict[str, Any]]: ...
 
+class ProjectorFeatureOptions:
+    window_radius_px: int
+    min_points: int
+    def __init__(self, **fields: Any) -> None: ...
+
+def calibrate_projector(
+    dir: PathLike, target: Target,
+    detection: Union[DetectionOptions, Dict[str, Any], None] = None,
+    features: Optional[ProjectorFeatureOptions] = None,
+    options: Optional[CalibrationOptions] = None, **fields: Any,
+) -> Tuple[Rig, Dict[str, Any]]: ...
+
 class CrossingInterpolation:
     linear: CrossingInterpolation
     cubic: CrossingInterpolation
@@ -496,6 +508,11 @@ class Simulator:
     def view_poses(self) -> List[Matrix4]: ...
     def render_view(self, view: int) -> SimulatedView: ...
     def render_board(self, index: int) -> Tuple[Dict[str, Any], Dict[str, Any]]: ...
+
+def simulate_projector_calibration(
+    out: PathLike, rig: Rig, target: Target, poses: int = 5, seed: int = 1,
+    two_cameras: bool = False, supersampling: int = 1, preset: str = "heterodyne-4x3",
+) -> List[Matrix4]: ...
 
 def simulate_scan(out: PathLike, rig: Optional[Rig] = None, options: Optional[ScanOptions] = None, **fields: Any) -> Dict[str, Any]: ...
 def scene_names() -> List[str]: ...

@@ -117,3 +117,43 @@ def test_simulate_scan_equals_fringe_simulate(tmp_path, scan, scheme, stacks):
         np.testing.assert_array_equal(ours, theirs)
     with pytest.raises(fringe.Error, match="scene"):
         fringe.simulate_scan(tmp_path / "bad", rig, scene="no-such-scene", views=1)
+
+
+# ---- Camera + projector (issue 14) ----
+
+# Half resolution and five poses: the figures of `fringe calibrate`'s C++ test
+# (tests/integration/slmaster_camproj_test.cc) at the same scale.
+PROJECTOR_FOCAL_TOL_PCT = 0.1
+PROJECTOR_PRINCIPAL_TOL_PX = 1.0
+PROJECTOR_TRANSLATION_TOL_MM = 0.3
+
+
+def test_calibrate_projector_equals_fringe_calibrate(tmp_path):
+    truth = fringe.Rig.reference().scaled(BOARD_RIG_SCALE)
+    folder = tmp_path / "projector"
+    poses = fringe.simulate_projector_calibration(folder, truth, fringe.Target(),
+                                                  poses=5, seed=9)
+    assert len(poses) == 5 and poses[0].shape == (4, 4)
+    target = fringe.Target.load(folder / "target.json")
+    rig, summary = fringe.calibrate_projector(folder, target)
+    assert summary["success"], summary["message"]
+    assert summary["layout"] == "camera-projector"
+    assert summary["names"] == ["000", "001", "002", "003", "004"]
+    run_cli("calibrate", folder, "--target", folder / "target.json", "--out", tmp_path / "rig.json")
+    written = json.loads((tmp_path / "rig.json").read_text())
+    assert rig.to_dict()["cameras"] == written["cameras"]
+    assert rig.to_dict()["projector_from_left"] == written["projector_from_left"]
+    ours = {k: v for k, v in summary.items() if k not in ("layout", "success", "message", "report", "names")}
+    # Standard deviations from Ceres' covariance: equal to 1e-9 (see the folder test above).
+    assert_same_figures(ours, written["calibration"], rel=1e-9)
+    # Against the true projector.
+    d, t = rig.to_dict(), truth.to_dict()
+    p, q = d["cameras"]["projector"], t["cameras"]["projector"]
+    assert abs(p["fx"] - q["fx"]) / q["fx"] * 100 < PROJECTOR_FOCAL_TOL_PCT
+    assert np.hypot(p["cx"] - q["cx"], p["cy"] - q["cy"]) < PROJECTOR_PRINCIPAL_TOL_PX
+    est = np.asarray(d["projector_from_left"]["translation_mm"])
+    true = np.asarray(t["projector_from_left"]["translation_mm"])
+    assert np.linalg.norm(est - true) < PROJECTOR_TRANSLATION_TOL_MM
+    # A folder without fringe stacks is refused with the folder's name.
+    with pytest.raises(fringe.Error, match="no board pose folder"):
+        fringe.calibrate_projector(tmp_path, target)

@@ -106,10 +106,10 @@ TEST(SlmasterCameraProjector, RealReliefReconstructsPlausibly) {
                                                   scheme.projector_width, scheme.projector_height)
                             .ToCameraProjectorRig("caliInfo.yml");
   const stereo::CameraProjectorRig cp = stereo::CameraProjectorRig::FromLeftCamera(rig);
-  stereo::CameraProjectorOptions options;
-  options.reconstruction.compute_normals = false;
+  stereo::ReconstructionOptions options;
+  options.compute_normals = false;
   const stereo::ViewReconstruction rec =
-      stereo::CameraProjectorReconstructor(cp, {scheme}, options).Reconstruct({images});
+      stereo::MakeCameraProjectorReconstructor(cp, {scheme}, options).Reconstruct(images, {});
   ASSERT_TRUE(rec.summary.ok()) << rec.summary.BriefReport();
   std::cout << rec.summary.decode_left.BriefReport() << "\n"
             << rec.summary.matching.BriefReport() << "\n"
@@ -153,7 +153,7 @@ TEST(SlmasterCameraProjector, RealReliefReconstructsPlausibly) {
   stereo::CameraProjectorRig pinhole = cp;
   pinhole.projector.SetDistortion({0, 0, 0, 0, 0});
   const stereo::ViewReconstruction rec_pinhole =
-      stereo::CameraProjectorReconstructor(pinhole, {scheme}, options).Reconstruct({images});
+      stereo::MakeCameraProjectorReconstructor(pinhole, {scheme}, options).Reconstruct(images, {});
   double ss = 0;
   int both = 0;
   for (size_t i = 0; i < rec.cloud.valid.size(); ++i) {
@@ -254,33 +254,13 @@ TEST(CameraProjectorCli, CalibrateFolderWithFringeStacksCalibratesTheProjector) 
   const StereoRig rig = sim::ScaledRig(StereoRig::Reference(), 0.5);
   const CameraModel& proj = *rig.projector;
   const CalibrationTarget target = CalibrationTarget::Reference();
-  const auto schemes = sim::BothDirectionSchemes(proj);
-  sim::BoardPoseOptions po;
-  po.count = 5;
-  po.seed = 9;
-  po.both_cameras = false;
-  sim::FringeBoardOptions fb;
-  fb.supersampling = 1;
   const test::TempDir tmp;
   const auto dir = tmp / "calibration";
-  int index = 0;
-  for (const Rigid3d& pose : sim::GenerateBoardPoses(rig, target, po)) {
-    const auto pose_dir = dir / ("00" + std::to_string(index));
-    std::filesystem::create_directories(pose_dir);
-    io::WriteImage(pose_dir / "board.png",
-                   sim::RenderBoardImage(rig.left, target, pose, {}, index).image);
-    for (int k = 0; k < 2; ++k) {
-      const auto stack = pose_dir / phase::DirectionName(schemes[k].direction);
-      std::filesystem::create_directories(stack);
-      const auto images = sim::RenderBoardUnderPatterns(
-          rig.left, proj, rig.projector_from_left, target, pose,
-          phase::GeneratePatterns(schemes[k]), fb, 100 + 2 * index + k);
-      const auto names = schemes[k].ImageNames();
-      for (size_t i = 0; i < names.size(); ++i) io::WriteImage(stack / names[i], images[i]);
-      phase::WriteScheme(stack / "manifest.json", schemes[k]);
-    }
-    ++index;
-  }
+  sim::ProjectorCalibrationFolderOptions so;
+  so.poses.count = 5;
+  so.poses.seed = 9;
+  so.fringes.supersampling = 1;
+  sim::WriteProjectorCalibrationFolder(rig, target, dir, so);
   io::WriteJson(tmp / "target.json", io::TargetToJson(target));
   std::string out, err;
   const std::string rig_path = (tmp / "rig.json").string();

@@ -429,6 +429,25 @@ void Conclude(int num_views_used, int min_views, CalibrationSummary* s) {
   }
 }
 
+// The transform with the smallest summed distance to the others (a robust medoid of per-view
+// estimates of one rigid transform; 1 rad counts as 100 mm).
+const Rigid3d& MedoidTransform(const std::vector<Rigid3d>& estimates) {
+  size_t best = 0;
+  double best_d = 1e300;
+  for (size_t i = 0; i < estimates.size(); ++i) {
+    double d = 0;
+    for (size_t j = 0; j < estimates.size(); ++j) {
+      const auto diff = Difference(estimates[i], estimates[j]);
+      d += diff.translation_mm + 100 * diff.angle_rad;
+    }
+    if (d < best_d) {
+      best_d = d;
+      best = i;
+    }
+  }
+  return estimates[best];
+}
+
 }  // namespace
 
 CameraCalibration CalibrateCamera(const std::vector<TargetDetection>& views,
@@ -533,24 +552,10 @@ StereoCalibration CalibrateStereo(const std::vector<TargetDetection>& left,
     s.message = "no view pair usable in both cameras";
     return out;
   }
-  // Initial right_from_left: the per-pair estimate with the smallest summed distance to the
-  // others (a robust medoid).
-  size_t best = 0;
-  double best_d = 1e300;
-  for (size_t i = 0; i < rel.size(); ++i) {
-    double d = 0;
-    for (size_t j = 0; j < rel.size(); ++j) {
-      const auto diff = Difference(rel[i], rel[j]);
-      d += diff.translation_mm + 100 * diff.angle_rad;
-    }
-    if (d < best_d) {
-      best_d = d;
-      best = i;
-    }
-  }
+  // Initial right_from_left: a robust medoid of the per-pair estimates.
   Bundle b;
   b.devices = {out.left.camera, out.right.camera};
-  b.device_from_reference = {PoseBlock{}, PoseBlockOf(rel[best])};
+  b.device_from_reference = {PoseBlock{}, PoseBlockOf(MedoidTransform(rel))};
   Configure(options, &b);
   b.view_used = pair;
   b.reference_from_board.assign(left.size(), PoseBlock{});
@@ -640,6 +645,129 @@ StereoCalibration CalibrateStereo(const std::vector<TargetDetection>& left,
   s.num_views_rejected = out.num_pairs - s.num_views_used;
   s.num_features = b.NumActive();
   // Each camera had min_views alone; the extrinsics need one common view.
+  Conclude(s.num_views_used, 1, &s);
+  return out;
+}
+
+MultiDeviceCalibration CalibrateDevices(const std::vector<std::vector<TargetDetection>>& views,
+                                        const CalibrationTarget& target,
+                                        const std::vector<cv::Size>& sizes,
+                                        const CalibrationOptions& options,
+                                        const std::vector<std::string>& names) {
+  options.Check();
+  const size_t num_devices = views.size();
+  if (num_devices < 2 || sizes.size() != num_devices) {
+    throw Error(util::StrCat("CalibrateDevices: ", num_devices, " devices (need >= 2) and ",
+                             sizes.size(), " image sizes"));
+  }
+  const size_t num_views = views[0].size();
+  for (const auto& v : views) {
+    if (v.size() != num_views) {
+      throw Error(util::StrCat("CalibrateDevices: ", v.size(), " views for one device but ",
+                               num_views, " for the first"));
+    }
+  }
+  MultiDeviceCalibration out;
+  auto& s = out.summary;
+  for (size_t d = 0; d < num_devices; ++d) {
+    out.devices.push_back(
+        CalibrateCamera(views[d], target, sizes[d].width, sizes[d].height, options, names));
+  }
+  s.views = out.devices[0].summary.views;
+  for (size_t d = 0; d < num_devices; ++d) {
+    if (!out.devices[d].summary.success) {
+      s.message =
+          util::StrCat("device ", d, " alone failed: ", out.devices[d].summary.BriefReport());
+      return out;
+    }
+  }
+  // Poses used by the reference and at least one other device; per device its relative poses.
+  std::vector<bool> used(num_views, false);
+  std::vector<std::vector<bool>> seen(num_devices, std::vector<bool>(num_views, false));
+  Bundle b;
+  b.device_from_reference.assign(num_devices, PoseBlock{});
+  for (size_t d = 0; d < num_devices; ++d) {
+    b.devices.push_back(out.devices[d].camera);
+    for (size_t v = 0; v < num_views; ++v) seen[d][v] = out.devices[d].summary.views[v].used;
+  }
+  for (size_t d = 1; d < num_devices; ++d) {
+    std::vector<Rigid3d> rel;
+    for (size_t v = 0; v < num_views; ++v) {
+      if (!seen[0][v] || !seen[d][v]) continue;
+      used[v] = true;
+      rel.push_back(out.devices[d].camera_from_board[v] *
+                    out.devices[0].camera_from_board[v].Inverse());
+    }
+    if (rel.empty()) {
+      s.message = util::StrCat("no view usable by both device 0 and device ", d);
+      return out;
+    }
+    b.device_from_reference[d] = PoseBlockOf(MedoidTransform(rel));
+  }
+  Configure(options, &b);
+  b.view_used = used;
+  b.reference_from_board.assign(num_views, PoseBlock{});
+  for (size_t v = 0; v < num_views; ++v) {
+    if (used[v]) b.reference_from_board[v] = PoseBlockOf(out.devices[0].camera_from_board[v]);
+    if (!used[v]) {
+      s.views[v].used = false;
+      if (s.views[v].message.empty()) s.views[v].message = "not usable by two devices";
+    }
+  }
+  for (size_t d = 0; d < num_devices; ++d) {
+    for (size_t v = 0; v < num_views; ++v) {
+      if (!used[v] || !seen[d][v]) continue;
+      const auto& centres = out.devices[d].centres_px;
+      for (size_t k = 0; k < views[d][v].features.size(); ++k) {
+        const auto& f = views[d][v].features[k];
+        Obs o;
+        o.device = static_cast<int>(d);
+        o.view = static_cast<int>(v);
+        o.board_point = target.FeatureCentre(f.row, f.col);
+        // Start from the single-device re-measured centres.
+        o.px = k < centres[v].size() ? centres[v][k] : f.centre_px;
+        o.feature = f.outer_edge_px.empty() ? nullptr : &f;
+        b.obs.push_back(o);
+      }
+    }
+  }
+  CalibrationOptions joint = options;
+  joint.centre_rounds = std::min(options.centre_rounds, 1);
+  RunRounds(&b, std::vector<const CalibrationTarget*>(num_devices, &target), joint, &s);
+  out.rms_px = s.final_rms_px;
+  out.extrinsic_std_dev.assign(num_devices, {});
+  out.device_rms_px.assign(num_devices, 0);
+  for (size_t d = 0; d < num_devices; ++d) {
+    CameraCalibration& c = out.devices[d];
+    c.summary.views = s.views;
+    FillCameraResult(b, static_cast<int>(d), views[d], &c);
+    c.summary.success = true;
+    out.device_from_reference.push_back(
+        d == 0 ? Rigid3d() : RigidFromPoseBlock(b.device_from_reference[d].data()));
+    if (d < b.std_device_from_reference.size()) {
+      out.extrinsic_std_dev[d] = b.std_device_from_reference[d];
+    }
+  }
+  std::vector<double> ss(num_devices, 0);
+  std::vector<int> n(num_devices, 0);
+  for (const auto& o : b.obs) {
+    if (!b.Counts(o)) continue;
+    const double e2 = (b.Project(o) - o.px).squaredNorm();
+    ss[o.device] += e2;
+    ++n[o.device];
+  }
+  for (size_t d = 0; d < num_devices; ++d) {
+    out.device_rms_px[d] = n[d] ? std::sqrt(ss[d] / n[d]) : 0;
+  }
+  out.reference_from_board.assign(num_views, Rigid3d());
+  s.num_views_used = 0;
+  for (size_t v = 0; v < num_views; ++v) {
+    if (b.view_used[v]) {
+      out.reference_from_board[v] = b.DeviceFromBoard(0, static_cast<int>(v));
+      ++s.num_views_used;
+    }
+  }
+  s.num_features = b.NumActive();
   Conclude(s.num_views_used, 1, &s);
   return out;
 }

@@ -124,4 +124,28 @@ StereoCalibration CalibrateStereo(const std::vector<TargetDetection>& left,
                                   const std::vector<std::string>& names = {}, int right_width = 0,
                                   int right_height = 0);
 
+// Joint calibration of N devices (cameras, projectors as inverse cameras) that observe the same
+// board poses: views[d][v] is device d's detection of pose v (not ok() where it did not see
+// it). Each device is first calibrated alone (CalibrateCamera: Zhang + refinement), each
+// device_from_reference (reference = device 0) starts from the robust medoid of its per-pose
+// estimates, then one Ceres refinement of all intrinsics, the board poses and the
+// device_from_reference poses (bundle.h), with view / outlier rejection as CalibrateStereo.
+// A pose needs device 0 and at least one other device. sizes[d]: device d's image size.
+struct MultiDeviceCalibration {
+  std::vector<CameraCalibration> devices;      // per device, from the joint solution
+  std::vector<Rigid3d> device_from_reference;  // [0] = identity
+  // Per device: rotation vector (rad) x y z, translation (mm); [0] zeros.
+  std::vector<std::array<double, 6>> extrinsic_std_dev;
+  std::vector<Rigid3d> reference_from_board;  // per pose (identity where unused)
+  std::vector<double> device_rms_px;          // per device, joint solution
+  double rms_px = 0;                          // all devices
+  CalibrationSummary summary;
+  bool ok() const { return summary.success; }
+};
+MultiDeviceCalibration CalibrateDevices(const std::vector<std::vector<TargetDetection>>& views,
+                                        const CalibrationTarget& target,
+                                        const std::vector<cv::Size>& sizes,
+                                        const CalibrationOptions& options = {},
+                                        const std::vector<std::string>& names = {});
+
 }  // namespace fringe::calib

@@ -126,4 +126,57 @@ ProjectorCalibration CalibrateCameraProjector(const std::vector<TargetDetection>
   return out;
 }
 
+std::string CamerasProjectorCalibration::BriefReport() const {
+  if (!ok()) return "cameras + projector calibration failed: " + joint.summary.message;
+  const CameraModel& p = *rig.projector;
+  return util::StrCat(
+      "cameras + projector calibration: ", joint.summary.num_views_used, " poses, RMS left ",
+      joint.device_rms_px[0], " px, right ", joint.device_rms_px[1], " px, projector ",
+      joint.device_rms_px[2], " px; projector fx ", p.fx, " fy ", p.fy, " cx ", p.cx, " cy ", p.cy,
+      " (std dev fx ", joint.devices[2].std_dev[0], " cx ", joint.devices[2].std_dev[2], " cy ",
+      joint.devices[2].std_dev[3], "), stereo baseline ", rig.BaselineMm(),
+      " mm, camera-projector baseline ", rig.projector_from_left.translation().norm(), " mm");
+}
+
+CamerasProjectorCalibration CalibrateCamerasProjector(
+    const std::vector<TargetDetection>& left, const std::vector<TargetDetection>& right,
+    const std::vector<ProjectorCoordinates>& left_coordinates,
+    const std::vector<ProjectorCoordinates>& right_coordinates, const CalibrationTarget& target,
+    const cv::Size& left_size, const cv::Size& right_size, const cv::Size& projector_size,
+    const CalibrationOptions& options, const ProjectorFeatureOptions& feature_options,
+    const std::vector<std::string>& names) {
+  const size_t n = left.size();
+  if (right.size() != n || left_coordinates.size() != n || right_coordinates.size() != n) {
+    throw Error(util::StrCat("CalibrateCamerasProjector: ", n, " left, ", right.size(),
+                             " right detections, ", left_coordinates.size(), " left and ",
+                             right_coordinates.size(),
+                             " right sets of projector coordinates: need one of each per pose"));
+  }
+  CamerasProjectorCalibration out;
+  for (size_t i = 0; i < n; ++i) {
+    TargetDetection merged = MapFeaturesToProjector(
+        left[i], left_coordinates[i], projector_size.width, projector_size.height, feature_options);
+    const TargetDetection from_right =
+        MapFeaturesToProjector(right[i], right_coordinates[i], projector_size.width,
+                               projector_size.height, feature_options);
+    if (from_right.ok()) {
+      merged.features.insert(merged.features.end(), from_right.features.begin(),
+                             from_right.features.end());
+      merged.num_candidates += from_right.num_candidates;
+      merged.status = DetectionStatus::kOk;
+      merged.message.clear();
+    }
+    out.projector_views.push_back(std::move(merged));
+  }
+  out.joint = CalibrateDevices({left, right, out.projector_views}, target,
+                               {left_size, right_size, projector_size}, options, names);
+  if (!out.joint.ok()) return out;
+  out.rig.left = out.joint.devices[0].camera;
+  out.rig.right = out.joint.devices[1].camera;
+  out.rig.right_from_left = out.joint.device_from_reference[1];
+  out.rig.projector = out.joint.devices[2].camera;
+  out.rig.projector_from_left = out.joint.device_from_reference[2];
+  return out;
+}
+
 }  // namespace fringe::calib

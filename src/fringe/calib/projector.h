@@ -75,4 +75,28 @@ ProjectorCalibration CalibrateCameraProjector(const std::vector<TargetDetection>
                                               const ProjectorFeatureOptions& feature_options = {},
                                               const std::vector<std::string>& names = {});
 
+// Two cameras + projector (a stereo sensor with a calibrated projector, the trinocular use of
+// stereo/camera_projector.h). Per pose each camera detects the board and decodes both fringe
+// directions; each camera's features are mapped into the projector (MapFeaturesToProjector), and
+// both mappings are observations of the projector (two independent measurements of the same
+// projector feature). Joint refinement of the three devices (CalibrateDevices: the left camera
+// as reference, right_from_left and projector_from_left, every intrinsics and board pose).
+struct CamerasProjectorCalibration {
+  StereoRig rig;                 // left, right, right_from_left, projector, projector_from_left
+  MultiDeviceCalibration joint;  // devices: 0 left, 1 right, 2 projector
+  std::vector<TargetDetection> projector_views;  // both cameras' mapped features per pose
+  bool ok() const { return joint.ok(); }
+  std::string BriefReport() const;
+};
+
+// left/right[i], left/right_coordinates[i]: one board pose. Throws fringe::Error for
+// mismatched counts.
+CamerasProjectorCalibration CalibrateCamerasProjector(
+    const std::vector<TargetDetection>& left, const std::vector<TargetDetection>& right,
+    const std::vector<ProjectorCoordinates>& left_coordinates,
+    const std::vector<ProjectorCoordinates>& right_coordinates, const CalibrationTarget& target,
+    const cv::Size& left_size, const cv::Size& right_size, const cv::Size& projector_size,
+    const CalibrationOptions& options = {}, const ProjectorFeatureOptions& feature_options = {},
+    const std::vector<std::string>& names = {});
+
 }  // namespace fringe::calib

@@ -4,10 +4,13 @@
 
 #include <cmath>
 
+#include "fringe/calib/projector_folder.h"
+#include "fringe/io/image_io.h"
 #include "fringe/sim/board.h"
 #include "fringe/sim/projector_board.h"
 #include "fringe/sim/renderer.h"
 #include "fringe/util/error.h"
+#include "fringe_test.h"
 
 namespace fringe::calib {
 namespace {
@@ -108,6 +111,78 @@ TEST(ProjectorCalibration, SimulatedBoardsUnderBothFringeDirections) {
   EXPECT_LT(diff.angle_rad * 180 / M_PI, kMaxRotationErrDeg);
   EXPECT_LT(cal.projector_rms_px, kMaxProjectorRmsPx);
   EXPECT_EQ(cal.rig.BaselineMm(), 0.0);  // a camera-projector rig
+}
+
+// Two cameras + projector: both cameras see the boards under both fringe directions; the joint
+// refinement of the three devices recovers the true rig (both cameras' extrinsics and the
+// projector).
+TEST(ProjectorCalibration, TwoCamerasAndProjectorRecoverTheTrueRig) {
+  // Half resolution, 6 poses, as the camera + projector test above (its tolerances); the
+  // stereo extrinsics as calibrate_test's stereo bounds at this scale.
+  constexpr double kMaxFocalErrPct = 0.03;
+  constexpr double kMaxPrincipalErrPx = 0.3;
+  constexpr double kMaxTranslationErrMm = 0.1;
+  constexpr double kMaxRotationErrDeg = 0.015;
+  constexpr double kMaxRmsPx = 0.1;
+  constexpr double kStereoSlack = 1.2;  // right_from_left vs the stereo-only calibration's error
+  constexpr double kStereoFloorMm = 0.01, kStereoFloorDeg = 0.001;
+  const StereoRig rig = HalfRig();
+  const CameraModel& proj = *rig.projector;
+  const CalibrationTarget target = CalibrationTarget::Reference();
+  // Written as `fringe calibrate` reads it (DIR/KKK/left/, DIR/KKK/right/), calibrated through
+  // the folder function: the layout, the reading and the joint refinement in one go.
+  const test::TempDir tmp;
+  sim::ProjectorCalibrationFolderOptions so;
+  so.poses.count = 6;  // 4 poses miss the projector bounds (0.38 px principal point)
+  so.poses.seed = 5;
+  so.two_cameras = true;
+  so.fringes.supersampling = 1;  // keeps the test short; the mono test above renders with 2
+  sim::WriteProjectorCalibrationFolder(rig, target, tmp.path(), so);
+  ProjectorFolderOptions fo;
+  fo.features.window_radius_px = 10;  // half resolution
+  const ProjectorFolderCalibration folder = CalibrateProjectorFolder(tmp.path(), target, fo);
+  ASSERT_EQ(folder.layout, ProjectorFolderLayout::kCamerasProjector);
+  ASSERT_EQ(folder.names.size(), 6u);
+  EXPECT_TRUE(folder.CalibrationJson().contains("right_from_left_std_dev"));
+  const CamerasProjectorCalibration& cal = folder.cameras;
+  // The plain board images of both cameras, for the stereo-only reference below.
+  std::vector<TargetDetection> left, right;
+  for (const std::string& name : folder.names) {
+    left.push_back(DetectTarget(io::ReadGrayImage(tmp / name / "left" / "board.png"), target));
+    right.push_back(DetectTarget(io::ReadGrayImage(tmp / name / "right" / "board.png"), target));
+  }
+  std::cout << cal.BriefReport() << "\n";
+  ASSERT_TRUE(cal.ok()) << cal.joint.summary.message;
+  const CameraModel& p = *cal.rig.projector;
+  const double focal_err_pct = 100 * std::abs(p.fx - proj.fx) / proj.fx;
+  const double principal_err_px = std::hypot(p.cx - proj.cx, p.cy - proj.cy);
+  const auto dp = Difference(cal.rig.projector_from_left, rig.projector_from_left);
+  const auto ds = Difference(cal.rig.right_from_left, rig.right_from_left);
+  std::cout << "projector: focal error " << focal_err_pct << " %, principal point "
+            << principal_err_px << " px, rotation " << dp.angle_rad * 180 / M_PI
+            << " deg, translation " << dp.translation_mm << " mm; right camera: rotation "
+            << ds.angle_rad * 180 / M_PI << " deg, translation " << ds.translation_mm << " mm\n";
+  EXPECT_LT(focal_err_pct, kMaxFocalErrPct);
+  EXPECT_LT(principal_err_px, kMaxPrincipalErrPx);
+  EXPECT_LT(dp.translation_mm, kMaxTranslationErrMm);
+  EXPECT_LT(dp.angle_rad * 180 / M_PI, kMaxRotationErrDeg);
+  // The stereo extrinsics: as good as the two cameras calibrated without the projector (the
+  // same detections; the projector's observations must not pull them off).
+  const StereoCalibration stereo_only =
+      CalibrateStereo(left, right, target, rig.left.width, rig.left.height);
+  ASSERT_TRUE(stereo_only.summary.success);
+  const auto ds_only = Difference(stereo_only.rig.right_from_left, rig.right_from_left);
+  std::cout << "right camera without the projector: rotation " << ds_only.angle_rad * 180 / M_PI
+            << " deg, translation " << ds_only.translation_mm << " mm\n";
+  EXPECT_LT(ds.translation_mm, kStereoSlack * ds_only.translation_mm + kStereoFloorMm);
+  EXPECT_LT(ds.angle_rad, kStereoSlack * ds_only.angle_rad + kStereoFloorDeg * M_PI / 180);
+  for (int d = 0; d < 3; ++d) EXPECT_LT(cal.joint.device_rms_px[d], kMaxRmsPx) << "device " << d;
+  EXPECT_GT(cal.joint.extrinsic_std_dev[2][3], 0);  // standard deviations were estimated
+  EXPECT_GT(cal.rig.BaselineMm(), 0);
+  // Mismatched counts are refused.
+  EXPECT_THROW(CalibrateCamerasProjector(left, {}, {}, {}, target, cv::Size(1, 1), cv::Size(1, 1),
+                                         cv::Size(1, 1)),
+               Error);
 }
 
 TEST(ProjectorCalibration, BadInputs) {

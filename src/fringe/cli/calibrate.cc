@@ -1,7 +1,8 @@
 // fringe calibrate DIR --target target.json --out calibration.json: camera / stereo calibration
-// from board images (calib/calibrate_folder.h), or camera + projector calibration when DIR holds,
-// per board pose, a folder with the plain board image and the fringe stacks of both directions
-// (calib/projector.h; layout in docs/scan-folder.md).
+// from board images (calib/calibrate_folder.h), or camera(s) + projector calibration when DIR
+// holds, per board pose, the plain board image and the fringe stacks of both directions of one
+// camera (KKK/) or of two (KKK/left/, KKK/right/) (calib/projector_folder.h; layout in
+// docs/scan-folder.md).
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <cmath>
@@ -13,7 +14,7 @@
 #include <vector>
 
 #include "fringe/calib/calibrate_folder.h"
-#include "fringe/calib/projector.h"
+#include "fringe/calib/projector_folder.h"
 #include "fringe/cli/cli.h"
 #include "fringe/io/calibration_io.h"
 #include "fringe/io/image_io.h"
@@ -34,108 +35,28 @@ struct CalibrateArgs {
   bool k3 = false;
 };
 
-// Board-pose folders of the camera + projector layout: DIR/NNN/ with vertical/ and horizontal/.
-std::vector<fs::path> ProjectorPoseFolders(const fs::path& dir) {
-  std::vector<fs::path> out;
-  for (const auto& e : fs::directory_iterator(dir)) {
-    if (e.is_directory() && fs::is_directory(e.path() / "vertical") &&
-        fs::is_directory(e.path() / "horizontal")) {
-      out.push_back(e.path());
-    }
-  }
-  std::sort(out.begin(), out.end());
-  return out;
-}
-
-// One fringe stack of a pose: its manifest's scheme (of the expected direction), decoded.
-phase::DecodeResult DecodePoseStack(const fs::path& stack, phase::FringeDirection direction,
-                                    int* projector_width, int* projector_height) {
-  const phase::PatternScheme scheme = phase::ReadScheme(stack / "manifest.json");
-  if (scheme.direction != direction) {
-    throw Error(util::StrCat(stack.string(), "/manifest.json: scheme '", scheme.name, "' has ",
-                             phase::DirectionName(scheme.direction), " fringes; this folder needs ",
-                             phase::DirectionName(direction), " ones"));
-  }
-  if (*projector_width == 0) {
-    *projector_width = scheme.projector_width;
-    *projector_height = scheme.projector_height;
-  } else if (scheme.projector_width != *projector_width ||
-             scheme.projector_height != *projector_height) {
-    throw Error(util::StrCat(stack.string(), "/manifest.json: projector ", scheme.projector_width,
-                             "x", scheme.projector_height, " differs from the other poses' ",
-                             *projector_width, "x", *projector_height));
-  }
-  return phase::Decode(scheme, phase::ReadStack(stack, scheme));
-}
-
-// Camera + projector calibration of the pose folders; writes the rig (camera + projector).
-void CalibrateProjectorFolder(const CalibrateArgs& a, const std::vector<fs::path>& poses,
-                              const CalibrationTarget& target,
-                              const calib::CalibrationOptions& options) {
-  std::vector<calib::TargetDetection> camera;
-  std::vector<calib::ProjectorCoordinates> coordinates;
-  std::vector<std::string> names;
-  int width = 0, height = 0, projector_width = 0, projector_height = 0;
-  util::Progress progress("decode", static_cast<int>(poses.size()));
-  for (const fs::path& pose : poses) {
-    const auto images = io::ListImageFiles(pose);
-    if (images.size() != 1) {
-      throw Error(util::StrCat(pose.string(),
-                               ": needs exactly one plain board image beside "
-                               "vertical/ and horizontal/ (found ",
-                               images.size(), ")"));
-    }
-    const cv::Mat board = io::ReadGrayImage(
-        pose / images[0],
-        width > 0 ? std::optional<cv::Size>(cv::Size(width, height)) : std::nullopt);
-    width = board.cols;
-    height = board.rows;
-    camera.push_back(calib::DetectTarget(board, target));
-    const phase::DecodeResult u = DecodePoseStack(
-        pose / "vertical", phase::FringeDirection::kVertical, &projector_width, &projector_height);
-    const phase::DecodeResult v =
-        DecodePoseStack(pose / "horizontal", phase::FringeDirection::kHorizontal, &projector_width,
-                        &projector_height);
-    if (u.mask.cols != width || u.mask.rows != height || v.mask.size() != u.mask.size()) {
-      throw Error(util::StrCat(pose.string(),
-                               ": the fringe images are not the size of the board "
-                               "image (",
-                               width, "x", height, ")"));
-    }
-    coordinates.push_back({u.absolute_phase, v.absolute_phase, u.mask, v.mask});
-    names.push_back(pose.filename().string());
-    progress.Advance();
-  }
-  const calib::ProjectorCalibration cal =
-      calib::CalibrateCameraProjector(camera, coordinates, target, width, height, projector_width,
-                                      projector_height, options, {}, names);
+// Camera(s) + projector calibration of the pose folders (calib/projector_folder.h); writes the
+// rig and the residual image together.
+void CalibrateProjector(const CalibrateArgs& a, const CalibrationTarget& target,
+                        const calib::CalibrationOptions& options) {
+  calib::ProjectorFolderOptions folder_options;
+  folder_options.calibration = options;
+  const calib::ProjectorFolderCalibration cal =
+      calib::CalibrateProjectorFolder(a.dir, target, folder_options);
   if (!cal.ok()) {
     throw Error(util::StrCat(
-        a.dir, ": camera + projector calibration failed: ", cal.joint.summary.message));
+        a.dir, ": ",
+        cal.layout == calib::ProjectorFolderLayout::kCamerasProjector ? "cameras" : "camera",
+        " + projector calibration failed: ", cal.message()));
   }
   std::cout << cal.BriefReport() << "\n";
   const Rigid3d& t = cal.rig.projector_from_left;
-  std::cout << "projector_from_camera: rotation " << t.AngleRad() * 180 / M_PI << " deg, t = ("
+  std::cout << "projector_from_left: rotation " << t.AngleRad() * 180 / M_PI << " deg, t = ("
             << t.translation().transpose() << ") mm\n";
-  auto std_json = [](const calib::CameraCalibration& c) {
-    return nlohmann::json{{"fx", c.std_dev[0]}, {"fy", c.std_dev[1]}, {"cx", c.std_dev[2]},
-                          {"cy", c.std_dev[3]}, {"k1", c.std_dev[4]}, {"k2", c.std_dev[5]},
-                          {"p1", c.std_dev[6]}, {"p2", c.std_dev[7]}, {"k3", c.std_dev[8]}};
-  };
-  const auto& e = cal.joint.extrinsic_std_dev;
-  const nlohmann::json extra = {
-      {"calibration",
-       {{"rms_px", cal.joint.rms_px},
-        {"camera_rms_px", cal.camera_rms_px},
-        {"projector_rms_px", cal.projector_rms_px},
-        {"poses", cal.joint.num_pairs},
-        {"std_dev", {{"left", std_json(cal.joint.left)}, {"projector", std_json(cal.joint.right)}}},
-        {"projector_from_left_std_dev",
-         {{"rotation_rad", {e[0], e[1], e[2]}}, {"translation_mm", {e[3], e[4], e[5]}}}}}}};
   util::OutputTransaction outputs;
-  io::WriteRig(outputs.Stage(a.out), cal.rig, extra);
+  io::WriteRig(outputs.Stage(a.out), cal.rig, {{"calibration", cal.CalibrationJson()}});
   if (!a.residual_image.empty()) {
-    io::WriteImage(outputs.Stage(a.residual_image), calib::ResidualImage(cal.joint.left));
+    io::WriteImage(outputs.Stage(a.residual_image), calib::ResidualImage(cal.LeftCamera()));
   }
   outputs.Commit();
   std::cout << "wrote " << a.out << "\n";
@@ -149,8 +70,9 @@ void AddCalibrateCommand(CLI::App& app) {
   CLI::App* sub = app.add_subcommand(
       "calibrate",
       "Calibrate a camera or a stereo pair from board images (DIR with left/ and right/, or "
-      "one camera's images), or a camera + projector (DIR/NNN/ per board pose: the board image, "
-      "vertical/ and horizontal/ fringe stacks with their manifests)");
+      "one camera's images), or camera(s) + projector (DIR/NNN/ per board pose: the board image, "
+      "vertical/ and horizontal/ fringe stacks with their manifests; for two cameras in "
+      "DIR/NNN/left/ and DIR/NNN/right/)");
   sub->add_option("dir", a->dir, "Image folder")->required();
   sub->add_option("--target", a->target, "Calibration target JSON (docs/formats.md)")->required();
   sub->add_option("--out", a->out, "Output calibration JSON (rig format)")->required();
@@ -170,9 +92,10 @@ void AddCalibrateCommand(CLI::App& app) {
     calib::CalibrationOptions options;
     options.estimate_k3 = a->k3;
     util::RequireDirectory(a->dir, "image folder");
-    const std::vector<fs::path> projector_poses = ProjectorPoseFolders(a->dir);
-    if (!projector_poses.empty()) {
-      CalibrateProjectorFolder(*a, projector_poses, target, options);
+    std::vector<fs::path> projector_poses;
+    if (calib::FindProjectorPoseFolders(a->dir, &projector_poses) !=
+        calib::ProjectorFolderLayout::kNone) {
+      CalibrateProjector(*a, target, options);
       return;
     }
     const auto result = calib::CalibrateFolder(a->dir, target, options);

@@ -71,14 +71,17 @@ void AddReconstructCommand(CLI::App& app) {
       "one camera's images and a calibrated projector, triangulate camera against projector");
   sub->add_option("view", a->view,
                   "View folder with left/ and right/ (or L/ and R/) image stacks; left/ (or L/) "
-                  "alone in camera-projector mode")
+                  "alone in camera-projector mode, where left/vertical/ and left/horizontal/ "
+                  "(each with its manifest.json) give both fringe directions")
       ->required();
   sub->add_option("--mode", a->mode,
                   "stereo (two cameras), camera-projector (left camera + the rig's projector: "
                   "the camera ray meets the projector's column, or row for horizontal fringes, "
-                  "in the distorted projector model), or auto: stereo when the view has right/ "
+                  "in the distorted projector model; both directions: two-ray triangulation), "
+                  "trinocular (stereo, plus the left pixels the right camera cannot see from "
+                  "the left camera + projector), or auto: stereo when the view has right/ "
                   "images and the rig a right camera, else camera-projector")
-      ->check(CLI::IsMember({"stereo", "camera-projector", "auto"}))
+      ->check(CLI::IsMember({"stereo", "camera-projector", "trinocular", "auto"}))
       ->capture_default_str();
   sub->add_option("--calib", a->calib,
                   "Rig calibration (rig JSON); default VIEW/rig.json or VIEW/../rig.json");
@@ -137,16 +140,27 @@ void AddReconstructCommand(CLI::App& app) {
       right_dir = view / "R";
     }
     const bool have_right_dir = fs::is_directory(right_dir);
-    if (!fs::is_directory(left_dir) || (a->mode == "stereo" && !have_right_dir)) {
+    const bool two_cameras_required = a->mode == "stereo" || a->mode == "trinocular";
+    if (!fs::is_directory(left_dir) || (two_cameras_required && !have_right_dir)) {
       throw Error(util::StrCat(
           "reconstruct: ", view.string(), " must contain left/ ",
-          a->mode == "stereo" ? "and right/ (or L/ and R/) image folders" : "(or L/) images"));
+          two_cameras_required ? "and right/ (or L/ and R/) image folders" : "(or L/) images"));
+    }
+    // Both fringe directions: left/vertical/ and left/horizontal/, each with its manifest
+    // (the layout of the projector calibration's pose folders, docs/scan-folder.md).
+    const bool two_directions =
+        fs::is_directory(left_dir / "vertical") && fs::is_directory(left_dir / "horizontal");
+    if (two_directions && !a->scheme.empty()) {
+      throw Error(util::StrCat("reconstruct: ", left_dir.string(),
+                               " holds vertical/ and horizontal/ stacks whose schemes are their "
+                               "manifest.json files; --scheme does not apply"));
     }
     // In a scan folder (ROOT/views/NNN) the scheme is the one its manifest names; elsewhere a
     // manifest beside the images.
     const std::optional<fs::path> scan_root = scan::ScanFolder::RootOfView(view);
     const std::string scheme_arg =
-        !a->scheme.empty() ? a->scheme
+        two_directions       ? (left_dir / "vertical" / "manifest.json").string()
+        : !a->scheme.empty() ? a->scheme
         : scan_root ? (*scan_root / scan::ScanFolder::Open(*scan_root).manifest().scheme).string()
                     : FirstExisting({view / "manifest.json", view / "left" / "manifest.json",
                                      view.parent_path() / "manifest.json"},
@@ -183,13 +197,34 @@ void AddReconstructCommand(CLI::App& app) {
       util::CheckDistinctOutputs({a->out, a->residuals});
     }
     const fs::path markers_path = registration::MarkersPathForCloud(a->out);
-    if (a->mode == "camera-projector") a->no_markers = true;  // (markers need two cameras)
     if (!a->no_markers) {
       util::CheckOutputFile(markers_path, inputs);
       util::CheckDistinctOutputs({a->out, a->residuals, markers_path});
     }
-    const phase::PatternScheme scheme = phase::SchemeFromArgument(scheme_arg, a->parameters);
-    const auto left = phase::ReadStack(left_dir, scheme);
+    std::vector<phase::PatternScheme> schemes = {
+        phase::SchemeFromArgument(scheme_arg, a->parameters)};
+    std::vector<fs::path> left_dirs = {two_directions ? left_dir / "vertical" : left_dir};
+    if (two_directions) {
+      schemes.push_back(phase::ReadScheme(left_dir / "horizontal" / "manifest.json"));
+      left_dirs.push_back(left_dir / "horizontal");
+      const char* names[] = {"vertical", "horizontal"};
+      const phase::FringeDirection wanted[] = {phase::FringeDirection::kVertical,
+                                               phase::FringeDirection::kHorizontal};
+      for (int k = 0; k < 2; ++k) {
+        if (schemes[k].direction != wanted[k]) {
+          throw Error(util::StrCat((left_dir / names[k] / "manifest.json").string(), ": scheme '",
+                                   schemes[k].name, "' has ",
+                                   phase::DirectionName(schemes[k].direction),
+                                   " fringes; this folder needs ", names[k], " ones"));
+        }
+      }
+    }
+    const phase::PatternScheme& scheme = schemes[0];
+    std::vector<std::vector<cv::Mat>> left_stacks;
+    for (size_t k = 0; k < schemes.size(); ++k) {
+      left_stacks.push_back(phase::ReadStack(left_dirs[k], schemes[k]));
+    }
+    const std::vector<cv::Mat>& left = left_stacks[0];
     StereoRig rig;
     if (opencv) {
       // The scheme's projector size stands in when the file does not hold it (SLMaster).
@@ -205,21 +240,29 @@ void AddReconstructCommand(CLI::App& app) {
       rig = io::ReadRig(calib_path);
     }
     const std::string rig_name = opencv ? opencv_files[0].string() : calib_path.string();
-    const bool camera_projector = a->mode == "camera-projector" ||
-                                  (a->mode == "auto" && !(have_right_dir && rig.BaselineMm() > 0));
-    if (camera_projector && !rig.projector) {
+    const bool camera_projector =
+        a->mode == "camera-projector" ||
+        (a->mode == "auto" && !(have_right_dir && rig.BaselineMm() > 0 && !two_directions));
+    const bool trinocular = a->mode == "trinocular";
+    if ((camera_projector || trinocular) && !rig.projector) {
       throw Error(util::StrCat("reconstruct: ", rig_name,
                                a->mode == "auto" ? ": the view has no right/ images or the rig "
                                                    "no right camera, and"
                                                  : ":",
-                               " the rig has no calibrated projector for camera-projector mode"));
+                               " the rig has no calibrated projector for ", a->mode, " mode"));
+    }
+    if (!camera_projector && two_directions) {
+      throw Error(util::StrCat("reconstruct: ", left_dir.string(),
+                               ": vertical/ and horizontal/ stacks are read in camera-projector "
+                               "mode only (stereo matching uses vertical fringes)"));
     }
     // With --json the text report is dropped so that stdout is one JSON object.
     std::ostringstream dropped;
     std::ostream& text = a->json ? dropped : std::cout;
     if (camera_projector) {
-      text << "camera-projector mode: " << left_dir.string() << " against the projector of "
-           << rig_name << "\n";
+      text << "camera-projector mode: " << left_dir.string()
+           << (two_directions ? " (vertical and horizontal fringes)" : "")
+           << " against the projector of " << rig_name << "\n";
     }
     const auto right =
         camera_projector ? std::vector<cv::Mat>{} : phase::ReadStack(right_dir, scheme);
@@ -243,16 +286,24 @@ void AddReconstructCommand(CLI::App& app) {
     a->options.remove_outliers = !a->keep_outliers;
     stereo::ViewReconstruction rec;
     if (camera_projector) {
-      stereo::CameraProjectorOptions cp;
-      cp.reconstruction = a->options;
-      rec = stereo::CameraProjectorReconstructor(stereo::CameraProjectorRig::FromLeftCamera(rig),
-                                                 {scheme}, cp)
-                .Reconstruct({left});
-      text << rec.summary.decode_left.BriefReport() << " (camera)\n"
-           << rec.summary.matching.BriefReport() << "\n";
-      WarnIfSchemeMismatch(rec.summary.decode_left, scheme.name, left_dir.string());
+      rec = stereo::MakeCameraProjectorReconstructor(
+                stereo::CameraProjectorRig::FromLeftCamera(rig), schemes, a->options)
+                .Reconstruct(stereo::ViewStacks{left_stacks, {}});
+      text << rec.summary.decode_left.BriefReport() << " (camera"
+           << (two_directions ? ", vertical" : "") << ")\n";
+      if (two_directions)
+        text << rec.summary.decode_right.BriefReport() << " (camera, horizontal)\n";
+      text << rec.summary.matching.BriefReport() << "\n";
+      WarnIfSchemeMismatch(rec.summary.decode_left, scheme.name, left_dirs[0].string());
+      if (two_directions) {
+        WarnIfSchemeMismatch(rec.summary.decode_right, schemes[1].name, left_dirs[1].string());
+      }
     } else {
-      rec = stereo::ReconstructView(rig, scheme, left, right, a->options);
+      rec = trinocular ? stereo::ViewReconstructor(
+                             stereo::MakeTrinocularCorrespondence(rig, a->options.matching),
+                             {scheme}, a->options)
+                             .Reconstruct(left, right)
+                       : stereo::ReconstructView(rig, scheme, left, right, a->options);
       text << rec.summary.decode_left.BriefReport() << " (left)\n"
            << rec.summary.decode_right.BriefReport() << " (right)\n"
            << rec.summary.matching.BriefReport() << "\n";
@@ -282,16 +333,21 @@ void AddReconstructCommand(CLI::App& app) {
       io::WriteImage(outputs.Stage(a->residuals), rec.reprojection_error_px);
     }
     std::optional<registration::ViewMarkers> markers;
-    // Markers are measured in both cameras' textures; one camera has no second view.
-    if (!a->no_markers && !camera_projector) {
-      markers =
-          registration::DetectViewMarkers(rig, rec.texture_left, rec.texture_right, rec.cloud);
+    // Stereo: markers triangulated from both cameras' textures; one camera: its ring centre's
+    // ray against the measured surface.
+    if (!a->no_markers) {
+      markers = camera_projector ? registration::DetectViewMarkersOneCamera(
+                                       rig.left, rec.texture_left, rec.cloud)
+                                 : registration::DetectViewMarkers(rig, rec.texture_left,
+                                                                   rec.texture_right, rec.cloud);
       registration::WriteViewMarkers(outputs.Stage(markers_path), markers->markers);
     }
     outputs.Commit();
     if (a->json) {
       nlohmann::json j = {{"view", view.string()},
-                          {"mode", camera_projector ? "camera-projector" : "stereo"},
+                          {"mode", camera_projector ? "camera-projector"
+                                   : trinocular     ? "trinocular"
+                                                    : "stereo"},
                           {"out", a->out},
                           {"summary", stereo::SummaryToJson(rec.summary)}};
       if (markers) {

@@ -292,6 +292,111 @@ ViewMarkers DetectViewMarkers(const StereoRig& rig, const cv::Mat& texture_left,
   return out;
 }
 
+ViewMarkers DetectViewMarkersOneCamera(const CameraModel& camera, const cv::Mat& texture,
+                                       const OrganizedPointCloud& cloud,
+                                       const MarkerDetectionOptions& options) {
+  options.Check();
+  util::Timer timer;
+  const cv::Mat image8 = To8Bit(texture, "camera");
+  if (image8.cols != camera.width || image8.rows != camera.height) {
+    throw Error("DetectViewMarkersOneCamera: the texture size differs from the camera's");
+  }
+  if (cloud.width != camera.width || cloud.height != camera.height) {
+    throw Error("DetectViewMarkersOneCamera: the cloud is not on the camera's grid");
+  }
+  const calib::RingDetection rings =
+      calib::DetectRings(image8, options.inner_to_outer_ratio, options.rings);
+  ViewMarkers out;
+  MarkerDetectionSummary& s = out.summary;
+  s.rings_left = static_cast<int>(rings.rings.size());
+  for (const auto& r : rings.rejected) {
+    s.rejected.push_back({r.centre_px, "camera image: " + r.reason});
+  }
+  // Where the ray through `px` meets the plane (NaN when it does not, in front of the camera).
+  auto intersect = [&](const Vector2d& px, const SurfacePlane& plane) {
+    const Vector3d ray = camera.Ray(px);
+    const double den = plane.normal.dot(ray);
+    const double t = plane.normal.dot(plane.point) / den;
+    return t > 0 ? Vector3d(t * ray) : Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
+  };
+  for (const calib::FeatureObservation& ring : rings.rings) {
+    const SurfacePlane plane =
+        FitSurface(cloud, ring.centre_px, options.surface_radius_factor * ring.outer.a,
+                   options.min_surface_points);
+    if (!plane.ok) {
+      s.rejected.push_back({ring.centre_px, StrCat("no measured surface around the ring (",
+                                                   plane.points, " points)")});
+      continue;
+    }
+    if (std::abs(plane.normal.dot(camera.Ray(ring.centre_px))) < 1e-3) {
+      s.rejected.push_back({ring.centre_px, "surface seen edge-on"});
+      continue;
+    }
+    ViewMarker m;
+    m.left_px = ring.centre_px;
+    m.right_px = Vector2d::Constant(std::numeric_limits<double>::quiet_NaN());
+    m.centre_in_sensor = intersect(ring.centre_px, plane);
+    if (!m.centre_in_sensor.allFinite()) {
+      s.rejected.push_back({ring.centre_px, "the surface is behind the camera"});
+      continue;
+    }
+    m.normal_in_sensor = plane.normal;
+    m.outer_radius_mm = ring.outer.a * m.centre_in_sensor.norm() / camera.fx;
+    if (m.outer_radius_mm < options.min_outer_radius_mm ||
+        m.outer_radius_mm > options.max_outer_radius_mm) {
+      s.rejected.push_back({ring.centre_px, StrCat("ring of outer radius ", m.outer_radius_mm,
+                                                   " mm, outside the accepted marker sizes")});
+      continue;
+    }
+    // Uncertainty: the image centre moved by its sigma in each coordinate (numeric Jacobian of
+    // the ray-plane intersection), plus the plane's standard error along its normal (the RMS of
+    // the fitted points about it over the square root of their number).
+    const double sigma_px = CentreSigmaPx(ring);
+    Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+    for (int k = 0; k < 2; ++k) {
+      Vector2d px = m.left_px;
+      px[k] += sigma_px;
+      const Vector3d p = intersect(px, plane);
+      if (!p.allFinite()) continue;
+      const Vector3d d = p - m.centre_in_sensor;
+      cov += d * d.transpose();
+    }
+    double ss = 0;
+    int n = 0;
+    const double radius_px = options.surface_radius_factor * ring.outer.a;
+    for (int r = std::max(0, static_cast<int>(ring.centre_px.y() - radius_px));
+         r <= std::min(cloud.height - 1, static_cast<int>(ring.centre_px.y() + radius_px)); ++r) {
+      for (int c = std::max(0, static_cast<int>(ring.centre_px.x() - radius_px));
+           c <= std::min(cloud.width - 1, static_cast<int>(ring.centre_px.x() + radius_px)); ++c) {
+        const size_t i = cloud.index(c, r);
+        if (!cloud.valid[i] || (Vector2d(c, r) - ring.centre_px).norm() > radius_px) continue;
+        const double d = plane.normal.dot(cloud.cloud.points[i] - plane.point);
+        // The plane fit dropped points beyond 3 RMS (FitSurface); so does the error estimate.
+        if (std::abs(d) > 1.0) continue;
+        ss += d * d;
+        ++n;
+      }
+    }
+    const double plane_sigma_mm = n > 3 ? std::sqrt(ss / (n - 3)) / std::sqrt(n) : 0;
+    m.sigma_mm = std::sqrt(cov.trace() + plane_sigma_mm * plane_sigma_mm);
+    m.depth_difference_mm = 0;
+    out.markers.push_back(m);
+  }
+  // Stable order: by image row, then column (ids follow it).
+  std::sort(out.markers.begin(), out.markers.end(), [](const ViewMarker& a, const ViewMarker& b) {
+    return a.left_px.y() != b.left_px.y() ? a.left_px.y() < b.left_px.y()
+                                          : a.left_px.x() < b.left_px.x();
+  });
+  for (size_t k = 0; k < out.markers.size(); ++k) out.markers[k].id = static_cast<int>(k);
+  s.markers = static_cast<int>(out.markers.size());
+  s.status = s.markers > 0 ? MarkerDetectionStatus::kOk : MarkerDetectionStatus::kNoMarkers;
+  if (s.markers == 0) {
+    s.message = StrCat("no marker found (", s.rings_left, " rings in the camera image)");
+  }
+  s.seconds = timer.ElapsedSeconds();
+  return out;
+}
+
 // ---- Files ----
 
 namespace {
@@ -321,7 +426,7 @@ void WriteViewMarkers(const std::filesystem::path& path, const std::vector<ViewM
                     {"centre_in_sensor", Vec(m.centre_in_sensor)},
                     {"normal_in_sensor", Vec(m.normal_in_sensor)},
                     {"left_px", Vec(m.left_px)},
-                    {"right_px", Vec(m.right_px)},
+                    {"right_px", m.right_px.allFinite() ? Vec(m.right_px) : json(nullptr)},
                     {"outer_radius_mm", m.outer_radius_mm},
                     {"sigma_mm", m.sigma_mm},
                     {"depth_difference_mm", m.depth_difference_mm}});
@@ -365,9 +470,14 @@ std::vector<ViewMarker> ViewMarkersFromJson(const json& j, const std::string& ct
     }
     m.normal_in_sensor.normalize();
     const std::vector<double> l = io::GetNumbers(e, "left_px", 2, c);
-    const std::vector<double> r = io::GetNumbers(e, "right_px", 2, c);
     m.left_px = Eigen::Vector2d(l[0], l[1]);
-    m.right_px = Eigen::Vector2d(r[0], r[1]);
+    // null: a one-camera view (DetectViewMarkersOneCamera) has no right image.
+    if (e.contains("right_px") && e["right_px"].is_null()) {
+      m.right_px = Eigen::Vector2d::Constant(std::numeric_limits<double>::quiet_NaN());
+    } else {
+      const std::vector<double> r = io::GetNumbers(e, "right_px", 2, c);
+      m.right_px = Eigen::Vector2d(r[0], r[1]);
+    }
     m.outer_radius_mm = io::GetNumber(e, "outer_radius_mm", c);
     m.sigma_mm = io::GetNumber(e, "sigma_mm", c);
     m.depth_difference_mm = io::OptionalNumber(e, "depth_difference_mm", 0, c);

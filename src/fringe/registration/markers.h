@@ -99,6 +99,18 @@ ViewMarkers DetectViewMarkers(const StereoRig& rig, const cv::Mat& texture_left,
                               const cv::Mat& texture_right, const OrganizedPointCloud& cloud,
                               const MarkerDetectionOptions& options = {});
 
+// Markers of a one-camera view (camera + projector, stereo/camera_projector.h): each ring's
+// image centre is the projection of the marker centre, so the centre is where the camera ray
+// through it meets the measured surface (the plane fitted to the cloud around the ring, as the
+// stereo depth test uses). Same output as DetectViewMarkers, with right_px = (NaN, NaN)
+// written as null (no second image), depth_difference_mm = 0 (the centre is on the surface by
+// construction) and sigma_mm from the ring centre's uncertainty along the ray's intersection
+// with the plane plus the plane's own fit residual (its standard error at the centre).
+// texture: the camera's decoded background; cloud on the camera grid, camera frame.
+ViewMarkers DetectViewMarkersOneCamera(const CameraModel& camera, const cv::Mat& texture,
+                                       const OrganizedPointCloud& cloud,
+                                       const MarkerDetectionOptions& options = {});
+
 // Distance of right_px to the epipolar line of left_px in the right image, pixels (the rig's
 // lens distortion removed).
 double EpipolarDistancePx(const StereoRig& rig, const Eigen::Vector2d& left_px,

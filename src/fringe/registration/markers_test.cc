@@ -154,6 +154,57 @@ TEST(DetectViewMarkers, DepthDifferenceResolvesTwoMarkersOnOneEpipolarLine) {
   }
 }
 
+// One camera + projector: the markers come from the left image alone, each centre where the
+// camera ray through the ring centre meets the camera-projector surface.
+TEST(DetectViewMarkersOneCamera, MatchesTruthOnPlaneAndBox) {
+  const StereoRig rig = SmallRig();
+  sim::Scene scene = testing::PlaneWithBox();
+  int id = 0;
+  for (double x : {-80.0, -45.0, 45.0, 80.0}) {
+    for (double y : {-55.0, 0.0, 55.0}) scene.AddMarker(MakeMarker(id++, {x, y, 0}));
+  }
+  scene.AddMarker(MakeMarker(id++, {-15, -15, 25}));
+  const Rigid3d world_from_sensor = sim::SensorPoseLookingAt(
+      rig, Eigen::Vector3d(0, 0, 10), Eigen::Vector3d(0.15, -0.3, 1).normalized(), 0.2);
+  const testing::SimulatedView view = SimulateView(rig, scene, world_from_sensor, 0, true);
+  const stereo::ViewReconstruction& rec = view.rec_camera_projector;
+  ASSERT_TRUE(rec.summary.ok()) << rec.summary.BriefReport();
+  EXPECT_THROW(DetectViewMarkersOneCamera(rig.left, rec.texture_left, OrganizedPointCloud(4, 4)),
+               Error);
+  const ViewMarkers vm = DetectViewMarkersOneCamera(rig.left, rec.texture_left, rec.cloud);
+  ASSERT_TRUE(vm.summary.ok()) << vm.summary.BriefReport();
+  int visible_left = 0;
+  for (const auto& t : view.truth_markers) visible_left += t.visible_left;
+  ASSERT_GE(visible_left, 10);
+  EXPECT_GE(vm.summary.markers, visible_left - 1) << vm.summary.BriefReport();
+  const Rigid3d sensor_from_world = world_from_sensor.Inverse();
+  double worst_mm = 0;
+  for (const ViewMarker& m : vm.markers) {
+    const sim::MarkerObservation* t = NearestTruth(view.truth_markers, m.left_px, 3.0);
+    ASSERT_NE(t, nullptr) << "marker at " << m.left_px.transpose() << " is not a true marker";
+    EXPECT_LT((m.left_px - t->left_px).norm(), kCentreTolPx) << "marker " << t->id;
+    EXPECT_FALSE(m.right_px.allFinite());  // no second image
+    const double e = (m.centre_in_sensor - t->centre_in_sensor).norm();
+    worst_mm = std::max(worst_mm, e);
+    EXPECT_LT(e, kCentreTolMm) << "marker " << t->id;
+    const Eigen::Vector3d n_true =
+        sensor_from_world.RotateDirection(scene.markers()[t->id].normal_in_world);
+    EXPECT_LT(std::acos(std::clamp(m.normal_in_sensor.dot(n_true), -1.0, 1.0)) * 180 / M_PI,
+              kNormalTolDeg);
+    EXPECT_NEAR(m.outer_radius_mm, 5.0, 0.5);
+    EXPECT_GT(m.sigma_mm, 0);
+    EXPECT_LT(m.sigma_mm, 1.0);
+  }
+  std::cout << vm.markers.size() << " markers, worst centre error " << worst_mm << " mm\n";
+  // The file keeps the missing right image as null and reads it back.
+  const auto path = std::filesystem::temp_directory_path() / "fringe_markers_one_camera.json";
+  WriteViewMarkers(path, vm.markers);
+  const std::vector<ViewMarker> back = ReadViewMarkers(path);
+  ASSERT_EQ(back.size(), vm.markers.size());
+  EXPECT_FALSE(back[0].right_px.allFinite());
+  std::filesystem::remove(path);
+}
+
 TEST(ViewMarkersFile, RoundTrip) {
   ViewMarker m;
   m.id = 3;

@@ -10,6 +10,7 @@
 #include "fringe/sim/poses.h"
 #include "fringe/sim/renderer.h"
 #include "fringe/sim/scene.h"
+#include "fringe/stereo/camera_projector.h"
 #include "fringe/stereo/reconstruct_view.h"
 
 namespace fringe::registration::testing {
@@ -21,12 +22,15 @@ inline StereoRig SmallRig() { return sim::ScaledRig(StereoRig::Reference(), kRig
 struct SimulatedView {
   Rigid3d world_from_sensor;  // truth
   stereo::ViewReconstruction rec;
+  // The left camera against the projector (when asked for): camera-projector mode.
+  stereo::ViewReconstruction rec_camera_projector;
   std::vector<sim::MarkerObservation> truth_markers;
   cv::Mat truth_depth_left;  // CV_64F, left camera
 };
 
 inline SimulatedView SimulateView(const StereoRig& rig, const sim::Scene& scene,
-                                  const Rigid3d& world_from_sensor, uint64_t view_index = 0) {
+                                  const Rigid3d& world_from_sensor, uint64_t view_index = 0,
+                                  bool camera_projector = false) {
   const phase::PatternScheme scheme =
       phase::MakeScheme("heterodyne-4x3", rig.projector->width, rig.projector->height);
   sim::RenderOptions options;
@@ -37,6 +41,11 @@ inline SimulatedView SimulateView(const StereoRig& rig, const sim::Scene& scene,
   SimulatedView v;
   v.world_from_sensor = world_from_sensor;
   v.rec = stereo::ReconstructView(rig, scheme, images.left.images, images.right.images);
+  if (camera_projector) {
+    v.rec_camera_projector = stereo::MakeCameraProjectorReconstructor(
+                                 stereo::CameraProjectorRig::FromLeftCamera(rig), {scheme})
+                                 .Reconstruct(images.left.images, {});
+  }
   v.truth_markers = images.markers;
   v.truth_depth_left = images.left.truth.depth;
   return v;

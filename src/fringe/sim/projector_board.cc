@@ -6,6 +6,9 @@
 #include <algorithm>
 #include <cmath>
 
+#include "fringe/io/calibration_io.h"
+#include "fringe/io/image_io.h"
+#include "fringe/io/json.h"
 #include "fringe/phase/scheme_presets.h"
 #include "fringe/sim/renderer.h"
 #include "fringe/util/error.h"
@@ -137,6 +140,56 @@ std::array<phase::DecodeResult, 2> DecodeBoardUnderBothDirections(
         d);
   }
   return out;
+}
+
+void ProjectorCalibrationFolderOptions::Check() const {
+  poses.Check();
+  fringes.Check();
+}
+
+std::vector<Rigid3d> WriteProjectorCalibrationFolder(
+    const StereoRig& rig, const CalibrationTarget& target, const std::filesystem::path& dir,
+    const ProjectorCalibrationFolderOptions& options) {
+  options.Check();
+  rig.Check();
+  target.Check();
+  if (!rig.projector) throw Error("WriteProjectorCalibrationFolder: the rig has no projector");
+  const CameraModel& proj = *rig.projector;
+  const auto schemes = BothDirectionSchemes(proj, options.preset);
+  BoardPoseOptions po = options.poses;
+  po.both_cameras = options.two_cameras;
+  const std::vector<Rigid3d> poses = GenerateBoardPoses(rig, target, po);
+  std::filesystem::create_directories(dir);
+  io::WriteJson(dir / "target.json", io::TargetToJson(target));
+  const Rigid3d projector_from_right = rig.projector_from_left * rig.right_from_left.Inverse();
+  for (size_t k = 0; k < poses.size(); ++k) {
+    std::string name = std::to_string(k);
+    name.insert(0, name.size() < 3 ? 3 - name.size() : 0, '0');  // 000, 001, ... (sorted)
+    for (int cam = 0; cam < (options.two_cameras ? 2 : 1); ++cam) {
+      const CameraModel& camera = cam == 0 ? rig.left : rig.right;
+      const Rigid3d cam_from_board = cam == 0 ? poses[k] : rig.right_from_left * poses[k];
+      const Rigid3d& projector_from_camera =
+          cam == 0 ? rig.projector_from_left : projector_from_right;
+      const std::filesystem::path pose_dir =
+          options.two_cameras ? dir / name / (cam == 0 ? "left" : "right") : dir / name;
+      const uint64_t offset = cam == 0 ? 0 : 1000;
+      std::filesystem::create_directories(pose_dir);
+      io::WriteImage(pose_dir / "board.png", RenderBoardImage(camera, target, cam_from_board,
+                                                              options.fringes.board, offset + k)
+                                                 .image);
+      for (int d = 0; d < 2; ++d) {
+        const std::filesystem::path stack = pose_dir / phase::DirectionName(schemes[d].direction);
+        std::filesystem::create_directories(stack);
+        const auto images = RenderBoardUnderPatterns(
+            camera, proj, projector_from_camera, target, cam_from_board,
+            phase::GeneratePatterns(schemes[d]), options.fringes, offset + 100 + 2 * k + d);
+        const auto names = schemes[d].ImageNames();
+        for (size_t i = 0; i < names.size(); ++i) io::WriteImage(stack / names[i], images[i]);
+        phase::WriteScheme(stack / "manifest.json", schemes[d]);
+      }
+    }
+  }
+  return poses;
 }
 
 }  // namespace fringe::sim

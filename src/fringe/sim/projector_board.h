@@ -18,6 +18,7 @@
 
 #include <array>
 #include <cstdint>
+#include <filesystem>
 #include <opencv2/core.hpp>
 #include <string>
 #include <vector>
@@ -25,6 +26,7 @@
 #include "fringe/geometry/calibration_target.h"
 #include "fringe/geometry/camera.h"
 #include "fringe/geometry/rigid3.h"
+#include "fringe/geometry/stereo_rig.h"
 #include "fringe/phase/decode.h"
 #include "fringe/phase/pattern_scheme.h"
 #include "fringe/sim/board.h"
@@ -57,5 +59,22 @@ std::array<phase::DecodeResult, 2> DecodeBoardUnderBothDirections(
     const CalibrationTarget& target, const Rigid3d& cam_from_board,
     const std::array<phase::PatternScheme, 2>& schemes, const FringeBoardOptions& options,
     uint64_t index);
+
+// A projector calibration folder as `fringe calibrate` reads it (docs/scan-folder.md): per board
+// pose KKK (000, 001, ...) the plain board image and the fringe stacks of both directions with
+// their manifests, in DIR/KKK/ (one camera: the left) or DIR/KKK/left/ and DIR/KKK/right/
+// (two_cameras), and DIR/target.json. The board poses (left_from_board) are returned; the
+// truth is the rig given. Images: plain board stream = pose index (+1000 for the right
+// camera), fringe stacks 100 + 2 * index + direction (+1000 right).
+struct ProjectorCalibrationFolderOptions {
+  BoardPoseOptions poses;      // count, seed, distances; both_cameras follows two_cameras
+  FringeBoardOptions fringes;  // albedos, ambient, supersampling
+  std::string preset = "heterodyne-4x3";  // scheme preset of both directions
+  bool two_cameras = false;
+  void Check() const;
+};
+std::vector<Rigid3d> WriteProjectorCalibrationFolder(
+    const StereoRig& rig, const CalibrationTarget& target, const std::filesystem::path& dir,
+    const ProjectorCalibrationFolderOptions& options = {});
 
 }  // namespace fringe::sim

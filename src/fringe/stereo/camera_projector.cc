@@ -134,86 +134,82 @@ TriangulatedPoint TriangulateCameraProjector(const CameraProjectorRig& rig,
   return Triangulate(rig.AsTwoViewRig(), camera_px, projector_px, options);
 }
 
-void CameraProjectorOptions::Check() const { reconstruction.Check(); }
+namespace {
 
-CameraProjectorReconstructor::CameraProjectorReconstructor(
-    const CameraProjectorRig& rig, const std::vector<phase::PatternScheme>& schemes,
-    const CameraProjectorOptions& options)
-    : rig_(rig), schemes_(schemes), options_(options) {
-  rig_.Check();
-  options_.Check();
-  if (schemes_.empty() || schemes_.size() > 2) {
-    throw Error(
-        util::StrCat("camera-projector: need one or two pattern schemes, got ", schemes_.size()));
-  }
-  for (const auto& s : schemes_) s.Check();
-  if (schemes_.size() == 2 && schemes_[0].direction == schemes_[1].direction) {
-    throw Error(util::StrCat("camera-projector: the two schemes '", schemes_[0].name, "' and '",
-                             schemes_[1].name, "' have the same fringe direction (",
-                             phase::DirectionName(schemes_[0].direction),
-                             "); two schemes must be one vertical and one horizontal"));
-  }
-  rays_.resize(static_cast<size_t>(rig_.camera.width) * rig_.camera.height);
-  tbb::parallel_for(tbb::blocked_range<int>(0, rig_.camera.height), [&](const auto& rows) {
-    for (int r = rows.begin(); r < rows.end(); ++r) {
-      for (int c = 0; c < rig_.camera.width; ++c) {
-        rays_[static_cast<size_t>(r) * rig_.camera.width + c] =
-            rig_.camera.Ray(Eigen::Vector2d(c, r));
+// Camera ray against the projector, per valid pixel (of every stack); see the header.
+class CameraProjectorCorrespondence : public Correspondence {
+ public:
+  CameraProjectorCorrespondence(const CameraProjectorRig& rig, const MatchingOptions& options)
+      : rig_(rig), options_(options) {
+    rig_.Check();
+    options_.Check();
+    rays_.resize(static_cast<size_t>(rig_.camera.width) * rig_.camera.height);
+    tbb::parallel_for(tbb::blocked_range<int>(0, rig_.camera.height), [&](const auto& rows) {
+      for (int r = rows.begin(); r < rows.end(); ++r) {
+        for (int c = 0; c < rig_.camera.width; ++c) {
+          rays_[static_cast<size_t>(r) * rig_.camera.width + c] =
+              rig_.camera.Ray(Eigen::Vector2d(c, r));
+        }
       }
+    });
+  }
+  const char* Name() const override { return "camera-projector"; }
+  const CameraModel& Left() const override { return rig_.camera; }
+  bool UsesRight() const override { return false; }
+  void CheckSchemes(const std::vector<phase::PatternScheme>& schemes) const override {
+    if (schemes.empty() || schemes.size() > 2) {
+      throw Error(
+          util::StrCat("camera-projector: need one or two pattern schemes, got ", schemes.size()));
     }
-  });
+    if (schemes.size() == 2 && schemes[0].direction == schemes[1].direction) {
+      throw Error(util::StrCat("camera-projector: the two schemes '", schemes[0].name, "' and '",
+                               schemes[1].name, "' have the same fringe direction (",
+                               phase::DirectionName(schemes[0].direction),
+                               "); two schemes must be one vertical and one horizontal"));
+    }
+  }
+  void Correspond(const std::vector<phase::PatternScheme>& schemes, const DecodedView& view,
+                  ViewReconstruction* out) const override;
+
+  // One pixel (valid in every stack): the point, or a failed status.
+  TriangulatedPoint Pixel(const std::vector<phase::PatternScheme>& schemes,
+                          const std::vector<phase::DecodeResult>& decoded,
+                          const StereoRig& two_view, int c, int r) const;
+  const CameraProjectorRig& rig() const { return rig_; }
+
+ private:
+  CameraProjectorRig rig_;
+  MatchingOptions options_;
+  std::vector<Eigen::Vector3d> rays_;  // unit camera rays per pixel (row-major)
+};
+
+TriangulatedPoint CameraProjectorCorrespondence::Pixel(
+    const std::vector<phase::PatternScheme>& schemes,
+    const std::vector<phase::DecodeResult>& decoded, const StereoRig& two_view, int c,
+    int r) const {
+  const size_t i = static_cast<size_t>(r) * rig_.camera.width + c;
+  if (decoded.size() == 2) {
+    const int vertical_index = schemes[0].direction == phase::FringeDirection::kVertical ? 0 : 1;
+    const double u = decoded[vertical_index].absolute_phase.at<float>(r, c);
+    const double v = decoded[1 - vertical_index].absolute_phase.at<float>(r, c);
+    const Eigen::Vector2d xy_proj = rig_.projector.Unproject(Eigen::Vector2d(u, v));
+    return TriangulateFromRays(two_view, rays_[i], Eigen::Vector2d(c, r), xy_proj,
+                               Eigen::Vector2d(u, v), options_.triangulation);
+  }
+  return TriangulateCameraProjectorRay(rig_, rays_[i], decoded[0].absolute_phase.at<float>(r, c),
+                                       schemes[0].direction, options_.triangulation);
 }
 
-ViewReconstruction CameraProjectorReconstructor::Reconstruct(
-    const std::vector<std::vector<cv::Mat>>& stacks) const {
-  util::Timer total;
-  if (stacks.size() != schemes_.size()) {
-    throw Error(util::StrCat("camera-projector: ", stacks.size(), " image stacks for ",
-                             schemes_.size(), " schemes"));
-  }
-  const CameraModel& cam = rig_.camera;
-  for (size_t i = 0; i < stacks.size(); ++i) {
-    if (!stacks[i].empty() && (stacks[i][0].cols != cam.width || stacks[i][0].rows != cam.height)) {
-      throw Error(util::StrCat("camera-projector: images of scheme '", schemes_[i].name, "' are ",
-                               stacks[i][0].cols, "x", stacks[i][0].rows, " but the camera is ",
-                               cam.width, "x", cam.height));
-    }
-  }
-  const ReconstructionOptions& ro = options_.reconstruction;
-  ViewReconstruction out;
-  ReconstructionSummary& s = out.summary;
+void CameraProjectorCorrespondence::Correspond(const std::vector<phase::PatternScheme>& schemes,
+                                               const DecodedView& view,
+                                               ViewReconstruction* out) const {
   util::Timer timer;
-  std::vector<phase::DecodeResult> decoded;
-  for (size_t i = 0; i < stacks.size(); ++i) {
-    decoded.push_back(phase::Decode(schemes_[i], stacks[i], ro.decode));
-  }
-  s.decode_left = decoded[0].summary;
-  if (decoded.size() > 1) s.decode_right = decoded[1].summary;
-  s.decode_s = timer.ElapsedSeconds();
-  // Texture on the 0-255 scale from the full scale the decoder used (reconstruct_view.cc).
-  const double texture_scale = 255.0 / decoded[0].summary.full_scale_dn;
-  decoded[0].background.convertTo(out.texture_left, CV_32F, texture_scale);
-  out.cloud = OrganizedPointCloud(cam.width, cam.height, false, true, true);
-  out.reprojection_error_px =
-      cv::Mat(cam.height, cam.width, CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
-  for (size_t i = 0; i < decoded.size(); ++i) {
-    const phase::DecodeSummary& d = decoded[i].summary;
-    if (d.status != phase::DecodeStatus::kSuccess) {
-      s.status = ReconstructionStatus::kNoValidPixels;
-      s.message = util::StrCat("the fringe decoder found no valid pixel in the camera images of '",
-                               schemes_[i].name, "' (", d.BriefReport(), ")");
-      s.total_s = total.ElapsedSeconds();
-      return out;
-    }
-  }
-
-  // Correspondence and triangulation per pixel; counts per row, summed in row order.
-  timer.Restart();
+  const std::vector<phase::DecodeResult>& decoded = view.left;
+  const CameraModel& cam = rig_.camera;
+  // Per pixel; counts per row, summed in row order.
   const bool both = decoded.size() == 2;
-  const int vertical_index =
-      schemes_[0].direction == phase::FringeDirection::kVertical ? 0 : (both ? 1 : -1);
   const StereoRig two_view = rig_.AsTwoViewRig();
-  const MatchingOptions& mo = ro.matching;
+  const MatchingOptions& mo = options_;
   std::vector<int> failed(cam.height, 0), out_of_range(cam.height, 0), residual(cam.height, 0);
   tbb::parallel_for(tbb::blocked_range<int>(0, cam.height), [&](const auto& rows) {
     for (int r = rows.begin(); r < rows.end(); ++r) {
@@ -221,22 +217,11 @@ ViewReconstruction CameraProjectorReconstructor::Reconstruct(
         bool valid = true;
         for (const auto& d : decoded) valid = valid && d.mask.at<uint8_t>(r, c) != 0;
         if (!valid) continue;
-        const size_t i = out.cloud.index(c, r);
-        TriangulatedPoint tp;
-        if (both) {
-          const double u = decoded[vertical_index].absolute_phase.at<float>(r, c);
-          const double v = decoded[1 - vertical_index].absolute_phase.at<float>(r, c);
-          const Eigen::Vector2d xy_proj = rig_.projector.Unproject(Eigen::Vector2d(u, v));
-          tp = TriangulateFromRays(two_view, rays_[i], Eigen::Vector2d(c, r), xy_proj,
-                                   Eigen::Vector2d(u, v), mo.triangulation);
-          if (tp.ok() && tp.reprojection_error_px > mo.max_reprojection_error_px) {
-            ++residual[r];
-            continue;
-          }
-        } else {
-          tp = TriangulateCameraProjectorRay(rig_, rays_[i],
-                                             decoded[0].absolute_phase.at<float>(r, c),
-                                             schemes_[0].direction, mo.triangulation);
+        const size_t i = out->cloud.index(c, r);
+        const TriangulatedPoint tp = Pixel(schemes, decoded, two_view, c, r);
+        if (both && tp.ok() && tp.reprojection_error_px > mo.max_reprojection_error_px) {
+          ++residual[r];
+          continue;
         }
         if (!tp.ok()) {
           ++failed[r];
@@ -246,38 +231,153 @@ ViewReconstruction CameraProjectorReconstructor::Reconstruct(
           ++out_of_range[r];
           continue;
         }
-        out.cloud.valid[i] = 1;
-        out.cloud.cloud.points[i] = tp.p_in_left;
-        out.cloud.cloud.quality[i] = decoded[0].modulation.at<float>(r, c);
-        out.cloud.cloud.intensity[i] =
-            static_cast<float>(decoded[0].background.at<float>(r, c) * texture_scale);
-        out.reprojection_error_px.at<float>(r, c) = static_cast<float>(tp.reprojection_error_px);
+        out->cloud.valid[i] = 1;
+        out->cloud.cloud.points[i] = tp.p_in_left;
+        out->cloud.cloud.quality[i] = decoded[0].modulation.at<float>(r, c);
+        out->cloud.cloud.intensity[i] =
+            static_cast<float>(decoded[0].background.at<float>(r, c) * view.texture_scale);
+        out->reprojection_error_px.at<float>(r, c) = static_cast<float>(tp.reprojection_error_px);
       }
     }
   });
-  MatchingSummary& m = s.matching;
+  MatchingSummary& m = out->summary.matching;
   for (int r = 0; r < cam.height; ++r) {
     m.triangulation_failed += failed[r];
     m.out_of_depth_range += out_of_range[r];
     m.large_residual += residual[r];
   }
   m.left_valid = static_cast<int>(cv::countNonZero(decoded[0].mask));
-  m.points = static_cast<int>(out.cloud.NumValid());
+  m.points = static_cast<int>(out->cloud.NumValid());
   double sum = 0;
-  for (size_t i = 0; i < out.cloud.valid.size(); ++i) {
-    if (out.cloud.valid[i]) {
-      sum += out.reprojection_error_px.at<float>(static_cast<int>(i / cam.width),
-                                                 static_cast<int>(i % cam.width));
+  for (size_t i = 0; i < out->cloud.valid.size(); ++i) {
+    if (out->cloud.valid[i]) {
+      sum += out->reprojection_error_px.at<float>(static_cast<int>(i / cam.width),
+                                                  static_cast<int>(i % cam.width));
     }
   }
   m.mean_reprojection_error_px = m.points ? sum / m.points : 0;
+  if (m.points == 0) {
+    m.status = MatchingStatus::kNoPoints;
+    m.message = "no valid pixel triangulated against the projector within the depth range";
+  }
   m.time_s = timer.ElapsedSeconds();
-  s.match_s = m.time_s;
+}
 
-  // The stages after correspondence, as in stereo mode.
-  FinishViewReconstruction(cam.fx, ro, &out);
-  s.total_s = total.ElapsedSeconds();
-  return out;
+// The decoded phase at a subpixel position: bilinear when the four pixels around it are valid,
+// else the nearest valid pixel's; NaN outside the image or where the nearest pixel is invalid.
+double PhaseAt(const phase::DecodeResult& d, const Eigen::Vector2d& px) {
+  const int w = d.mask.cols, h = d.mask.rows;
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  if (!(px.x() > -0.5 && px.y() > -0.5 && px.x() < w - 0.5 && px.y() < h - 0.5)) return nan;
+  const int c0 = static_cast<int>(std::floor(px.x())), r0 = static_cast<int>(std::floor(px.y()));
+  if (c0 >= 0 && r0 >= 0 && c0 + 1 < w && r0 + 1 < h && d.mask.at<uint8_t>(r0, c0) &&
+      d.mask.at<uint8_t>(r0, c0 + 1) && d.mask.at<uint8_t>(r0 + 1, c0) &&
+      d.mask.at<uint8_t>(r0 + 1, c0 + 1)) {
+    const double fx = px.x() - c0, fy = px.y() - r0;
+    const cv::Mat& p = d.absolute_phase;
+    return (1 - fy) * ((1 - fx) * p.at<float>(r0, c0) + fx * p.at<float>(r0, c0 + 1)) +
+           fy * ((1 - fx) * p.at<float>(r0 + 1, c0) + fx * p.at<float>(r0 + 1, c0 + 1));
+  }
+  const int c = static_cast<int>(std::lround(px.x())), r = static_cast<int>(std::lround(px.y()));
+  return d.mask.at<uint8_t>(r, c) ? d.absolute_phase.at<float>(r, c) : nan;
+}
+
+// Stereo, then the left-only pixels from the left camera + projector (see the header).
+class TrinocularCorrespondence : public Correspondence {
+ public:
+  TrinocularCorrespondence(const StereoRig& rig, const MatchingOptions& options)
+      : rig_(rig),
+        options_(options),
+        stereo_(MakeStereoCorrespondence(rig, options)),
+        camera_projector_(CameraProjectorRig::FromLeftCamera(rig), options) {}
+  const char* Name() const override { return "trinocular"; }
+  const CameraModel& Left() const override { return rig_.left; }
+  bool UsesRight() const override { return true; }
+  const CameraModel* Right() const override { return &rig_.right; }
+  void CheckSchemes(const std::vector<phase::PatternScheme>& schemes) const override {
+    stereo_->CheckSchemes(schemes);
+  }
+  void Correspond(const std::vector<phase::PatternScheme>& schemes, const DecodedView& view,
+                  ViewReconstruction* out) const override {
+    stereo_->Correspond(schemes, view, out);
+    util::Timer timer;
+    const CameraModel& left = rig_.left;
+    const CameraModel& right = rig_.right;
+    const phase::DecodeResult& dl = view.left[0];
+    const phase::DecodeResult& dr = view.right[0];
+    const StereoRig two_view = camera_projector_.rig().AsTwoViewRig();
+    // A phase tolerance in projector pixels: the projector check of stereo matching, or 1 px
+    // when that check is off.
+    const double phase_tol =
+        options_.max_projector_error_px > 0 ? options_.max_projector_error_px : 1.0;
+    std::vector<int> filled(left.height, 0);
+    tbb::parallel_for(tbb::blocked_range<int>(0, left.height), [&](const auto& rows) {
+      for (int r = rows.begin(); r < rows.end(); ++r) {
+        for (int c = 0; c < left.width; ++c) {
+          const size_t i = out->cloud.index(c, r);
+          if (out->cloud.valid[i] || dl.mask.at<uint8_t>(r, c) == 0) continue;
+          const TriangulatedPoint tp = camera_projector_.Pixel(schemes, view.left, two_view, c, r);
+          if (!tp.ok() || tp.p_in_left.z() < options_.min_depth_mm ||
+              tp.p_in_left.z() > options_.max_depth_mm) {
+            continue;
+          }
+          // Seen by the right camera? Then stereo decided, and the pixel stays empty.
+          const Eigen::Vector3d p_in_right = rig_.right_from_left * tp.p_in_left;
+          if (p_in_right.z() > 0) {
+            const double right_phase = PhaseAt(dr, right.Project(p_in_right));
+            if (std::isfinite(right_phase) &&
+                std::abs(right_phase - dl.absolute_phase.at<float>(r, c)) <= phase_tol) {
+              continue;
+            }
+          }
+          out->cloud.valid[i] = 1;
+          out->cloud.cloud.points[i] = tp.p_in_left;
+          if (out->cloud.cloud.has_quality()) {
+            out->cloud.cloud.quality[i] = dl.modulation.at<float>(r, c);
+          }
+          if (out->cloud.cloud.has_intensity()) {
+            out->cloud.cloud.intensity[i] =
+                static_cast<float>(dl.background.at<float>(r, c) * view.texture_scale);
+          }
+          out->reprojection_error_px.at<float>(r, c) = static_cast<float>(tp.reprojection_error_px);
+          ++filled[r];
+        }
+      }
+    });
+    MatchingSummary& m = out->summary.matching;
+    for (int r = 0; r < left.height; ++r) m.projector_filled += filled[r];
+    m.points = static_cast<int>(out->cloud.NumValid());
+    if (m.points > 0 && m.status == MatchingStatus::kNoPoints) {
+      m.status = MatchingStatus::kOk;
+      m.message.clear();
+    }
+    m.time_s += timer.ElapsedSeconds();
+  }
+
+ private:
+  StereoRig rig_;
+  MatchingOptions options_;
+  std::shared_ptr<const Correspondence> stereo_;
+  CameraProjectorCorrespondence camera_projector_;
+};
+
+}  // namespace
+
+std::shared_ptr<const Correspondence> MakeCameraProjectorCorrespondence(
+    const CameraProjectorRig& rig, const MatchingOptions& options) {
+  return std::make_shared<CameraProjectorCorrespondence>(rig, options);
+}
+
+ViewReconstructor MakeCameraProjectorReconstructor(const CameraProjectorRig& rig,
+                                                   const std::vector<phase::PatternScheme>& schemes,
+                                                   const ReconstructionOptions& options) {
+  return ViewReconstructor(MakeCameraProjectorCorrespondence(rig, options.matching), schemes,
+                           options);
+}
+
+std::shared_ptr<const Correspondence> MakeTrinocularCorrespondence(const StereoRig& rig,
+                                                                   const MatchingOptions& options) {
+  return std::make_shared<TrinocularCorrespondence>(rig, options);
 }
 
 }  // namespace fringe::stereo

@@ -29,6 +29,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <memory>
 #include <vector>
 
 #include "fringe/geometry/camera.h"
@@ -75,36 +76,34 @@ TriangulatedPoint TriangulateCameraProjector(const CameraProjectorRig& rig,
                                              const Eigen::Vector2d& projector_px,
                                              const TriangulationOptions& options = {});
 
-struct CameraProjectorOptions {
-  // Decoding, outliers and normals as in stereo mode (outliers.focal_px is taken from the
-  // camera); `matching` supplies the depth range
-  // (min_depth_mm, max_depth_mm) and, for two directions, the triangulation options and the
-  // reprojection-residual limit.
-  ReconstructionOptions reconstruction;
-  void Check() const;
-};
+// Camera-projector correspondence: decodes one camera's stacks (one scheme: vertical or
+// horizontal fringes; two: one of each direction) and triangulates every valid pixel against
+// the projector. `options` supplies the depth range (min_depth_mm, max_depth_mm) and, for two
+// directions, the triangulation options and the reprojection-residual limit. The residual is,
+// for one direction, the round trip into the projector (px); for two, the RMS reprojection
+// residual over camera and projector. Throws fringe::Error for a bad rig or options.
+std::shared_ptr<const Correspondence> MakeCameraProjectorCorrespondence(
+    const CameraProjectorRig& rig, const MatchingOptions& options = {});
 
-// Decodes one camera's stacks and triangulates every valid pixel against the projector.
-// Output as ViewReconstructor's (reconstruct_view.h): an organized cloud on the CAMERA grid in
-// the camera frame, the per-pixel residual (one direction: the round trip into the projector,
-// px; two directions: the RMS reprojection residual over camera and projector), outliers and
-// normals. summary.decode_left is the (first) camera stack's decoding, decode_right the second
-// direction's when there is one.
-class CameraProjectorReconstructor {
- public:
-  // schemes: one (vertical or horizontal fringes) or two (one of each direction). Throws
-  // fringe::Error for a bad rig, schemes or options.
-  CameraProjectorReconstructor(const CameraProjectorRig& rig,
-                               const std::vector<phase::PatternScheme>& schemes,
-                               const CameraProjectorOptions& options = {});
-  // stacks[i]: the camera's images for schemes[i], in the scheme's order, camera-sized.
-  ViewReconstruction Reconstruct(const std::vector<std::vector<cv::Mat>>& stacks) const;
+// The ViewReconstructor of a camera + projector (the correspondence above; outliers and normals
+// as in stereo mode, outliers' footprints from the camera): Reconstruct({stacks}) with
+// ViewStacks::left[i] the camera's images of schemes[i]. summary.decode_left is the first
+// scheme's decoding, decode_right the second direction's when there is one.
+ViewReconstructor MakeCameraProjectorReconstructor(const CameraProjectorRig& rig,
+                                                   const std::vector<phase::PatternScheme>& schemes,
+                                                   const ReconstructionOptions& options = {});
 
- private:
-  CameraProjectorRig rig_;
-  std::vector<phase::PatternScheme> schemes_;
-  CameraProjectorOptions options_;
-  std::vector<Eigen::Vector3d> rays_;  // unit camera rays per pixel (row-major)
-};
+// Trinocular use of a stereo rig with a calibrated projector: stereo matching as
+// MakeStereoCorrespondence, then every valid left pixel without a stereo point whose
+// camera-projector point (left ray against the projector column) the right camera cannot see
+// is added from the left camera + projector. "Cannot see": the point projects outside the
+// right image, or onto a right pixel without a valid phase, or onto one whose decoded phase
+// differs from the left's by more than max_projector_error_px (the right camera sees another
+// surface there: the point is shadowed for it). Left pixels the right camera does see but
+// stereo rejected stay rejected (stereo had a reason). Points seen only by the right camera
+// have no place on the left grid and are not added. summary.matching.projector_filled counts
+// the added points. Throws fringe::Error for a rig without a projector, bad rig or options.
+std::shared_ptr<const Correspondence> MakeTrinocularCorrespondence(
+    const StereoRig& rig, const MatchingOptions& options = {});
 
 }  // namespace fringe::stereo

@@ -345,14 +345,17 @@ const char* ToString(MatchingStatus status) {
 }
 
 std::string MatchingSummary::BriefReport() const {
-  return util::StrCat("matching: ", ToString(status), ok() ? "" : " (" + message + ")", ", ",
-                      points, " points from ", left_valid, " valid left pixels (no crossing ",
-                      no_crossing, ", ambiguous ", ambiguous, ", discontinuity ", discontinuity,
-                      ", left-right ", lr_inconsistent, ", triangulation ", triangulation_failed,
-                      ", residual ", large_residual, ", projector ", projector_inconsistent,
-                      ", depth range ", out_of_depth_range, "), mean reprojection error ",
-                      mean_reprojection_error_px, " px, ", time_s, " s",
-                      warning.empty() ? "" : "; warning: ", warning);
+  return util::StrCat(
+      "matching: ", ToString(status), ok() ? "" : " (" + message + ")", ", ", points,
+      " points from ", left_valid, " valid left pixels (no crossing ", no_crossing, ", ambiguous ",
+      ambiguous, ", discontinuity ", discontinuity, ", left-right ", lr_inconsistent,
+      ", triangulation ", triangulation_failed, ", residual ", large_residual, ", projector ",
+      projector_inconsistent, ", depth range ", out_of_depth_range, "), mean reprojection error ",
+      mean_reprojection_error_px, " px, ", time_s, " s",
+      projector_filled > 0
+          ? util::StrCat("; ", projector_filled, " added from the left camera + projector")
+          : std::string(),
+      warning.empty() ? "" : "; warning: ", warning);
 }
 
 PhaseMatcher::PhaseMatcher(const StereoRig& rig, const MatchingOptions& options)

@@ -121,6 +121,9 @@ struct MatchingSummary {
   int large_residual = 0;
   int projector_inconsistent = 0;
   int out_of_depth_range = 0;
+  // Trinocular use only (camera_projector.h): left pixels the right camera cannot see, added
+  // from the left camera + projector (included in points).
+  int projector_filled = 0;
   int points = 0;
   double mean_reprojection_error_px = 0;
   double time_s = 0;

@@ -18,17 +18,40 @@ PhaseImage ToPhaseImage(const phase::DecodeResult& d, double texture_scale) {
   return p;
 }
 
-const StereoRig& CheckedRig(const StereoRig& rig, const phase::PatternScheme& scheme) {
-  rig.Check();
-  scheme.Check();
-  if (scheme.direction != phase::FringeDirection::kVertical) {
-    throw Error(util::StrCat("reconstruct: scheme '", scheme.name, "' has ",
-                             phase::DirectionName(scheme.direction),
-                             " fringes; stereo matching needs vertical fringes (the absolute "
-                             "phase must vary along the epipolar rows)"));
+class StereoCorrespondence : public Correspondence {
+ public:
+  StereoCorrespondence(const StereoRig& rig, const MatchingOptions& options)
+      : rig_((rig.Check(), rig)), matcher_(rig, options) {}
+  const char* Name() const override { return "stereo"; }
+  const CameraModel& Left() const override { return rig_.left; }
+  bool UsesRight() const override { return true; }
+  const CameraModel* Right() const override { return &rig_.right; }
+  void CheckSchemes(const std::vector<phase::PatternScheme>& schemes) const override {
+    if (schemes.size() != 1) {
+      throw Error(
+          util::StrCat("reconstruct: stereo matching takes one scheme, got ", schemes.size()));
+    }
+    const phase::PatternScheme& scheme = schemes[0];
+    if (scheme.direction != phase::FringeDirection::kVertical) {
+      throw Error(util::StrCat("reconstruct: scheme '", scheme.name, "' has ",
+                               phase::DirectionName(scheme.direction),
+                               " fringes; stereo matching needs vertical fringes (the absolute "
+                               "phase must vary along the epipolar rows)"));
+    }
   }
-  return rig;
-}
+  void Correspond(const std::vector<phase::PatternScheme>& /*schemes*/, const DecodedView& view,
+                  ViewReconstruction* out) const override {
+    MatchResult m = matcher_.Match(ToPhaseImage(view.left[0], view.texture_scale),
+                                   ToPhaseImage(view.right[0], view.texture_scale));
+    out->summary.matching = m.summary;
+    out->cloud = std::move(m.cloud);
+    out->reprojection_error_px = m.reprojection_error_px;
+  }
+
+ private:
+  StereoRig rig_;
+  PhaseMatcher matcher_;
+};
 
 }  // namespace
 
@@ -78,6 +101,7 @@ nlohmann::json SummaryToJson(const ReconstructionSummary& s) {
             {"large_residual", m.large_residual},
             {"projector_inconsistent", m.projector_inconsistent},
             {"out_of_depth_range", m.out_of_depth_range},
+            {"projector_filled", m.projector_filled},
             {"points", m.points},
             {"mean_reprojection_error_px", m.mean_reprojection_error_px},
             {"warning", m.warning},
@@ -106,57 +130,112 @@ nlohmann::json SummaryToJson(const ReconstructionSummary& s) {
           {"report", s.BriefReport()}};
 }
 
+std::shared_ptr<const Correspondence> MakeStereoCorrespondence(const StereoRig& rig,
+                                                               const MatchingOptions& options) {
+  return std::make_shared<StereoCorrespondence>(rig, options);
+}
+
+ViewReconstructor::ViewReconstructor(std::shared_ptr<const Correspondence> correspondence,
+                                     std::vector<phase::PatternScheme> schemes,
+                                     const ReconstructionOptions& options)
+    : correspondence_(std::move(correspondence)), schemes_(std::move(schemes)), options_(options) {
+  if (!correspondence_) throw Error("reconstruct: no correspondence given");
+  options_.Check();
+  for (const auto& s : schemes_) s.Check();
+  correspondence_->CheckSchemes(schemes_);
+}
+
 ViewReconstructor::ViewReconstructor(const StereoRig& rig, const phase::PatternScheme& scheme,
                                      const ReconstructionOptions& options)
-    : rig_(CheckedRig(rig, scheme)),
-      scheme_(scheme),
-      options_((options.Check(), options)),
-      matcher_(rig, options.matching) {}
+    : ViewReconstructor((rig.Check(), scheme.Check(),
+                         MakeStereoCorrespondence(rig, (options.Check(), options.matching))),
+                        {scheme}, options) {}
 
 ViewReconstruction ViewReconstructor::Reconstruct(const std::vector<cv::Mat>& left_images,
                                                   const std::vector<cv::Mat>& right_images) const {
+  ViewStacks stacks;
+  stacks.left.push_back(left_images);
+  if (correspondence_->UsesRight()) stacks.right.push_back(right_images);
+  return Reconstruct(stacks);
+}
+
+ViewReconstruction ViewReconstructor::Reconstruct(const ViewStacks& stacks) const {
   util::Timer total;
   ViewReconstruction out;
   ReconstructionSummary& s = out.summary;
-  auto check_size = [](const std::vector<cv::Mat>& imgs, const CameraModel& cam, const char* side) {
-    if (!imgs.empty() && (imgs[0].cols != cam.width || imgs[0].rows != cam.height)) {
-      throw Error(util::StrCat("reconstruct: ", side, " images are ", imgs[0].cols, "x",
-                               imgs[0].rows, " but the rig's ", side, " camera is ", cam.width, "x",
-                               cam.height));
+  const Correspondence& corr = *correspondence_;
+  const bool two_cameras = corr.UsesRight();
+  if (stacks.left.size() != schemes_.size() ||
+      (two_cameras && stacks.right.size() != schemes_.size())) {
+    throw Error(
+        util::StrCat("reconstruct: ", stacks.left.size(), " left",
+                     two_cameras ? util::StrCat(" and ", stacks.right.size(), " right") : "",
+                     " image stack(s) for ", schemes_.size(), " scheme(s)"));
+  }
+  auto check_size = [&](const std::vector<std::vector<cv::Mat>>& imgs, const CameraModel& cam,
+                        const char* side) {
+    for (size_t k = 0; k < imgs.size(); ++k) {
+      if (!imgs[k].empty() && (imgs[k][0].cols != cam.width || imgs[k][0].rows != cam.height)) {
+        throw Error(util::StrCat("reconstruct: ", side, " images",
+                                 imgs.size() > 1 ? " of scheme '" + schemes_[k].name + "'" : "",
+                                 " are ", imgs[k][0].cols, "x", imgs[k][0].rows, " but the rig's ",
+                                 side, " camera is ", cam.width, "x", cam.height));
+      }
     }
   };
-  check_size(left_images, rig_.left, "left");
-  check_size(right_images, rig_.right, "right");
+  check_size(stacks.left, corr.Left(), "left");
+  if (two_cameras) check_size(stacks.right, *corr.Right(), "right");
 
   util::Timer timer;
-  const phase::DecodeResult dl = phase::Decode(scheme_, left_images, options_.decode);
-  const phase::DecodeResult dr = phase::Decode(scheme_, right_images, options_.decode);
-  s.decode_left = dl.summary;
-  s.decode_right = dr.summary;
+  DecodedView decoded;
+  for (size_t k = 0; k < schemes_.size(); ++k) {
+    decoded.left.push_back(phase::Decode(schemes_[k], stacks.left[k], options_.decode));
+    if (two_cameras) {
+      decoded.right.push_back(phase::Decode(schemes_[k], stacks.right[k], options_.decode));
+    }
+  }
+  s.decode_left = decoded.left[0].summary;
+  if (two_cameras) {
+    s.decode_right = decoded.right[0].summary;
+  } else if (decoded.left.size() > 1) {
+    s.decode_right = decoded.left[1].summary;
+  }
   s.decode_s = timer.ElapsedSeconds();
   // Texture on the 0-255 scale from the full scale the decoder used (the bit depth's, e.g.
   // 4095 for 12-bit data in 16-bit images), not the container's.
-  const double texture_scale = 255.0 / dl.summary.full_scale_dn;
-  dl.background.convertTo(out.texture_left, CV_32F, texture_scale);
-  dr.background.convertTo(out.texture_right, CV_32F, texture_scale);
-  out.cloud = OrganizedPointCloud(rig_.left.width, rig_.left.height);
-  if (dl.summary.status != phase::DecodeStatus::kSuccess ||
-      dr.summary.status != phase::DecodeStatus::kSuccess) {
-    s.status = ReconstructionStatus::kNoValidPixels;
-    s.message = util::StrCat("the fringe decoder found no valid pixel in the ",
-                             dl.summary.valid == 0 ? "left" : "right", " images (",
-                             (dl.summary.valid == 0 ? dl : dr).summary.BriefReport(), ")");
-    s.total_s = total.ElapsedSeconds();
-    return out;
+  decoded.texture_scale = 255.0 / decoded.left[0].summary.full_scale_dn;
+  decoded.left[0].background.convertTo(out.texture_left, CV_32F, decoded.texture_scale);
+  if (two_cameras) {
+    decoded.right[0].background.convertTo(out.texture_right, CV_32F, decoded.texture_scale);
+  }
+  const CameraModel& cam = corr.Left();
+  out.cloud = OrganizedPointCloud(cam.width, cam.height, false, true, true);
+  out.reprojection_error_px =
+      cv::Mat(cam.height, cam.width, CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
+  // No valid pixel in a stack: nothing to correspond (named by camera, or by scheme when one
+  // camera has several).
+  for (int side = 0; side < (two_cameras ? 2 : 1); ++side) {
+    const auto& results = side == 0 ? decoded.left : decoded.right;
+    for (size_t k = 0; k < results.size(); ++k) {
+      const phase::DecodeSummary& d = results[k].summary;
+      if (d.status == phase::DecodeStatus::kSuccess) continue;
+      s.status = ReconstructionStatus::kNoValidPixels;
+      s.message = two_cameras ? util::StrCat("the fringe decoder found no valid pixel in the ",
+                                             side == 0 ? "left" : "right", " images (",
+                                             d.BriefReport(), ")")
+                              : util::StrCat(
+                                    "the fringe decoder found no valid pixel in the camera "
+                                    "images of '",
+                                    schemes_[k].name, "' (", d.BriefReport(), ")");
+      s.total_s = total.ElapsedSeconds();
+      return out;
+    }
   }
 
   timer.Restart();
-  MatchResult m = matcher_.Match(ToPhaseImage(dl, texture_scale), ToPhaseImage(dr, texture_scale));
-  s.matching = m.summary;
+  corr.Correspond(schemes_, decoded, &out);
   s.match_s = timer.ElapsedSeconds();
-  out.cloud = std::move(m.cloud);
-  out.reprojection_error_px = m.reprojection_error_px;
-  FinishViewReconstruction(rig_.left.fx, options_, &out);
+  FinishViewReconstruction(cam.fx, options_, &out);
   s.total_s = total.ElapsedSeconds();
   return out;
 }

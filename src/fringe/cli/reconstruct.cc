@@ -70,7 +70,8 @@ void AddReconstructCommand(CLI::App& app) {
       "triangulate to an organized point cloud (left camera frame, PLY) with normals; or, with "
       "one camera's images and a calibrated projector, triangulate camera against projector");
   sub->add_option("view", a->view,
-                  "View folder with left/ and right/ (or L/ and R/) image stacks; left/ (or L/) "
+                  "View folder with left/ and right/ (or L/ and R/) image stacks (each may hold "
+                  "exposure folders e0/, e1/, ...); left/ (or L/) "
                   "alone in camera-projector mode")
       ->required();
   sub->add_option("--mode", a->mode,
@@ -189,7 +190,9 @@ void AddReconstructCommand(CLI::App& app) {
       util::CheckDistinctOutputs({a->out, a->residuals, markers_path});
     }
     const phase::PatternScheme scheme = phase::SchemeFromArgument(scheme_arg, a->parameters);
-    const auto left = phase::ReadStack(left_dir, scheme);
+    // Each camera folder holds one stack or exposure folders e0/, e1/, ... (phase/stack_io.h).
+    const auto left_exposures = phase::ReadExposureStacks(left_dir, scheme);
+    const auto& left = left_exposures.front();
     StereoRig rig;
     if (opencv) {
       // The scheme's projector size stands in when the file does not hold it (SLMaster).
@@ -221,8 +224,12 @@ void AddReconstructCommand(CLI::App& app) {
       text << "camera-projector mode: " << left_dir.string() << " against the projector of "
            << rig_name << "\n";
     }
-    const auto right =
-        camera_projector ? std::vector<cv::Mat>{} : phase::ReadStack(right_dir, scheme);
+    if (camera_projector && left_exposures.size() > 1) {
+      throw Error(util::StrCat("reconstruct: ", left_dir.string(),
+                               ": several exposures are combined in stereo mode only"));
+    }
+    const auto right_exposures = camera_projector ? std::vector<std::vector<cv::Mat>>{}
+                                                  : phase::ReadExposureStacks(right_dir, scheme);
     // In a scan folder the full scale follows the bit depth its manifest states.
     if (a->bit_depth == 0 && scan_root) {
       a->bit_depth = scan::ScanFolder::Open(*scan_root).manifest().bit_depth;
@@ -241,7 +248,8 @@ void AddReconstructCommand(CLI::App& app) {
            << rec.summary.matching.BriefReport() << "\n";
       WarnIfSchemeMismatch(rec.summary.decode_left, scheme.name, left_dir.string());
     } else {
-      rec = stereo::ReconstructView(rig, scheme, left, right, a->options);
+      rec = stereo::ViewReconstructor(rig, scheme, a->options)
+                .Reconstruct(left_exposures, right_exposures);
       text << rec.summary.decode_left.BriefReport() << " (left)\n"
            << rec.summary.decode_right.BriefReport() << " (right)\n"
            << rec.summary.matching.BriefReport() << "\n";

@@ -160,9 +160,9 @@ SphereSupport Support(const Points& pts, const std::vector<size_t>& idx,
 
 // RANSAC for a sphere of unknown radius: each hypothesis is the sphere through four points
 // within a neighbourhood of random size (log-uniform between 1/50 and 1/2 of the sample's
-// extent) around a random point; it scores the sample points within max(band, 2 % of its
-// radius). It counts only when its radius is at most max_radius, its inliers cover a cap of at
-// least min_cap_half_angle_deg (a large sphere touching a plane has a small cap) and at most
+// extent) around a random point; it scores the sample points within inlier_band_mm. It counts
+// only when its radius is at most max_radius, its inliers cover a cap of at least
+// min_cap_half_angle_deg (a large sphere touching a plane has a small cap) and at most
 // kMaxInsideFraction of them lie inside it (a scanned sphere is solid: a large sphere cutting a
 // plane in a circle has the plane's disk inside it).
 constexpr double kMaxInsideFraction = 0.1;
@@ -196,8 +196,9 @@ bool FindSphereFreeRadius(const Points& pts, const VdiOptions& o, uint64_t strea
     Eigen::Vector3d c;
     double r;
     if (!AlgebraicSphere(four, &c, &r) || r > max_radius) continue;
-    const double band = std::max(o.inlier_band_mm, 0.02 * r);
-    const SphereSupport support = Support(pts, sample, c, r, band);
+    // The same band for every radius: a band growing with the radius would favour large
+    // spheres, which then gather noisy background points.
+    const SphereSupport support = Support(pts, sample, c, r, o.inlier_band_mm);
     if (support.inliers > best_score && support.mean_direction_norm <= max_mean_norm &&
         support.inside <= kMaxInsideFraction * support.inliers) {
       best_score = support.inliers;

@@ -115,22 +115,32 @@ ViewReconstructor::ViewReconstructor(const StereoRig& rig, const phase::PatternS
 
 ViewReconstruction ViewReconstructor::Reconstruct(const std::vector<cv::Mat>& left_images,
                                                   const std::vector<cv::Mat>& right_images) const {
+  return Reconstruct(std::vector<std::vector<cv::Mat>>{left_images},
+                     std::vector<std::vector<cv::Mat>>{right_images});
+}
+
+ViewReconstruction ViewReconstructor::Reconstruct(
+    const std::vector<std::vector<cv::Mat>>& left_exposures,
+    const std::vector<std::vector<cv::Mat>>& right_exposures) const {
   util::Timer total;
   ViewReconstruction out;
   ReconstructionSummary& s = out.summary;
-  auto check_size = [](const std::vector<cv::Mat>& imgs, const CameraModel& cam, const char* side) {
-    if (!imgs.empty() && (imgs[0].cols != cam.width || imgs[0].rows != cam.height)) {
-      throw Error(util::StrCat("reconstruct: ", side, " images are ", imgs[0].cols, "x",
-                               imgs[0].rows, " but the rig's ", side, " camera is ", cam.width, "x",
-                               cam.height));
+  auto check_size = [](const std::vector<std::vector<cv::Mat>>& stacks, const CameraModel& cam,
+                       const char* side) {
+    for (const auto& imgs : stacks) {
+      if (!imgs.empty() && (imgs[0].cols != cam.width || imgs[0].rows != cam.height)) {
+        throw Error(util::StrCat("reconstruct: ", side, " images are ", imgs[0].cols, "x",
+                                 imgs[0].rows, " but the rig's ", side, " camera is ", cam.width,
+                                 "x", cam.height));
+      }
     }
   };
-  check_size(left_images, rig_.left, "left");
-  check_size(right_images, rig_.right, "right");
+  check_size(left_exposures, rig_.left, "left");
+  check_size(right_exposures, rig_.right, "right");
 
   util::Timer timer;
-  const phase::DecodeResult dl = phase::Decode(scheme_, left_images, options_.decode);
-  const phase::DecodeResult dr = phase::Decode(scheme_, right_images, options_.decode);
+  const phase::DecodeResult dl = phase::DecodeExposures(scheme_, left_exposures, options_.decode);
+  const phase::DecodeResult dr = phase::DecodeExposures(scheme_, right_exposures, options_.decode);
   s.decode_left = dl.summary;
   s.decode_right = dr.summary;
   s.decode_s = timer.ElapsedSeconds();

@@ -81,6 +81,10 @@ class ViewReconstructor {
   // Images in the scheme's order (CV_8U or CV_16U), left and right camera sizes of the rig.
   ViewReconstruction Reconstruct(const std::vector<cv::Mat>& left_images,
                                  const std::vector<cv::Mat>& right_images) const;
+  // Each camera's stack at one or several exposures (phase::DecodeExposures combines them per
+  // pixel); the rest as above.
+  ViewReconstruction Reconstruct(const std::vector<std::vector<cv::Mat>>& left_exposures,
+                                 const std::vector<std::vector<cv::Mat>>& right_exposures) const;
 
  private:
   StereoRig rig_;

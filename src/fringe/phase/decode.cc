@@ -137,6 +137,18 @@ void CountReasons(int w, const uint8_t* __restrict reason, std::array<int64_t, 6
   (*counts)[0] = w - invalid;
 }
 
+// Pixel counts per PixelReason (valid first) into the summary's valid / rejected_* figures.
+constexpr int kNumReasons = static_cast<int>(PixelReason::kSpatial) + 1;
+void SetCounts(const std::array<int64_t, kNumReasons>& counts, DecodeSummary* sum) {
+  sum->valid = counts[0];
+  sum->rejected_saturated = counts[1];
+  sum->rejected_underexposed = counts[2];
+  sum->rejected_low_modulation = counts[3];
+  sum->rejected_shadow = counts[4];
+  sum->rejected_order_ambiguous = counts[5];
+  sum->rejected_spatial = counts[6];
+}
+
 // Reason codes: 0 valid, 1 saturated, 2 under-exposed, 3 low modulation, 4 shadow, 5 ambiguous
 // order (first failing test wins).
 template <typename T>
@@ -812,16 +824,11 @@ void Decode(const PatternScheme& scheme, const std::vector<cv::Mat>& images,
   sum.full_scale_dn = full;
   sum.noise = noise;
   sum.pixels = static_cast<int64_t>(size.area());
-  std::array<int64_t, 6> total{};
+  std::array<int64_t, kNumReasons> total{};  // the spatial check's rejections come below
   for (const auto& rc : row_counts) {
     for (int i = 0; i < 6; ++i) total[i] += rc[i];
   }
-  sum.valid = total[0];
-  sum.rejected_saturated = total[1];
-  sum.rejected_underexposed = total[2];
-  sum.rejected_low_modulation = total[3];
-  sum.rejected_shadow = total[4];
-  sum.rejected_order_ambiguous = total[5];
+  SetCounts(total, &sum);
 
   // Spatial fringe-order check. Decisions are taken on the unmodified map (per row, in
   // parallel) and applied afterwards, so the result does not depend on the thread count.
@@ -981,18 +988,12 @@ DecodeResult DecodeExposures(const PatternScheme& scheme,
 
   DecodeSummary& sum = out.summary;
   sum.pixels = static_cast<int64_t>(size.area());
-  std::array<int64_t, 7> counts{};
+  std::array<int64_t, kNumReasons> counts{};
   for (int r = 0; r < size.height; ++r) {
     const uint8_t* reason = out.reason.ptr<uint8_t>(r);
-    for (int c = 0; c < size.width; ++c) ++counts[std::min<uint8_t>(reason[c], 6)];
+    for (int c = 0; c < size.width; ++c) ++counts[std::min<int>(reason[c], kNumReasons - 1)];
   }
-  sum.valid = counts[0];
-  sum.rejected_saturated = counts[1];
-  sum.rejected_underexposed = counts[2];
-  sum.rejected_low_modulation = counts[3];
-  sum.rejected_shadow = counts[4];
-  sum.rejected_order_ambiguous = counts[5];
-  sum.rejected_spatial = counts[6];
+  SetCounts(counts, &sum);
   std::vector<int64_t> supplied(stacks.size(), 0);
   for (int r = 0; r < size.height; ++r) {
     const uint8_t* chosen = out.exposure.ptr<uint8_t>(r);

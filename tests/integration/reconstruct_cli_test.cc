@@ -94,6 +94,16 @@ TEST(ReconstructCli, SimulatedSphereViewToVdiFigures) {
   ASSERT_EQ(j["sphere"]["status"], "ok") << out;
   EXPECT_LT(std::abs(j["sphere"]["PS_mm"].get<double>()), kPsTolMm) << out;
   EXPECT_LT(j["sphere"]["PF_mm"].get<double>(), kPfMaxMm) << out;
+  // Without --diameter: the same sphere with a free radius, form figures and fitted diameter,
+  // no PS.
+  ASSERT_EQ(RunCli({"evaluate", ply, "--artefact", "sphere", "--json"}, &out, &err), 0)
+      << out << err;
+  const auto free = nlohmann::json::parse(out);
+  ASSERT_EQ(free["sphere"]["status"], "ok") << out;
+  EXPECT_FALSE(free["sphere"].contains("PS_mm")) << out;
+  EXPECT_NEAR(free["sphere"]["diameter_mm"].get<double>(), 2 * kRadiusMm, kPsTolMm) << out;
+  EXPECT_LT(free["sphere"]["PF_mm"].get<double>(), kPfMaxMm) << out;
+  EXPECT_GT(free["sphere"]["rms_mm"].get<double>(), 0) << out;
 
   const std::string map = (tmp / "deviation.png").string();
   ASSERT_EQ(RunCli({"evaluate", ply, "--truth", (tmp / "truth.ply").string(), "--pose",

@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <fstream>
 #include <iomanip>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgproc.hpp>
 #include <sstream>
@@ -124,6 +126,18 @@ FolderCalibration CalibrateFolder(const fs::path& dir, const CalibrationTarget& 
     }
     progress.Advance();
   }
+  // Warnings about the target's declaration (detect.h) hold for the whole folder: said once,
+  // with how many images gave them, before the calibration's result or failure.
+  std::map<std::string, int> warnings;
+  for (const auto* views : {&out.left, &out.right}) {
+    for (const TargetDetection& d : *views) {
+      if (!d.warning.empty()) ++warnings[d.warning];
+    }
+  }
+  const size_t images = out.left.size() + out.right.size();
+  for (const auto& [text, count] : warnings) {
+    util::LogWarning(util::StrCat(dir.string(), ": ", count, " of ", images, " images: ", text));
+  }
   if (out.stereo) {
     out.pair = CalibrateStereo(out.left, out.right, target, width, height, options, out.names);
   } else {
@@ -166,6 +180,93 @@ void WriteFolderCalibration(const fs::path& path, const FolderCalibration& r) {
     j["calibration"] = CalibrationToJson(r);
     io::WriteJson(path, j);
   }
+}
+
+nlohmann::json CentresToJson(const FolderCalibration& r, const CalibrationTarget& target) {
+  nlohmann::json rows = nlohmann::json::array();
+  auto device = [&](const char* camera, const std::vector<TargetDetection>& views,
+                    const CameraCalibration& cal) {
+    for (size_t v = 0; v < views.size(); ++v) {
+      const auto& features = views[v].features;
+      // The calibration's centres are in detection order, for the views it used (empty else).
+      const bool corrected =
+          v < cal.centres_px.size() && cal.centres_px[v].size() == features.size() &&
+          v < cal.residuals_px.size() && cal.residuals_px[v].size() == features.size();
+      for (size_t k = 0; k < features.size(); ++k) {
+        const FeatureObservation& f = features[k];
+        nlohmann::json row = {{"camera", camera},
+                              {"view", v},
+                              {"name", v < r.names.size() ? r.names[v] : std::string()},
+                              {"row", f.row},
+                              {"col", f.col},
+                              {"feature", f.row * target.cols + f.col},
+                              {"raw_px", {f.centre_px.x(), f.centre_px.y()}},
+                              {"corrected_px", nullptr},
+                              {"residual_px", nullptr}};
+        if (corrected) {
+          const Eigen::Vector2d& c = cal.centres_px[v][k];
+          const Eigen::Vector2d& e = cal.residuals_px[v][k];
+          row["corrected_px"] = {c.x(), c.y()};
+          row["residual_px"] = {e.x(), e.y()};
+        }
+        rows.push_back(std::move(row));
+      }
+    }
+  };
+  if (r.stereo) {
+    device("left", r.left, r.pair.left);
+    device("right", r.right, r.pair.right);
+  } else {
+    device("camera", r.left, r.mono);
+  }
+  return {{"format", "fringe-centres"}, {"version", 1}, {"units", "px"}, {"centres", rows}};
+}
+
+void CheckCentresPath(const fs::path& path) {
+  const std::string ext = path.extension().string();
+  if (ext != ".csv" && ext != ".json") {
+    throw Error(util::StrCat(path.string(),
+                             ": centres file must end in .csv or .json (the extension picks the "
+                             "format)"));
+  }
+}
+
+void WriteCentres(const fs::path& path, const FolderCalibration& r,
+                  const CalibrationTarget& target) {
+  CheckCentresPath(path);
+  const nlohmann::json j = CentresToJson(r, target);
+  if (path.extension() == ".json") {
+    io::WriteJson(path, j);
+    return;
+  }
+  std::ostringstream os;
+  os << std::setprecision(10);
+  os << "camera,view,name,row,col,feature,raw_x_px,raw_y_px,corrected_x_px,corrected_y_px,"
+        "residual_x_px,residual_y_px\n";
+  for (const auto& row : j["centres"]) {
+    // Names are file names: quote them (CSV, RFC 4180) so commas cannot shift the columns.
+    std::string name = row["name"].get<std::string>();
+    std::string quoted = "\"";
+    for (char c : name) quoted += c == '"' ? std::string("\"\"") : std::string(1, c);
+    quoted += '"';
+    os << row["camera"].get<std::string>() << ',' << row["view"].get<int>() << ',' << quoted << ','
+       << row["row"].get<int>() << ',' << row["col"].get<int>() << ',' << row["feature"].get<int>()
+       << ',' << row["raw_px"][0].get<double>() << ',' << row["raw_px"][1].get<double>();
+    for (const char* key : {"corrected_px", "residual_px"}) {
+      if (row[key].is_null()) {
+        os << ",,";
+      } else {
+        os << ',' << row[key][0].get<double>() << ',' << row[key][1].get<double>();
+      }
+    }
+    os << '\n';
+  }
+  util::WriteAtomically(path, [&](const fs::path& tmp) {
+    std::ofstream out(tmp, std::ios::binary);
+    out << os.str();
+    out.close();
+    if (!out) throw Error(util::StrCat(path.string(), ": write failed"));
+  });
 }
 
 cv::Mat ResidualImage(const CameraCalibration& cal, double scale) {

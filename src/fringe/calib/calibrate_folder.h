@@ -39,6 +39,23 @@ nlohmann::json CalibrationToJson(const FolderCalibration& result);
 // Writes the calibration (atomically).
 void WriteFolderCalibration(const std::filesystem::path& path, const FolderCalibration& result);
 
+// Every detected centre of every view and camera, for checking detections: per feature the
+// camera ("camera" for a single one, "left"/"right" for a pair), view index and name, board
+// row, column and feature index (row * cols + col, the target's order), the detected centre
+// ("raw", detect.h) and, in views the calibration used, the centre after the last
+// bias-correcting re-measurement ("corrected", calibrate.h) with its reprojection residual
+// (observed - projected). JSON: {"format": "fringe-centres", "version": 1, "centres": [...]},
+// corrected/residual null in unused views; CSV: one header line, then one line per feature,
+// corrected/residual empty in unused views.
+nlohmann::json CentresToJson(const FolderCalibration& result, const CalibrationTarget& target);
+// Writes CentresToJson's table as CSV or JSON (atomically), chosen by the file's extension
+// (.csv, .json; anything else is an error naming the file).
+void WriteCentres(const std::filesystem::path& path, const FolderCalibration& result,
+                  const CalibrationTarget& target);
+// Throws fringe::Error naming the file when its extension is neither .csv nor .json (checked
+// before a calibration starts).
+void CheckCentresPath(const std::filesystem::path& path);
+
 // Colour image of one camera's residual vectors (magnified by `scale`; 0: automatic, the RMS
 // drawn as 1.5 % of the width) at every feature, with the covered region (convex hulls of the
 // boards) shaded.

@@ -3,10 +3,15 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <sstream>
 
 #include "fringe/calib/calibrate_folder.h"
 #include "fringe/sim/board.h"
 #include "fringe/util/error.h"
+#include "fringe/util/files.h"
 #include "fringe_test.h"
 
 namespace fringe::calib {
@@ -205,6 +210,88 @@ TEST(CalibrateCamera, TooFewViewsIsAStatus) {
 
 namespace fringe::calib {
 namespace {
+
+// --centres: every detected centre of a folder calibration, raw and bias-corrected, with its
+// view and board index. Solid circles: the raw ellipse centres are biased under perspective and
+// the corrected ones are not, which the table must show against the true projected centres.
+TEST(CalibrateFolder, CentresTableHoldsRawAndCorrectedCentres) {
+  constexpr int kViews = 6;
+  const StereoRig rig = SmallRig();
+  CalibrationTarget target = CalibrationTarget::Reference();
+  target.type = TargetType::kCircleGrid;
+  sim::BoardPoseOptions po;
+  po.count = kViews;
+  po.seed = 5;
+  po.both_cameras = false;
+  po.min_visible_fraction = 1.0;  // symmetric grids are only detected whole
+  po.min_distance_mm = 520;
+  po.max_distance_mm = 700;
+  test::TempDir tmp;
+  std::vector<std::vector<Eigen::Vector2d>> truth;
+  const auto poses = sim::GenerateBoardPoses(rig, target, po);
+  for (size_t i = 0; i < poses.size(); ++i) {
+    const sim::BoardImage img = sim::RenderBoardImage(rig.left, target, poses[i], {}, i);
+    cv::imwrite((tmp / util::StrCat("view", i, ".png")).string(), img.image);
+    truth.push_back(img.centres_px);
+  }
+  const FolderCalibration cal = CalibrateFolder(tmp.path(), target);
+  ASSERT_TRUE(cal.success()) << cal.mono.summary.message;
+  WriteCentres(tmp / "centres.json", cal, target);
+  WriteCentres(tmp / "centres.csv", cal, target);
+  EXPECT_THROW(WriteCentres(tmp / "centres.txt", cal, target), Error);
+  EXPECT_FALSE(std::filesystem::exists(tmp / "centres.txt"));
+
+  const nlohmann::json j = nlohmann::json::parse(util::ReadTextFile(tmp / "centres.json"));
+  EXPECT_EQ(j.at("format"), "fringe-centres");
+  size_t detected = 0;
+  for (const auto& d : cal.left) detected += d.features.size();
+  ASSERT_EQ(j.at("centres").size(), detected);
+  ASSERT_GT(detected, 0u);
+  double ss_raw = 0, ss_corrected = 0;
+  int n = 0;
+  for (const auto& c : j.at("centres")) {
+    EXPECT_EQ(c.at("camera"), "camera");
+    const int v = c.at("view").get<int>();
+    ASSERT_GE(v, 0);
+    ASSERT_LT(v, kViews);
+    EXPECT_EQ(c.at("name"), cal.names[v]);
+    const int feature = c.at("feature").get<int>();
+    EXPECT_EQ(feature, c.at("row").get<int>() * target.cols + c.at("col").get<int>());
+    // The file's view index is the calibration's order (sorted names), the render order is
+    // the number in the name.
+    const int rendered = std::stoi(cal.names[v].substr(4));
+    const Eigen::Vector2d t = truth[rendered][feature];
+    const Eigen::Vector2d raw(c.at("raw_px")[0].get<double>(), c.at("raw_px")[1].get<double>());
+    ASSERT_FALSE(c.at("corrected_px").is_null());
+    const Eigen::Vector2d corrected(c.at("corrected_px")[0].get<double>(),
+                                    c.at("corrected_px")[1].get<double>());
+    ss_raw += (raw - t).squaredNorm();
+    ss_corrected += (corrected - t).squaredNorm();
+    ++n;
+  }
+  const double raw_rms = std::sqrt(ss_raw / n), corrected_rms = std::sqrt(ss_corrected / n);
+  std::cout << "centres vs truth: raw " << raw_rms << " px, corrected " << corrected_rms
+            << " px over " << n << "\n";
+  EXPECT_LT(corrected_rms, 0.5 * raw_rms);
+
+  // The CSV carries the same rows: a header and one line per feature, same raw centres.
+  std::istringstream csv(util::ReadTextFile(tmp / "centres.csv"));
+  std::string line;
+  std::getline(csv, line);
+  EXPECT_EQ(line.rfind("camera,view,name,row,col,feature,raw_x_px,raw_y_px,corrected_x_px", 0), 0u)
+      << line;
+  size_t rows = 0;
+  while (std::getline(csv, line)) {
+    std::vector<std::string> cells;
+    std::stringstream ls(line);
+    for (std::string cell; std::getline(ls, cell, ',');) cells.push_back(cell);
+    ASSERT_EQ(cells.size(), 12u) << line;
+    EXPECT_NEAR(std::stod(cells[6]), j["centres"][rows]["raw_px"][0].get<double>(), 1e-6);
+    EXPECT_NEAR(std::stod(cells[9]), j["centres"][rows]["corrected_px"][1].get<double>(), 1e-6);
+    ++rows;
+  }
+  EXPECT_EQ(rows, detected);
+}
 
 TEST(CalibrateFolder, CorruptOrMissingImagesGiveClearErrors) {
   const CalibrationTarget target = CalibrationTarget::Reference();

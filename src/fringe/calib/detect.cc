@@ -68,6 +68,8 @@ namespace {
 
 using Vec2 = Eigen::Vector2d;
 
+constexpr const char* kHasHole = "has a hole (not a solid circle)";
+
 Ellipse FromRotatedRect(const cv::RotatedRect& r) {
   Ellipse e;
   e.centre = {r.center.x, r.center.y};
@@ -100,13 +102,15 @@ struct Candidate {
 
 class Detector {
  public:
-  Detector(const cv::Mat& gray8, const CalibrationTarget& target, const DetectionOptions& options,
-           TargetDetection* out)
+  // gray8: the 8-bit image for the blob search; fine: the same image at full precision on the
+  // 0-255 scale (gray8 itself for 8-bit input) for the subpixel edges and intensities.
+  Detector(const cv::Mat& gray8, const cv::Mat& fine, const CalibrationTarget& target,
+           const DetectionOptions& options, TargetDetection* out)
       : gray_(gray8),
         target_(target),
         opt_(options),
         out_(out),
-        gradient_(gray8, options.edges.smoothing_sigma_px) {}
+        gradient_(fine, options.edges.smoothing_sigma_px) {}
 
   void Run();
   // Blob finding, subpixel measurement and de-duplication (Run's first half): fills cands_.
@@ -133,6 +137,7 @@ class Detector {
   bool OrderCircleGrid(GridMap* result);
   bool OrientSymmetricGrid(const GridMap& best, GridMap* result);
   int OrderAsymmetric(const GridMap& grown, GridMap* result) const;
+  void WarnAboutDeclaration();
 
   const cv::Mat& gray_;
   const CalibrationTarget& target_;
@@ -236,7 +241,7 @@ void Detector::FindBlobs(std::vector<Blob>* blobs) {
         }
         blob.has_hole = true;
       } else if (hole_area > 0.05 * area) {
-        reject(centre, "has a hole (not a solid circle)");
+        reject(centre, kHasHole);
         continue;
       }
       all.push_back(blob);
@@ -574,9 +579,18 @@ bool Detector::OrderByDistinctFeatures(GridMap* result) {
                                  " distinct (centre-dot) features: orientation unknown");
     return false;
   }
-  if (dots.size() > 8) {
+  if (dots.size() > static_cast<size_t>(kMaxDistinctFeatures)) {
+    // Every assignment of dots to the declared positions is tried: more than a few dots cannot
+    // be the declared features. A board whose every ring is dotted is a symmetric grid.
     out_->status = DetectionStatus::kAmbiguous;
-    out_->message = util::StrCat(dots.size(), " features with a centre dot, expected ", df.size());
+    out_->message = util::StrCat(dots.size(), " rings carry a centre dot but the target declares ",
+                                 df.size(), " distinct features (at most ", kMaxDistinctFeatures,
+                                 " dotted rings can be told apart)");
+    if (2 * dots.size() >= cands_.size()) {
+      out_->warning =
+          "most rings carry a centre dot: if every ring of the board has one, declare "
+          "\"distinct_features\": [] and the board is ordered like a symmetric grid";
+    }
     return false;
   }
   // Try every assignment of dot features to the distinct positions.
@@ -842,8 +856,24 @@ std::vector<FeatureObservation> Detector::CandidateObservations() const {
   return out;
 }
 
+// A ring board declared as solid circles: its rings are rejected as "has a hole" and hardly
+// anything else is a candidate.
+void Detector::WarnAboutDeclaration() {
+  if (target_.type == TargetType::kConcentricRings || target_.type == TargetType::kChessboard) {
+    return;
+  }
+  int holes = 0;
+  for (const auto& r : out_->rejected) holes += r.reason == kHasHole ? 1 : 0;
+  if (holes >= 3 && holes > static_cast<int>(cands_.size())) {
+    out_->warning = util::StrCat(holes,
+                                 " dark blobs have a concentric hole: is this a ring board "
+                                 "declared as plain circles? (\"type\": \"rings\")");
+  }
+}
+
 void Detector::Run() {
   FindCandidates();
+  WarnAboutDeclaration();
   GridMap grid;
   if (!Order(&grid)) return;
   std::vector<bool> used(cands_.size(), false);
@@ -867,13 +897,34 @@ void Detector::Run() {
   out_->status = DetectionStatus::kOk;
 }
 
-void DetectChessboard(const cv::Mat& gray8, const CalibrationTarget& target, TargetDetection* out) {
+// The 8-bit copy for blob search and OpenCV's chessboard finder, and the full-precision image on
+// the same 0-255 scale (min-max scaled like cv::normalize) for subpixel work.
+struct ScaledImages {
+  cv::Mat gray8, fine;
+};
+ScaledImages ScaleForDetection(const cv::Mat& gray) {
+  ScaledImages out;
+  if (gray.depth() != CV_16U) {
+    out.gray8 = out.fine = gray;
+    return out;
+  }
+  double lo = 0, hi = 0;
+  cv::minMaxLoc(gray, &lo, &hi);
+  const double scale = hi > lo ? 255.0 / (hi - lo) : 1.0;
+  gray.convertTo(out.fine, CV_32F, scale, -lo * scale);
+  out.fine.convertTo(out.gray8, CV_8U);  // rounds and saturates
+  return out;
+}
+
+void DetectChessboard(const ScaledImages& images, const CalibrationTarget& target,
+                      TargetDetection* out) {
+  const cv::Mat& gray8 = images.gray8;
   const cv::Size pattern(target.cols, target.rows);
   std::vector<cv::Point2f> corners;
   bool found = cv::findChessboardCorners(
       gray8, pattern, corners, cv::CALIB_CB_ADAPTIVE_THRESH | cv::CALIB_CB_NORMALIZE_IMAGE);
   if (found) {
-    cv::cornerSubPix(gray8, corners, cv::Size(11, 11), cv::Size(-1, -1),
+    cv::cornerSubPix(images.fine, corners, cv::Size(11, 11), cv::Size(-1, -1),
                      cv::TermCriteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 30, 0.01));
   } else {
     found = cv::findChessboardCornersSB(
@@ -905,21 +956,27 @@ TargetDetection DetectTarget(const cv::Mat& gray, const CalibrationTarget& targe
   if (gray.empty() || gray.channels() != 1 || (gray.depth() != CV_8U && gray.depth() != CV_16U)) {
     throw Error("DetectTarget: expected a non-empty single-channel 8- or 16-bit image");
   }
-  util::Timer timer;
-  cv::Mat gray8;
-  if (gray.depth() == CV_16U) {
-    cv::normalize(gray, gray8, 0, 255, cv::NORM_MINMAX, CV_8U);
-  } else {
-    gray8 = gray;
+  if (target.type == TargetType::kConcentricRings &&
+      target.distinct_features.size() > static_cast<size_t>(kMaxDistinctFeatures)) {
+    throw Error(util::StrCat(
+        "the target declares ", target.distinct_features.size(),
+        " distinct (centre-dot) features; the detector tells at most ", kMaxDistinctFeatures,
+        " apart. A board whose every ring has a centre dot declares \"distinct_features\": [] "
+        "and is ordered like a symmetric grid"));
   }
+  util::Timer timer;
+  const ScaledImages images = ScaleForDetection(gray);
   TargetDetection out;
   out.image_width = gray.cols;
   out.image_height = gray.rows;
   if (target.type == TargetType::kChessboard) {
-    DetectChessboard(gray8, target, &out);
+    DetectChessboard(images, target, &out);
   } else {
-    Detector d(gray8, target, options, &out);
+    Detector d(images.gray8, images.fine, target, options, &out);
     d.Run();
+  }
+  if (!out.warning.empty()) {
+    out.message += util::StrCat(out.message.empty() ? "" : "; ", "warning: ", out.warning);
   }
   out.seconds = timer.ElapsedSeconds();
   return out;
@@ -937,12 +994,7 @@ RingDetection DetectRings(const cv::Mat& gray, double inner_to_outer_ratio,
   if (gray.empty() || gray.channels() != 1 || (gray.depth() != CV_8U && gray.depth() != CV_16U)) {
     throw Error("DetectRings: expected a non-empty single-channel 8- or 16-bit image");
   }
-  cv::Mat gray8;
-  if (gray.depth() == CV_16U) {
-    cv::normalize(gray, gray8, 0, 255, cv::NORM_MINMAX, CV_8U);
-  } else {
-    gray8 = gray;
-  }
+  const ScaledImages images = ScaleForDetection(gray);
   // A ring target of unit outer radius without centre dots: the candidate stage of the board
   // detector is exactly a ring finder.
   CalibrationTarget rings;
@@ -952,7 +1004,7 @@ RingDetection DetectRings(const cv::Mat& gray, double inner_to_outer_ratio,
   rings.dot_radius_mm = 0;
   rings.distinct_features.clear();
   TargetDetection scratch;
-  Detector d(gray8, rings, options, &scratch);
+  Detector d(images.gray8, images.fine, rings, options, &scratch);
   d.FindCandidates();
   RingDetection out;
   out.rings = d.CandidateObservations();

@@ -27,6 +27,16 @@
 // right-handed; unique, so no orientation ambiguity. (OpenCV's findCirclesGrid expects its own
 // asymmetric lattice, x = (2 col + row % 2) d, y = row d, and does not find this one.)
 //
+// Ring boards order their grid from the distinct (centre-dot) features by trying every
+// assignment of the dotted rings found to the declared positions, so at most
+// kMaxDistinctFeatures may be declared (more is an error saying so). A board whose every ring
+// carries a dot, or none, declares "distinct_features": [] and is ordered like a symmetric grid
+// (complete boards only, the orientation convention below).
+//
+// 16-bit images: the blob search runs on an 8-bit min-max scaled copy (contours need it), the
+// subpixel edges on the full-precision image on the same 0-255 scale (edge thresholds are in
+// those DN), so 16-bit captures keep their precision where it matters.
+//
 // Thread safety: DetectTarget is reentrant.
 #pragma once
 
@@ -40,6 +50,9 @@
 #include "fringe/geometry/calibration_target.h"
 
 namespace fringe::calib {
+
+// Most distinct (centre-dot) features a ring target may declare (see the header comment).
+constexpr int kMaxDistinctFeatures = 8;
 
 struct DetectionOptions {
   EdgeOptions edges;
@@ -83,13 +96,17 @@ struct TargetDetection {
   int num_candidates = 0;                    // circular blobs that passed the shape screening
   std::vector<FeatureObservation> features;  // ordered by (row, col)
   std::vector<RejectedCandidate> rejected;   // blobs not used, with the reason
+  // What looks wrong with the target's declaration rather than the image (e.g. a ring board
+  // declared as plain circles); empty when nothing does. Also appended to `message`.
+  std::string warning;
   double seconds = 0;
 
   bool ok() const { return status == DetectionStatus::kOk; }
   std::string BriefReport() const;
 };
 
-// Detects `target` in a single-channel image (CV_8U or CV_16U).
+// Detects `target` in a single-channel image (CV_8U or CV_16U). Throws fringe::Error when the
+// target declares more than kMaxDistinctFeatures distinct features.
 TargetDetection DetectTarget(const cv::Mat& gray, const CalibrationTarget& target,
                              const DetectionOptions& options = {});
 

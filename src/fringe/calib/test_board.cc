@@ -71,11 +71,16 @@ cv::Mat RenderTestBoard(const CalibrationTarget& target, const CameraModel& came
   }
   std::mt19937_64 rng(options.seed);
   std::normal_distribution<double> noise(0.0, options.noise_sigma_dn);
-  cv::Mat out(img.size(), CV_8U);
+  const bool wide = options.bit_depth == 16;
+  cv::Mat out(img.size(), wide ? CV_16U : CV_8U);
   for (int v = 0; v < img.rows; ++v) {
     for (int u = 0; u < img.cols; ++u) {
       const double val = img.at<float>(v, u) + (options.noise_sigma_dn > 0 ? noise(rng) : 0.0);
-      out.at<uint8_t>(v, u) = cv::saturate_cast<uint8_t>(std::lround(val));
+      if (wide) {
+        out.at<uint16_t>(v, u) = cv::saturate_cast<uint16_t>(std::lround(257 * val));
+      } else {
+        out.at<uint8_t>(v, u) = cv::saturate_cast<uint8_t>(std::lround(val));
+      }
     }
   }
   return out;

@@ -23,9 +23,12 @@ struct TestBoardOptions {
   double bright_dn = 210;       // white board
   double background_dn = 90;    // outside the board
   uint64_t seed = 1;
+  // 8: CV_8U; 16: CV_16U holding the same noisy values times 257 (full 16-bit scale), rounded
+  // there, so the two differ only in quantisation.
+  int bit_depth = 8;
 };
 
-// 8-bit image of `target` at camera_from_board.
+// 8- or 16-bit image of `target` at camera_from_board (DN on the 8-bit scale above).
 cv::Mat RenderTestBoard(const CalibrationTarget& target, const CameraModel& camera,
                         const Rigid3d& camera_from_board, const TestBoardOptions& options = {});
 

@@ -31,7 +31,7 @@ namespace {
 namespace fs = std::filesystem;
 
 struct CalibrateArgs {
-  std::string dir, target, out, residual_image;
+  std::string dir, target, out, residual_image, centres;
   bool k3 = false;
 };
 
@@ -58,9 +58,18 @@ void CalibrateProjector(const CalibrateArgs& a, const CalibrationTarget& target,
   if (!a.residual_image.empty()) {
     io::WriteImage(outputs.Stage(a.residual_image), calib::ResidualImage(cal.LeftCamera()));
   }
+  if (!a.centres.empty()) {
+    // The camera's detections (the projector's "centres" are decoded phase, not detections).
+    calib::FolderCalibration camera_only;
+    camera_only.names = names;
+    camera_only.left = camera;
+    camera_only.mono = cal.joint.left;
+    calib::WriteCentres(outputs.Stage(a.centres), camera_only, target);
+  }
   outputs.Commit();
   std::cout << "wrote " << a.out << "\n";
   if (!a.residual_image.empty()) std::cout << "wrote " << a.residual_image << "\n";
+  if (!a.centres.empty()) std::cout << "wrote " << a.centres << "\n";
 }
 
 }  // namespace
@@ -79,15 +88,20 @@ void AddCalibrateCommand(CLI::App& app) {
   sub->add_option("--residual-image", a->residual_image,
                   "Write an image of residual vectors and coverage (left camera)");
   sub->add_flag("--k3", a->k3, "Also estimate the radial coefficient k3");
+  sub->add_option("--centres", a->centres,
+                  "Write every detected centre (raw and bias-corrected, per view and camera, "
+                  "with the board feature index) as CSV or JSON, by the file's extension");
   sub->callback([a] {
     // Every output location is checked before the (long) computation; an output never replaces
     // an input (the target file, the images).
     const std::vector<std::filesystem::path> inputs = {a->dir, a->target};
     util::CheckOutputFile(a->out, inputs);
-    if (!a->residual_image.empty()) {
-      util::CheckOutputFile(a->residual_image, inputs);
-      util::CheckDistinctOutputs({a->out, a->residual_image});
+    if (!a->residual_image.empty()) util::CheckOutputFile(a->residual_image, inputs);
+    if (!a->centres.empty()) {
+      calib::CheckCentresPath(a->centres);
+      util::CheckOutputFile(a->centres, inputs);
     }
+    util::CheckDistinctOutputs({a->out, a->residual_image, a->centres});  // empty: not given
     const CalibrationTarget target = io::ReadTarget(a->target);
     calib::CalibrationOptions options;
     options.estimate_k3 = a->k3;
@@ -113,9 +127,11 @@ void AddCalibrateCommand(CLI::App& app) {
       io::WriteImage(outputs.Stage(a->residual_image),
                      calib::ResidualImage(result.stereo ? result.pair.left : result.mono));
     }
+    if (!a->centres.empty()) calib::WriteCentres(outputs.Stage(a->centres), result, target);
     outputs.Commit();
     std::cout << "wrote " << a->out << "\n";
     if (!a->residual_image.empty()) std::cout << "wrote " << a->residual_image << "\n";
+    if (!a->centres.empty()) std::cout << "wrote " << a->centres << "\n";
   });
 }
 

@@ -194,6 +194,29 @@ TEST(CliBadInput, CalibrateAndReconstructNeverOverwriteTheirInputs) {
   }
 }
 
+// --centres picks CSV or JSON by the extension; anything else is refused before any work, and
+// a ball bar needs its calibrated distance.
+TEST(CliBadInput, CentresFileAndBallBarDistanceAreCheckedFirst) {
+  test::TempDir dir;
+  fs::create_directories(dir / "imgs");
+  WriteText(dir / "t.json", "{}");
+  std::string err;
+  EXPECT_EQ(
+      RunCli({"calibrate", (dir / "imgs").string(), "--target", (dir / "t.json").string(), "--out",
+              (dir / "rig.json").string(), "--centres", (dir / "centres.txt").string()},
+             nullptr, &err),
+      1);
+  EXPECT_NE(err.find("centres.txt: centres file must end in .csv or .json"), std::string::npos)
+      << err;
+  EXPECT_FALSE(fs::exists(dir / "rig.json"));
+  PointCloud c;
+  for (int i = 0; i < 200; ++i) c.points.emplace_back(i, 0.5 * i, 100);
+  io::WritePly(dir / "c.ply", c);
+  EXPECT_EQ(RunCli({"evaluate", (dir / "c.ply").string(), "--artefact", "ballbar"}, nullptr, &err),
+            2);
+  EXPECT_NE(err.find("--artefact ballbar needs --distance"), std::string::npos) << err;
+}
+
 TEST(CliBadInput, ManifestImageNamesCannotEscapeTheirFolder) {
   test::TempDir dir;
   const fs::path stack = SmallStack(dir);

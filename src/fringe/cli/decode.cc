@@ -29,7 +29,11 @@ void AddDecodeCommand(CLI::App& app) {
       "decode",
       "Decode one camera's fringe images to absolute phase (projector pixels), modulation and "
       "mask (32-bit float TIFF + PNG previews + summary.json)");
-  sub->add_option("stack", a->stack, "Folder with the images named in the manifest")->required();
+  sub->add_option("stack", a->stack,
+                  "Folder with the images named in the manifest, or with exposure folders e0/, "
+                  "e1/, ... of such images (combined per pixel: the highest unsaturated "
+                  "modulation wins)")
+      ->required();
   sub->add_option("--scheme", a->scheme,
                   "Scheme manifest (manifest.json) or preset name (with the scheme flags below)")
       ->required();
@@ -61,8 +65,10 @@ void AddDecodeCommand(CLI::App& app) {
     if (std::filesystem::exists(a->scheme)) output.inputs.push_back(a->scheme);
     util::CheckOutputFolder(a->out, output);
     const phase::PatternScheme scheme = phase::SchemeFromArgument(a->scheme, a->parameters);
-    const auto images = phase::ReadStack(a->stack, scheme);
-    const phase::DecodeResult result = phase::Decode(scheme, images, a->options);
+    // One stack, or several exposures in e0/, e1/, ... (combined per pixel).
+    const auto stacks = phase::ReadExposureStacks(a->stack, scheme);
+    const auto& images = stacks.front();
+    const phase::DecodeResult result = phase::DecodeExposures(scheme, stacks, a->options);
     std::cout << result.summary.BriefReport() << "\n";
     WarnIfSchemeMismatch(result.summary, scheme.name, a->stack);
     if (result.summary.status != phase::DecodeStatus::kSuccess) {
@@ -70,7 +76,9 @@ void AddDecodeCommand(CLI::App& app) {
                                " (nothing written)"));
     }
     phase::WriteDecodeFolder(a->out, result);
-    if (a->estimate_gamma) std::cout << phase::EstimateGamma(scheme, images).BriefReport() << "\n";
+    if (a->estimate_gamma) {  // from the first exposure
+      std::cout << phase::EstimateGamma(scheme, images).BriefReport() << "\n";
+    }
   });
 }
 

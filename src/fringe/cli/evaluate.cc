@@ -84,7 +84,10 @@ void AddEvaluateCommand(CLI::App& app) {
   sub->add_option("cloud", a->cloud, "Measured point cloud (PLY)")->required();
   sub->add_option("--artefact", a->artefact, "sphere | ballbar | plane")
       ->check(CLI::IsMember({"sphere", "ballbar", "plane"}));
-  sub->add_option("--diameter", a->diameter_mm, "Calibrated sphere diameter, mm");
+  sub->add_option("--diameter", a->diameter_mm,
+                  "Calibrated sphere diameter, mm; without it the sphere is searched with a free "
+                  "radius and PF, RMS and the fitted diameter are given, PS is not")
+      ->check(CLI::PositiveNumber);
   sub->add_option("--distance", a->distance_mm, "Calibrated ball-bar centre distance, mm");
   sub->add_option("--truth", a->truth,
                   "Reference mesh (PLY) or a folder holding truth/scene.ply: deviation mode");
@@ -117,6 +120,9 @@ void AddEvaluateCommand(CLI::App& app) {
   sub->callback([a] {
     if (a->artefact.empty() == a->truth.empty()) {
       throw CLI::ValidationError("evaluate", "give exactly one of --artefact and --truth");
+    }
+    if (a->artefact == "ballbar" && !(a->distance_mm > 0)) {
+      throw CLI::ValidationError("evaluate", "--artefact ballbar needs --distance (mm)");
     }
     if ((a->align || !a->align_pairs.empty()) && a->truth.empty()) {
       throw CLI::ValidationError("evaluate", "--align and --align-pairs need --truth");

@@ -70,9 +70,10 @@ void AddReconstructCommand(CLI::App& app) {
       "triangulate to an organized point cloud (left camera frame, PLY) with normals; or, with "
       "one camera's images and a calibrated projector, triangulate camera against projector");
   sub->add_option("view", a->view,
-                  "View folder with left/ and right/ (or L/ and R/) image stacks; left/ (or L/) "
-                  "alone in camera-projector mode, where left/vertical/ and left/horizontal/ "
-                  "(each with its manifest.json) give both fringe directions")
+                  "View folder with left/ and right/ (or L/ and R/) image stacks (each may hold "
+                  "exposure folders e0/, e1/, ...); left/ (or L/) alone in camera-projector mode, "
+                  "where left/vertical/ and left/horizontal/ (each with its manifest.json) give "
+                  "both fringe directions")
       ->required();
   sub->add_option("--mode", a->mode,
                   "stereo (two cameras), camera-projector (left camera + the rig's projector: "
@@ -220,9 +221,17 @@ void AddReconstructCommand(CLI::App& app) {
       }
     }
     const phase::PatternScheme& scheme = schemes[0];
-    std::vector<std::vector<cv::Mat>> left_stacks;
-    for (size_t k = 0; k < schemes.size(); ++k) {
-      left_stacks.push_back(phase::ReadStack(left_dirs[k], schemes[k]));
+    // One stack per scheme; with one scheme the camera folder may hold exposure folders e0/,
+    // e1/, ... (phase/stack_io.h), combined per pixel by the decoder.
+    std::vector<std::vector<cv::Mat>> left_stacks, left_exposures;
+    if (two_directions) {
+      for (size_t k = 0; k < schemes.size(); ++k) {
+        left_stacks.push_back(phase::ReadStack(left_dirs[k], schemes[k]));
+      }
+      left_exposures = {left_stacks[0]};
+    } else {
+      left_exposures = phase::ReadExposureStacks(left_dir, scheme);
+      left_stacks = {left_exposures.front()};
     }
     const std::vector<cv::Mat>& left = left_stacks[0];
     StereoRig rig;
@@ -264,8 +273,12 @@ void AddReconstructCommand(CLI::App& app) {
            << (two_directions ? " (vertical and horizontal fringes)" : "")
            << " against the projector of " << rig_name << "\n";
     }
-    const auto right =
-        camera_projector ? std::vector<cv::Mat>{} : phase::ReadStack(right_dir, scheme);
+    if (camera_projector && left_exposures.size() > 1) {
+      throw Error(util::StrCat("reconstruct: ", left_dir.string(),
+                               ": several exposures are combined in stereo mode only"));
+    }
+    const auto right_exposures = camera_projector ? std::vector<std::vector<cv::Mat>>{}
+                                                  : phase::ReadExposureStacks(right_dir, scheme);
     // Images of another size than the rig's camera: name the folder (the library cannot).
     auto require_size = [&](const std::vector<cv::Mat>& imgs, const CameraModel& cam,
                             const fs::path& dir) {
@@ -276,7 +289,7 @@ void AddReconstructCommand(CLI::App& app) {
       }
     };
     require_size(left, rig.left, left_dir);
-    if (!camera_projector) require_size(right, rig.right, right_dir);
+    if (!camera_projector) require_size(right_exposures.front(), rig.right, right_dir);
     // In a scan folder the full scale follows the bit depth its manifest states.
     if (a->bit_depth == 0 && scan_root) {
       a->bit_depth = scan::ScanFolder::Open(*scan_root).manifest().bit_depth;
@@ -302,8 +315,9 @@ void AddReconstructCommand(CLI::App& app) {
       rec = trinocular ? stereo::ViewReconstructor(
                              stereo::MakeTrinocularCorrespondence(rig, a->options.matching),
                              {scheme}, a->options)
-                             .Reconstruct(left, right)
-                       : stereo::ReconstructView(rig, scheme, left, right, a->options);
+                             .Reconstruct(left_exposures, right_exposures)
+                       : stereo::ViewReconstructor(rig, scheme, a->options)
+                             .Reconstruct(left_exposures, right_exposures);
       text << rec.summary.decode_left.BriefReport() << " (left)\n"
            << rec.summary.decode_right.BriefReport() << " (right)\n"
            << rec.summary.matching.BriefReport() << "\n";

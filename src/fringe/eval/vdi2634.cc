@@ -2,6 +2,7 @@
 
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
 #include <Eigen/QR>
 #include <algorithm>
 #include <cmath>
@@ -130,6 +131,84 @@ bool FindSphere(const Points& pts, const Points& normals, double r0, const VdiOp
   return best_score >= 4;
 }
 
+// Mean unit direction from `centre` of the points within `band` of the sphere (centre, r), how
+// many there are, and how many lie inside the sphere (nearer the centre than r - band). The
+// mean direction's norm is (1 + cos a) / 2 for points spread evenly over a cap of half angle a:
+// near 1 for the small cap where a large sphere touches a plane.
+struct SphereSupport {
+  int inliers = 0;
+  int inside = 0;
+  double mean_direction_norm = 1;
+};
+SphereSupport Support(const Points& pts, const std::vector<size_t>& idx,
+                      const Eigen::Vector3d& centre, double r, double band) {
+  SphereSupport s;
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  for (size_t j : idx) {
+    const Eigen::Vector3d d = pts[j] - centre;
+    const double n = d.norm();
+    if (n < r - band) {
+      ++s.inside;
+    } else if (n < r + band && n > 0) {
+      sum += d / n;
+      ++s.inliers;
+    }
+  }
+  if (s.inliers > 0) s.mean_direction_norm = sum.norm() / s.inliers;
+  return s;
+}
+
+// RANSAC for a sphere of unknown radius: each hypothesis is the sphere through four points
+// within a neighbourhood of random size (log-uniform between 1/50 and 1/2 of the sample's
+// extent) around a random point; it scores the sample points within inlier_band_mm. It counts
+// only when its radius is at most max_radius, its inliers cover a cap of at least
+// min_cap_half_angle_deg (a large sphere touching a plane has a small cap) and at most
+// kMaxInsideFraction of them lie inside it (a scanned sphere is solid: a large sphere cutting a
+// plane in a circle has the plane's disk inside it).
+constexpr double kMaxInsideFraction = 0.1;
+bool FindSphereFreeRadius(const Points& pts, const VdiOptions& o, uint64_t stream,
+                          Eigen::Vector3d* best_centre, double* best_radius) {
+  util::Rng rng(util::MixSeed(o.seed, stream));
+  const std::vector<size_t> sample = Subsample(pts.size(), o.ransac_sample_points, rng);
+  if (sample.size() < 4) return false;
+  Eigen::AlignedBox3d box;
+  for (size_t j : sample) box.extend(pts[j]);
+  const double extent = box.diagonal().norm();
+  if (!(extent > 0)) return false;
+  const double max_radius = o.max_diameter_mm > 0 ? 0.5 * o.max_diameter_mm : extent;
+  const double max_mean_norm = 0.5 * (1 + std::cos(o.min_cap_half_angle_deg * M_PI / 180));
+  std::uniform_int_distribution<size_t> pick(0, sample.size() - 1);
+  std::uniform_real_distribution<double> log_scale(std::log(extent / 50), std::log(extent / 2));
+  int best_score = 0;
+  std::vector<size_t> near;
+  // Four times the iterations of the known-radius search: a hypothesis needs four points on
+  // the artefact instead of one.
+  for (int it = 0; it < 4 * o.ransac_iterations; ++it) {
+    const size_t i0 = sample[pick(rng)];
+    const double reach = std::exp(log_scale(rng));
+    near.clear();
+    for (size_t j : sample) {
+      if (j != i0 && (pts[j] - pts[i0]).squaredNorm() < reach * reach) near.push_back(j);
+    }
+    if (near.size() < 3) continue;
+    std::uniform_int_distribution<size_t> pn(0, near.size() - 1);
+    const Points four = {pts[i0], pts[near[pn(rng)]], pts[near[pn(rng)]], pts[near[pn(rng)]]};
+    Eigen::Vector3d c;
+    double r;
+    if (!AlgebraicSphere(four, &c, &r) || r > max_radius) continue;
+    // The same band for every radius: a band growing with the radius would favour large
+    // spheres, which then gather noisy background points.
+    const SphereSupport support = Support(pts, sample, c, r, o.inlier_band_mm);
+    if (support.inliers > best_score && support.mean_direction_norm <= max_mean_norm &&
+        support.inside <= kMaxInsideFraction * support.inliers) {
+      best_score = support.inliers;
+      *best_centre = c;
+      *best_radius = r;
+    }
+  }
+  return best_score >= 4;
+}
+
 // Least-squares sphere on the points near the surface, re-selecting the band around each fit.
 bool RefineSphere(const Points& pts, double r0, const VdiOptions& o, Eigen::Vector3d* centre,
                   Points* members) {
@@ -233,6 +312,10 @@ void VdiOptions::Check() const {
   CheckOption(radius_tolerance > 0 && radius_tolerance < 1, k, "radius_tolerance", radius_tolerance,
               "must be in (0, 1)");
   CheckOption(min_points >= 10, k, "min_points", min_points, "must be >= 10");
+  CheckOption(min_cap_half_angle_deg > 0 && min_cap_half_angle_deg < 90, k,
+              "min_cap_half_angle_deg", min_cap_half_angle_deg, "must be in (0, 90)");
+  CheckOption(max_diameter_mm >= 0, k, "max_diameter_mm", max_diameter_mm,
+              "must be >= 0 (0: the cloud's extent)");
 }
 
 const char* ToString(VdiStatus s) {
@@ -249,8 +332,10 @@ const char* ToString(VdiStatus s) {
 
 std::string SphereResult::BriefReport() const {
   if (!ok()) return util::StrCat("sphere: ", ToString(status), ": ", message);
-  return util::StrCat("sphere: PF ", PF_mm, " mm, PS ", PS_mm, " mm (diameter ", diameter_mm,
-                      " mm, RMS ", rms_mm, " mm, ", points, " points, ", discarded, " left out)");
+  const std::string ps = has_size_error() ? util::StrCat("PS ", PS_mm, " mm")
+                                          : std::string("PS not measured (no calibrated diameter)");
+  return util::StrCat("sphere: PF ", PF_mm, " mm, ", ps, " (diameter ", diameter_mm, " mm, RMS ",
+                      rms_mm, " mm, ", points, " points, ", discarded, " left out)");
 }
 
 std::string BallBarResult::BriefReport() const {
@@ -282,7 +367,8 @@ SphereResult SphereFigures(const Points& points, double diameter_mm, double disc
   out.centre = fit.centre;
   out.diameter_mm = 2 * fit.radius_mm;
   out.PF_mm = Range(res);
-  out.PS_mm = out.diameter_mm - diameter_mm;
+  out.calibrated_diameter_mm = std::max(0.0, diameter_mm);
+  out.PS_mm = out.has_size_error() ? out.diameter_mm - diameter_mm : 0.0;
   out.rms_mm = Rms(res);
   out.points = static_cast<int>(kept.size());
   out.discarded = static_cast<int>(points.size() - kept.size());
@@ -316,20 +402,28 @@ PlaneResult PlaneFigures(const Points& points, double discard_fraction) {
 
 namespace {
 
-SphereResult FindAndEvaluateSphere(const Points& pts, const Points& normals, double diameter_mm,
+// The sphere with most inliers: of nominal diameter search_diameter_mm, or a free radius when
+// that is <= 0. calibrated_diameter_mm (<= 0: none) gives PS and bounds the fitted diameter.
+SphereResult FindAndEvaluateSphere(const Points& pts, const Points& normals,
+                                   double search_diameter_mm, double calibrated_diameter_mm,
                                    const VdiOptions& o, uint64_t stream) {
   SphereResult out;
-  const double r0 = 0.5 * diameter_mm;
+  out.calibrated_diameter_mm = std::max(0.0, calibrated_diameter_mm);
   if (static_cast<int>(pts.size()) < o.min_points) {
     out.status = VdiStatus::kTooFewPoints;
     out.message = util::StrCat(pts.size(), " points, at least ", o.min_points, " needed");
     return out;
   }
   Eigen::Vector3d centre;
+  double r0 = 0.5 * search_diameter_mm;
   Points members;
-  if (!FindSphere(pts, normals, r0, o, stream, &centre) ||
-      !RefineSphere(pts, r0, o, &centre, &members)) {
-    out.message = util::StrCat("no sphere of diameter ", diameter_mm, " mm found");
+  const bool found = search_diameter_mm > 0 ? FindSphere(pts, normals, r0, o, stream, &centre)
+                                            : FindSphereFreeRadius(pts, o, stream, &centre, &r0);
+  if (!found || !RefineSphere(pts, r0, o, &centre, &members)) {
+    out.message = search_diameter_mm > 0
+                      ? util::StrCat("no sphere of diameter ", search_diameter_mm, " mm found")
+                      : util::StrCat("no sphere seen over a cap of at least ",
+                                     o.min_cap_half_angle_deg, " degrees found");
     return out;
   }
   if (static_cast<int>(members.size()) < o.min_points) {
@@ -337,11 +431,13 @@ SphereResult FindAndEvaluateSphere(const Points& pts, const Points& normals, dou
     out.message = util::StrCat("sphere found with only ", members.size(), " points");
     return out;
   }
-  out = SphereFigures(members, diameter_mm, o.discard_fraction);
-  if (out.ok() && std::abs(out.diameter_mm - diameter_mm) > o.radius_tolerance * diameter_mm) {
+  out = SphereFigures(members, calibrated_diameter_mm, o.discard_fraction);
+  const double nominal = calibrated_diameter_mm > 0 ? calibrated_diameter_mm : search_diameter_mm;
+  if (out.ok() && nominal > 0 &&
+      std::abs(out.diameter_mm - nominal) > o.radius_tolerance * nominal) {
     out.status = VdiStatus::kNotFound;
     out.message =
-        util::StrCat("fitted diameter ", out.diameter_mm, " mm is far from ", diameter_mm, " mm");
+        util::StrCat("fitted diameter ", out.diameter_mm, " mm is far from ", nominal, " mm");
   }
   return out;
 }
@@ -351,47 +447,69 @@ SphereResult FindAndEvaluateSphere(const Points& pts, const Points& normals, dou
 SphereResult EvaluateSphere(const PointCloud& cloud, double diameter_mm,
                             const VdiOptions& options) {
   options.Check();
-  util::CheckOption(diameter_mm > 0, "EvaluateSphere", "diameter_mm", diameter_mm, "must be > 0");
+  util::CheckOption(std::isfinite(diameter_mm), "EvaluateSphere", "diameter_mm", diameter_mm,
+                    "must be finite (<= 0: no calibrated diameter)");
   Points normals;
   const Points pts = FinitePoints(cloud, cloud.has_normals() ? &normals : nullptr);
-  return FindAndEvaluateSphere(pts, normals, diameter_mm, options, 0);
+  return FindAndEvaluateSphere(pts, normals, diameter_mm, diameter_mm, options, 0);
 }
 
 BallBarResult EvaluateBallBar(const PointCloud& cloud, double diameter_mm,
                               double calibrated_distance_mm, const VdiOptions& options) {
   options.Check();
-  util::CheckOption(diameter_mm > 0, "EvaluateBallBar", "diameter_mm", diameter_mm, "must be > 0");
-  util::CheckOption(calibrated_distance_mm > diameter_mm, "EvaluateBallBar",
+  util::CheckOption(std::isfinite(diameter_mm), "EvaluateBallBar", "diameter_mm", diameter_mm,
+                    "must be finite (<= 0: no calibrated diameter)");
+  util::CheckOption(calibrated_distance_mm > std::max(0.0, diameter_mm), "EvaluateBallBar",
                     "calibrated_distance_mm", calibrated_distance_mm,
-                    "must exceed the sphere diameter");
+                    "must be positive and exceed the sphere diameter");
   BallBarResult out;
   Points normals;
   Points pts = FinitePoints(cloud, cloud.has_normals() ? &normals : nullptr);
-  out.sphere_a = FindAndEvaluateSphere(pts, normals, diameter_mm, options, 0);
-  if (!out.sphere_a.ok()) {
-    out.status = out.sphere_a.status;
-    out.message = "first sphere: " + out.sphere_a.message;
+  SphereResult first = FindAndEvaluateSphere(pts, normals, diameter_mm, diameter_mm, options, 0);
+  if (!first.ok()) {
+    out.status = first.status;
+    out.message = "first sphere: " + first.message;
+    out.sphere_a = std::move(first);
     return out;
   }
   // Remove the first sphere (and what touches it) before looking for the second, and look only
   // where the second can be: its surface lies within the calibrated distance +- its radius (and
   // a 5 % tolerance) of the first centre. Without this, another sphere in the scene (a VDI
-  // sphere of a different diameter beside the bar) can capture the search.
+  // sphere of a different diameter beside the bar) can capture the search. Without a calibrated
+  // diameter the second sphere is searched with the first one's fitted diameter.
+  const double search_diameter_mm = diameter_mm > 0 ? diameter_mm : first.diameter_mm;
+  if (!(calibrated_distance_mm > search_diameter_mm)) {
+    out.status = VdiStatus::kNotFound;
+    out.message = util::StrCat("first sphere's fitted diameter ", first.diameter_mm,
+                               " mm is not below the calibrated distance");
+    out.sphere_a = std::move(first);
+    return out;
+  }
   Points rest, rest_normals;
-  const double clear_mm = 0.5 * diameter_mm + 4 * options.inlier_band_mm;
-  const double shell_mm = 0.5 * diameter_mm + 0.05 * calibrated_distance_mm;
+  const double clear_mm = 0.5 * search_diameter_mm + 4 * options.inlier_band_mm;
+  const double shell_mm = 0.5 * search_diameter_mm + 0.05 * calibrated_distance_mm;
   for (size_t i = 0; i < pts.size(); ++i) {
-    const double d = (pts[i] - out.sphere_a.centre).norm();
+    const double d = (pts[i] - first.centre).norm();
     if (d < clear_mm || std::abs(d - calibrated_distance_mm) > shell_mm) continue;
     rest.push_back(pts[i]);
     if (!normals.empty()) rest_normals.push_back(normals[i]);
   }
-  out.sphere_b = FindAndEvaluateSphere(rest, rest_normals, diameter_mm, options, 1);
-  if (!out.sphere_b.ok()) {
-    out.status = out.sphere_b.status;
-    out.message = "second sphere: " + out.sphere_b.message;
+  SphereResult second =
+      FindAndEvaluateSphere(rest, rest_normals, search_diameter_mm, diameter_mm, options, 1);
+  if (!second.ok()) {
+    out.status = second.status;
+    out.message = "second sphere: " + second.message;
+    out.sphere_a = std::move(first);
+    out.sphere_b = std::move(second);
     return out;
   }
+  // Labels by position (see BallBarResult).
+  const Eigen::Vector3d delta = second.centre - first.centre;
+  int axis = 0;
+  delta.cwiseAbs().maxCoeff(&axis);
+  if (delta(axis) < 0) std::swap(first, second);
+  out.sphere_a = std::move(first);
+  out.sphere_b = std::move(second);
   out.status = VdiStatus::kOk;
   out.distance_mm = (out.sphere_a.centre - out.sphere_b.centre).norm();
   out.SD_mm = out.distance_mm - calibrated_distance_mm;
@@ -449,8 +567,11 @@ PlaneResult EvaluatePlane(const PointCloud& cloud, const VdiOptions& options) {
 nlohmann::json ToJson(const SphereResult& r) {
   nlohmann::json j = {{"status", ToString(r.status)}, {"message", r.message}};
   if (r.ok()) {
+    // PS_mm only when a calibrated diameter was given (it would be a made-up 0 otherwise).
+    if (r.has_size_error()) {
+      j.update({{"PS_mm", r.PS_mm}, {"calibrated_diameter_mm", r.calibrated_diameter_mm}});
+    }
     j.update({{"PF_mm", r.PF_mm},
-              {"PS_mm", r.PS_mm},
               {"diameter_mm", r.diameter_mm},
               {"centre_mm", {r.centre.x(), r.centre.y(), r.centre.z()}},
               {"rms_mm", r.rms_mm},

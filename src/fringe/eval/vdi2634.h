@@ -2,7 +2,8 @@
 // based on area scanning", 2012) computed from measured point clouds:
 //   PF  probing error, form: range (max - min) of the radial residuals to the least-squares
 //       sphere with free radius;
-//   PS  probing error, size: fitted minus calibrated diameter;
+//   PS  probing error, size: fitted minus calibrated diameter (only when a calibrated diameter
+//       is given; without one the form figures and the fitted diameter are still measured);
 //   SD  sphere-spacing error: distance of the two fitted sphere centres (free radius) of a ball
 //       bar minus the calibrated distance;
 //   F   flatness measurement error: range of the signed distances to the least-squares plane.
@@ -11,7 +12,8 @@
 // refit on the rest, and report how many were left out.
 //
 // The artefact's points are found in the cloud by RANSAC (seeded) with the calibrated diameter
-// (spheres) or as the largest plane, then refined by least squares on the points within
+// (spheres; without one, with a free radius: see VdiOptions::min_cap_half_angle_deg) or as the
+// largest plane, then refined by least squares on the points within
 // inlier_band_mm; the band is wide compared with the measurement noise so that it does not cut
 // the residual distribution (which would understate PF and F).
 //
@@ -67,6 +69,14 @@ struct VdiOptions {
   double radius_tolerance = 0.1;
   // Fewest points an artefact must have, >= 10.
   int min_points = 100;
+  // Spheres searched without a calibrated diameter (free radius): a hypothesis must be seen over
+  // a cap of at least this half angle (degrees, (0, 90)), measured from its inliers' mean
+  // direction from the centre. A patch of a plane fits a large sphere within the band over a
+  // small cap only, so this keeps the background from being taken for the artefact (and a
+  // diameter from a smaller cap would be ill-conditioned anyway).
+  double min_cap_half_angle_deg = 25;
+  // Largest diameter a free-radius search accepts, mm; 0 = the cloud's bounding-box diagonal.
+  double max_diameter_mm = 0;
 
   void Check() const;
 };
@@ -78,16 +88,22 @@ struct SphereResult {
   VdiStatus status = VdiStatus::kNotFound;
   std::string message;
   Eigen::Vector3d centre = Eigen::Vector3d::Zero();
-  double diameter_mm = 0;  // fitted
-  double PF_mm = 0;        // form error (range of radial residuals)
-  double PS_mm = 0;        // fitted minus calibrated diameter
+  double diameter_mm = 0;             // fitted
+  double calibrated_diameter_mm = 0;  // given; 0 = none (then PS is not measured)
+  double PF_mm = 0;                   // form error (range of radial residuals)
+  double PS_mm = 0;                   // fitted minus calibrated diameter (0 without one)
   double rms_mm = 0;
   int points = 0;     // used (after the discard)
   int discarded = 0;  // left out by the 0.3 % allowance
   bool ok() const { return status == VdiStatus::kOk; }
+  bool has_size_error() const { return calibrated_diameter_mm > 0; }  // PS measured
   std::string BriefReport() const;
 };
 
+// The spheres of a ball bar are labelled by position, not by which one the search found first:
+// sphere_a is the one with the smaller coordinate along the cloud-frame axis (x, y or z) on
+// which the two centres differ most, so the labels stay the same between runs, point orders
+// and seeds.
 struct BallBarResult {
   VdiStatus status = VdiStatus::kNotFound;
   std::string message;
@@ -111,9 +127,13 @@ struct PlaneResult {
 };
 
 // PF/PS of a sphere of calibrated diameter found in the cloud (the one with most inliers).
+// diameter_mm <= 0: no calibrated diameter; the sphere is searched with a free radius and the
+// result has PF, RMS and the fitted diameter but no PS.
 SphereResult EvaluateSphere(const PointCloud& cloud, double diameter_mm,
                             const VdiOptions& options = {});
 // SD of a ball bar: two spheres of the calibrated diameter, centres calibrated_distance_mm apart.
+// diameter_mm <= 0: the first sphere is searched with a free radius and the second with the
+// first one's fitted diameter (no PS for either).
 BallBarResult EvaluateBallBar(const PointCloud& cloud, double diameter_mm,
                               double calibrated_distance_mm, const VdiOptions& options = {});
 // F of the largest plane in the cloud.
@@ -125,7 +145,7 @@ nlohmann::json ToJson(const BallBarResult& r);
 nlohmann::json ToJson(const PlaneResult& r);
 
 // Form and size from points already known to belong to the sphere (no search, no band): the
-// figures "with true correspondences" in benchmarks.
+// figures "with true correspondences" in benchmarks. diameter_mm <= 0: no PS.
 SphereResult SphereFigures(const std::vector<Eigen::Vector3d>& points, double diameter_mm,
                            double discard_fraction = 0.003);
 PlaneResult PlaneFigures(const std::vector<Eigen::Vector3d>& points,

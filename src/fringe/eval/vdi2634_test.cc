@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <Eigen/Geometry>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 
@@ -162,6 +163,73 @@ TEST(Vdi2634, BallBarIgnoresADistractorSphereOfAnotherDiameter) {
   const BallBarResult r = EvaluateBallBar(cloud, 20.0, (a - b).norm());
   ASSERT_TRUE(r.ok()) << r.BriefReport();
   EXPECT_NEAR(r.SD_mm, 0, kSdTol);
+}
+
+// Without a calibrated diameter the sphere is found with a free radius (not the background
+// plane, which a large sphere fits over a small cap): PF, RMS and the fitted diameter, no PS.
+TEST(Vdi2634, EvaluateSphereWithoutADiameterGivesFormFiguresOnly) {
+  constexpr double kNoise = 0.01;
+  constexpr double kDiameterTol = 0.005;
+  constexpr double kCentreTol = 0.005;
+  for (bool normals : {true, false}) {
+    const Eigen::Vector3d centre(20, -10, 500);
+    const PointCloud cloud = SphereOnBackground({centre}, 12.5, kNoise, normals);
+    const SphereResult r = EvaluateSphere(cloud, 0.0);
+    ASSERT_TRUE(r.ok()) << r.BriefReport();
+    EXPECT_FALSE(r.has_size_error());
+    EXPECT_NEAR(r.diameter_mm, 25.0, kDiameterTol) << r.BriefReport();
+    EXPECT_LT((r.centre - centre).norm(), kCentreTol) << r.BriefReport();
+    EXPECT_GT(r.PF_mm, 4 * kNoise);
+    EXPECT_LT(r.PF_mm, 10 * kNoise);
+    EXPECT_NEAR(r.rms_mm, kNoise, 0.2 * kNoise);
+    EXPECT_GT(r.points, 1000);
+    const nlohmann::json j = ToJson(r);
+    EXPECT_FALSE(j.contains("PS_mm")) << j.dump();
+    EXPECT_TRUE(j.contains("PF_mm") && j.contains("diameter_mm") && j.contains("rms_mm"));
+    EXPECT_NE(r.BriefReport().find("no calibrated diameter"), std::string::npos);
+    // The same with the diameter: PS appears, the form figures agree.
+    const SphereResult with = EvaluateSphere(cloud, 25.0);
+    ASSERT_TRUE(with.ok()) << with.BriefReport();
+    EXPECT_TRUE(with.has_size_error());
+    EXPECT_TRUE(ToJson(with).contains("PS_mm"));
+    EXPECT_NEAR(with.diameter_mm, r.diameter_mm, 1e-3);
+  }
+  // A plane alone holds no sphere, whatever radius.
+  const SphereResult none = EvaluateSphere(SphereOnBackground({}, 12.5, kNoise, false), 0.0);
+  EXPECT_FALSE(none.ok()) << none.BriefReport();
+}
+
+// Ball-bar labels follow the spheres' positions (sphere_a at the smaller coordinate along the
+// axis on which the centres differ most), not the order of points or which sphere the search
+// happens to find first; with or without a calibrated diameter.
+TEST(Vdi2634, BallBarLabelsByPositionNotPointOrder) {
+  constexpr double kNoise = 0.01;
+  constexpr double kCentreTol = 0.005;
+  constexpr double kSdTol = 0.005;
+  const Eigen::Vector3d low_x(-60, 5, 520), high_x(80, -5, 480);
+  // Put the sphere at high x first in the cloud, and make it the one with more points (the
+  // bigger share of the subsample), so that "first found" would be the high-x sphere.
+  PointCloud cloud =
+      SphereOnBackground({high_x, high_x + Eigen::Vector3d(0, 0, 0)}, 12.5, kNoise, false);
+  const PointCloud low = SphereOnBackground({low_x}, 12.5, kNoise, false);
+  cloud.points.insert(cloud.points.end(), low.points.begin(), low.points.end());
+  PointCloud reversed = cloud;
+  std::reverse(reversed.points.begin(), reversed.points.end());
+  const double distance = (high_x - low_x).norm();
+  for (const PointCloud* c : {&cloud, &reversed}) {
+    for (double diameter : {25.0, 0.0}) {
+      for (uint64_t seed : {1, 2}) {
+        VdiOptions o;
+        o.seed = seed;
+        const BallBarResult r = EvaluateBallBar(*c, diameter, distance, o);
+        ASSERT_TRUE(r.ok()) << r.BriefReport();
+        EXPECT_LT((r.sphere_a.centre - low_x).norm(), kCentreTol) << r.BriefReport();
+        EXPECT_LT((r.sphere_b.centre - high_x).norm(), kCentreTol) << r.BriefReport();
+        EXPECT_NEAR(r.SD_mm, 0, kSdTol);
+        EXPECT_EQ(r.sphere_a.has_size_error(), diameter > 0);
+      }
+    }
+  }
 }
 
 TEST(Vdi2634, EvaluatePlaneAndMissingArtefacts) {

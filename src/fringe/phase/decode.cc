@@ -137,6 +137,18 @@ void CountReasons(int w, const uint8_t* __restrict reason, std::array<int64_t, 6
   (*counts)[0] = w - invalid;
 }
 
+// Pixel counts per PixelReason (valid first) into the summary's valid / rejected_* figures.
+constexpr int kNumReasons = static_cast<int>(PixelReason::kSpatial) + 1;
+void SetCounts(const std::array<int64_t, kNumReasons>& counts, DecodeSummary* sum) {
+  sum->valid = counts[0];
+  sum->rejected_saturated = counts[1];
+  sum->rejected_underexposed = counts[2];
+  sum->rejected_low_modulation = counts[3];
+  sum->rejected_shadow = counts[4];
+  sum->rejected_order_ambiguous = counts[5];
+  sum->rejected_spatial = counts[6];
+}
+
 // Reason codes: 0 valid, 1 saturated, 2 under-exposed, 3 low modulation, 4 shadow, 5 ambiguous
 // order (first failing test wins).
 template <typename T>
@@ -436,6 +448,7 @@ struct Kernel {
       ReasonRow<T>(w, maxi.data(), a0.data(), bsq.data(), resid.data(), saturation, min_background,
                    b_min_sq, min_ratio_sq, max_residual, reason.data());
       OutputRow(w, reason.data(), v.data(), out_abs, out_mask);
+      std::copy(reason.begin(), reason.end(), out->reason.ptr<uint8_t>(r));
       CountReasons(w, reason.data(), &counts);
       (*row_counts)[r] = counts;
     }
@@ -768,6 +781,8 @@ void Decode(const PatternScheme& scheme, const std::vector<cv::Mat>& images,
   result->modulation.create(size, CV_32F);
   result->background.create(size, CV_32F);
   result->mask.create(size, CV_8U);
+  result->reason.create(size, CV_8U);
+  result->exposure.release();
   std::vector<std::array<int64_t, 6>> row_counts(size.height);
 
   std::array<float, kMaxSets> periods{}, stack_weight{};
@@ -809,16 +824,11 @@ void Decode(const PatternScheme& scheme, const std::vector<cv::Mat>& images,
   sum.full_scale_dn = full;
   sum.noise = noise;
   sum.pixels = static_cast<int64_t>(size.area());
-  std::array<int64_t, 6> total{};
+  std::array<int64_t, kNumReasons> total{};  // the spatial check's rejections come below
   for (const auto& rc : row_counts) {
     for (int i = 0; i < 6; ++i) total[i] += rc[i];
   }
-  sum.valid = total[0];
-  sum.rejected_saturated = total[1];
-  sum.rejected_underexposed = total[2];
-  sum.rejected_low_modulation = total[3];
-  sum.rejected_shadow = total[4];
-  sum.rejected_order_ambiguous = total[5];
+  SetCounts(total, &sum);
 
   // Spatial fringe-order check. Decisions are taken on the unmodified map (per row, in
   // parallel) and applied afterwards, so the result does not depend on the thread count.
@@ -859,6 +869,7 @@ void Decode(const PatternScheme& scheme, const std::vector<cv::Mat>& images,
         abs.at<float>(r, c) = value;
         if (std::isnan(value)) {
           result->mask.at<uint8_t>(r, c) = 0;
+          result->reason.at<uint8_t>(r, c) = static_cast<uint8_t>(PixelReason::kSpatial);
           ++sum.rejected_spatial;
           --sum.valid;
         } else {
@@ -898,6 +909,121 @@ DecodeResult Decode(const PatternScheme& scheme, const std::vector<cv::Mat>& ima
   DecodeResult r;
   Decode(scheme, images, options, &r);
   return r;
+}
+
+DecodeResult DecodeExposures(const PatternScheme& scheme,
+                             const std::vector<std::vector<cv::Mat>>& stacks,
+                             const DecodeOptions& options) {
+  if (stacks.empty()) throw Error("DecodeExposures: no exposure given");
+  if (stacks.size() > static_cast<size_t>(kMaxExposures)) {
+    throw Error(StrCat("DecodeExposures: ", stacks.size(), " exposures, at most ", kMaxExposures));
+  }
+  if (stacks.size() == 1) return Decode(scheme, stacks[0], options);
+  util::Timer timer;
+  for (size_t e = 1; e < stacks.size(); ++e) {
+    if (stacks[e].empty() || stacks[0].empty()) continue;  // Decode says what is missing
+    if (stacks[e][0].size() != stacks[0][0].size() || stacks[e][0].type() != stacks[0][0].type()) {
+      throw Error(StrCat("exposure ", e, ": images are ", stacks[e][0].cols, "x", stacks[e][0].rows,
+                         " of depth ", stacks[e][0].elemSize() * 8, " bits, exposure 0's are ",
+                         stacks[0][0].cols, "x", stacks[0][0].rows, " of ",
+                         stacks[0][0].elemSize() * 8, " bits"));
+    }
+  }
+  std::vector<DecodeResult> each(stacks.size());
+  for (size_t e = 0; e < stacks.size(); ++e) {
+    try {
+      Decode(scheme, stacks[e], options, &each[e]);
+    } catch (const Error& err) {
+      throw Error(StrCat("exposure ", e, ": ", err.what()));
+    }
+  }
+  DecodeResult out;
+  out.absolute_phase = each[0].absolute_phase.clone();
+  out.wrapped_phase = each[0].wrapped_phase.clone();
+  out.modulation = each[0].modulation.clone();
+  out.background = each[0].background.clone();
+  out.mask = each[0].mask.clone();
+  out.reason = each[0].reason.clone();
+  const cv::Size size = out.mask.size();
+  out.exposure.create(size, CV_8U);
+  constexpr uint8_t kNone = 255;
+  const int n = static_cast<int>(stacks.size());
+  // Per pixel, independent of the others: rows in parallel, the same result for any thread count.
+  tbb::parallel_for(tbb::blocked_range<int>(0, size.height, 16), [&](const auto& range) {
+    for (int r = range.begin(); r < range.end(); ++r) {
+      uint8_t* chosen = out.exposure.ptr<uint8_t>(r);
+      uint8_t* reason = out.reason.ptr<uint8_t>(r);
+      for (int c = 0; c < size.width; ++c) {
+        int best = -1, unsaturated = -1;
+        float best_b = -1, unsaturated_b = -1;
+        for (int e = 0; e < n; ++e) {
+          const uint8_t why = each[e].reason.ptr<uint8_t>(r)[c];
+          const float b = each[e].modulation.ptr<float>(r)[c];
+          if (why == static_cast<uint8_t>(PixelReason::kValid) && b > best_b) {
+            best = e;
+            best_b = b;
+          }
+          if (why != static_cast<uint8_t>(PixelReason::kSaturated) && b > unsaturated_b) {
+            unsaturated = e;
+            unsaturated_b = b;
+          }
+        }
+        const int from = best >= 0 ? best : (unsaturated >= 0 ? unsaturated : 0);
+        chosen[c] = best >= 0 ? static_cast<uint8_t>(best) : kNone;
+        reason[c] = best >= 0 ? static_cast<uint8_t>(PixelReason::kValid)
+                              : (unsaturated >= 0 ? each[unsaturated].reason.ptr<uint8_t>(r)[c]
+                                                  : static_cast<uint8_t>(PixelReason::kSaturated));
+        if (from == 0) continue;
+        const DecodeResult& d = each[from];
+        out.absolute_phase.ptr<float>(r)[c] = d.absolute_phase.ptr<float>(r)[c];
+        out.wrapped_phase.ptr<float>(r)[c] = d.wrapped_phase.ptr<float>(r)[c];
+        out.modulation.ptr<float>(r)[c] = d.modulation.ptr<float>(r)[c];
+        out.background.ptr<float>(r)[c] = d.background.ptr<float>(r)[c];
+        out.mask.ptr<uint8_t>(r)[c] = d.mask.ptr<uint8_t>(r)[c];
+      }
+    }
+  });
+  // Invalid pixels carry NaN phase whichever exposure they came from (the mask rules).
+  out.absolute_phase.setTo(std::numeric_limits<float>::quiet_NaN(), out.mask == 0);
+
+  DecodeSummary& sum = out.summary;
+  sum.pixels = static_cast<int64_t>(size.area());
+  std::array<int64_t, kNumReasons> counts{};
+  for (int r = 0; r < size.height; ++r) {
+    const uint8_t* reason = out.reason.ptr<uint8_t>(r);
+    for (int c = 0; c < size.width; ++c) ++counts[std::min<int>(reason[c], kNumReasons - 1)];
+  }
+  SetCounts(counts, &sum);
+  std::vector<int64_t> supplied(stacks.size(), 0);
+  for (int r = 0; r < size.height; ++r) {
+    const uint8_t* chosen = out.exposure.ptr<uint8_t>(r);
+    for (int c = 0; c < size.width; ++c) {
+      if (chosen[c] != kNone) ++supplied[chosen[c]];
+    }
+  }
+  size_t main = 0;
+  for (size_t e = 0; e < stacks.size(); ++e) {
+    const DecodeSummary& s = each[e].summary;
+    sum.orders_repaired += s.orders_repaired;
+    sum.exposures.push_back({s.valid, supplied[e], s.min_modulation_dn, s.noise.sigma_dn});
+    if (supplied[e] > supplied[main]) main = e;
+  }
+  sum.min_modulation_dn = each[main].summary.min_modulation_dn;
+  sum.threshold_bounded = each[main].summary.threshold_bounded;
+  sum.full_scale_dn = each[main].summary.full_scale_dn;
+  sum.noise = each[main].summary.noise;
+  std::string parts;
+  for (size_t e = 0; e < stacks.size(); ++e) {
+    parts += StrCat(e ? ", " : "", "e", e, " valid ", sum.exposures[e].valid, " chosen ",
+                    sum.exposures[e].chosen);
+  }
+  sum.message = StrCat(stacks.size(), " exposures combined (", parts, ")");
+  if (sum.valid == 0) {
+    sum.status = DecodeStatus::kNoValidPixels;
+    sum.message = "no pixel passed the quality mask in any exposure; " + sum.message;
+  }
+  sum.time_ms = timer.ElapsedMs();
+  return out;
 }
 
 cv::Mat DemodulationMatrix(const std::vector<double>& shifts, cv::Matx33d* cov) {

@@ -127,6 +127,26 @@ NoiseEstimate EstimateNoise(const PatternScheme& scheme, const std::vector<cv::M
 
 enum class DecodeStatus { kSuccess, kNoValidPixels };
 
+// Per-pixel outcome of the decoder (DecodeResult::reason): valid, or the first failing test in
+// this order (the spatial check runs last).
+enum class PixelReason : uint8_t {
+  kValid = 0,
+  kSaturated = 1,
+  kUnderexposed = 2,
+  kLowModulation = 3,
+  kShadow = 4,
+  kOrderAmbiguous = 5,
+  kSpatial = 6,
+};
+
+// One exposure's part in a multi-exposure decode (DecodeExposures).
+struct ExposureFigures {
+  int64_t valid = 0;             // pixels valid in this exposure's own decode
+  int64_t chosen = 0;            // pixels the combination took from this exposure
+  double min_modulation_dn = 0;  // its threshold
+  double noise_sigma_dn = 0;     // its camera noise (given, estimated or assumed)
+};
+
 struct DecodeSummary {
   DecodeStatus status = DecodeStatus::kSuccess;
   std::string message;
@@ -145,6 +165,12 @@ struct DecodeSummary {
   double full_scale_dn = 0;        // full scale used (options or the image depth)
   NoiseEstimate noise;             // camera noise behind the automatic threshold
   double time_ms = 0;
+  // Several exposures (DecodeExposures): one entry per exposure, in input order; empty for a
+  // single stack. The figures above then describe the combination: valid and the rejections
+  // per pixel (a pixel valid in no exposure counts under its reason in the unsaturated exposure
+  // of highest modulation, or as saturated), orders_repaired summed over the exposures'
+  // decodes, threshold / noise / full scale those of the exposure that supplied most pixels.
+  std::vector<ExposureFigures> exposures;
 
   double ValidFraction() const { return pixels ? static_cast<double>(valid) / pixels : 0.0; }
   std::string BriefReport() const;
@@ -156,6 +182,9 @@ struct DecodeResult {
   cv::Mat modulation;      // CV_32F, B of set 0 in DN
   cv::Mat background;      // CV_32F, A of set 0 in DN
   cv::Mat mask;            // CV_8U, 255 valid, 0 invalid
+  cv::Mat reason;          // CV_8U, PixelReason per pixel
+  cv::Mat exposure;        // CV_8U, index of the exposure a pixel came from (DecodeExposures;
+                           // empty for a single stack; 255 where invalid)
   DecodeSummary summary;
 };
 
@@ -167,6 +196,21 @@ DecodeResult Decode(const PatternScheme& scheme, const std::vector<cv::Mat>& ima
 // steady loop).
 void Decode(const PatternScheme& scheme, const std::vector<cv::Mat>& images,
             const DecodeOptions& options, DecodeResult* result);
+
+// Most exposures DecodeExposures combines (the exposure index map is 8-bit).
+constexpr int kMaxExposures = 16;
+
+// Shiny parts need several exposures: short ones keep highlights unsaturated, long ones lift
+// dark areas. stacks[e] is the whole stack at exposure e (same scheme, size and bit depth).
+// Each is decoded alone (own noise estimate and threshold), then per pixel the exposure with the
+// highest modulation B among those where the pixel is valid (so unsaturated in every
+// phase-shift image) gives phase, modulation, background and wrapped phase. The camera's noise
+// in DN does not grow with the exposure (read noise), so the highest B is the best phase
+// (sigma_phi ~ sigma / B). One stack: exactly Decode. Throws fringe::Error naming the exposure
+// for a stack of another size or depth, none, or more than kMaxExposures.
+DecodeResult DecodeExposures(const PatternScheme& scheme,
+                             const std::vector<std::vector<cv::Mat>>& stacks,
+                             const DecodeOptions& options = {});
 
 // Standard deviation of set `set`'s wrapped phase (radians) for camera noise sigma_dn and
 // modulation b_dn: sqrt(trace-based LS variance) = sqrt(2/N) sigma / B for equal shifts.

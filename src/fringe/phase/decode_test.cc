@@ -4,6 +4,7 @@
 #include <tbb/task_arena.h>
 
 #include <cmath>
+#include <iostream>
 #include <opencv2/imgproc.hpp>
 
 #include "fringe/io/image_io.h"
@@ -434,6 +435,75 @@ TEST(Decode, BadStacksAreRejectedNamingTheImage) {
   auto colour = images;
   cv::cvtColor(colour[0], colour[0], cv::COLOR_GRAY2BGR);
   EXPECT_THROW(Decode(s, colour), Error);
+}
+
+// Two exposures of a scene with a bright (specular-like) patch on a dark part: the short
+// exposure decodes only the patch (the dark part's modulation is below the threshold), the long
+// one only the dark part (the patch saturates); combined, each pixel takes the exposure with the
+// highest unsaturated modulation, and every pixel decodes with the right order.
+TEST(Decode, TwoExposuresCoverWhatEitherAloneMisses) {
+  const PatternScheme s = MakeScheme("heterodyne-4x3", 1280, 800);
+  const cv::Mat u = LinearProjectorMap(s, kSize);
+  const cv::Rect patch(100, 60, 120, 100);
+  constexpr double kGain = 8;  // long / short exposure
+  auto render = [&](double gain, uint64_t seed) {
+    SyntheticStackOptions dark, bright;
+    dark.background_dn = 10 * gain;
+    dark.modulation_dn = 6 * gain;
+    bright.background_dn = 150 * gain;
+    bright.modulation_dn = 100 * gain;
+    dark.noise_sigma_dn = bright.noise_sigma_dn = 1.5;
+    dark.seed = seed;
+    bright.seed = seed + 100;
+    std::vector<cv::Mat> images = RenderSyntheticStack(s, u, dark);
+    const std::vector<cv::Mat> lit = RenderSyntheticStack(s, u, bright);
+    for (size_t i = 0; i < images.size(); ++i) lit[i](patch).copyTo(images[i](patch));
+    return images;
+  };
+  DecodeOptions o;
+  o.noise_sigma_dn = 1.5;
+  const std::vector<std::vector<cv::Mat>> stacks = {render(1, 1), render(kGain, 2)};
+  const DecodeResult short_only = Decode(s, stacks[0], o);
+  const DecodeResult long_only = Decode(s, stacks[1], o);
+  const DecodeResult both = DecodeExposures(s, stacks, o);
+  const int64_t pixels = static_cast<int64_t>(kSize.area());
+  std::cout << "short " << short_only.summary.valid << ", long " << long_only.summary.valid
+            << ", both " << both.summary.valid << " of " << pixels << "\n"
+            << both.summary.BriefReport() << "\n";
+  // Each alone misses a large part; together nearly everything decodes.
+  EXPECT_LT(short_only.summary.valid, patch.area() + pixels / 100);
+  EXPECT_GT(long_only.summary.rejected_saturated, patch.area() / 2);
+  EXPECT_GT(both.summary.valid, short_only.summary.valid);
+  EXPECT_GT(both.summary.valid, long_only.summary.valid);
+  EXPECT_GT(both.summary.valid, pixels * 99 / 100);
+  const Errors e = Compare(s, both, u);
+  EXPECT_EQ(e.wrong_orders, 0);
+  EXPECT_LT(e.abs_rms_px, 0.5);
+  // The patch came from the short exposure, the dark part from the long one.
+  ASSERT_EQ(both.exposure.type(), CV_8U);
+  EXPECT_EQ(both.exposure.at<uint8_t>(patch.y + 50, patch.x + 60), 0);
+  EXPECT_EQ(both.exposure.at<uint8_t>(10, 10), 1);
+  ASSERT_EQ(both.summary.exposures.size(), 2u);
+  EXPECT_EQ(both.summary.exposures[0].chosen + both.summary.exposures[1].chosen,
+            both.summary.valid);
+  EXPECT_EQ(both.summary.exposures[1].valid, long_only.summary.valid);
+  EXPECT_EQ(both.summary.valid + both.summary.rejected_saturated +
+                both.summary.rejected_underexposed + both.summary.rejected_low_modulation +
+                both.summary.rejected_shadow + both.summary.rejected_order_ambiguous +
+                both.summary.rejected_spatial,
+            both.summary.pixels);
+  // One exposure is exactly Decode; a stack of another size is refused naming the exposure.
+  const DecodeResult one = DecodeExposures(s, {stacks[1]}, o);
+  EXPECT_EQ(one.summary.valid, long_only.summary.valid);
+  EXPECT_TRUE(one.exposure.empty());
+  std::vector<cv::Mat> small;
+  for (const auto& im : stacks[1]) small.push_back(im(cv::Rect(0, 0, 64, 48)).clone());
+  try {
+    DecodeExposures(s, {stacks[0], small}, o);
+    FAIL();
+  } catch (const Error& err) {
+    EXPECT_NE(std::string(err.what()).find("exposure 1"), std::string::npos) << err.what();
+  }
 }
 
 TEST(Gamma, RippleIsMeasurableAndRemovedByCompensation) {

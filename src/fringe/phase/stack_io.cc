@@ -60,27 +60,80 @@ std::vector<cv::Mat> ReadStack(const std::filesystem::path& dir, const PatternSc
   return images;
 }
 
+std::filesystem::path ExposureDir(const std::filesystem::path& dir, int exposure) {
+  return dir / StrCat("e", exposure);
+}
+
+bool HasExposureFolders(const std::filesystem::path& dir) {
+  std::error_code ec;
+  return std::filesystem::is_directory(ExposureDir(dir, 0), ec);
+}
+
+std::vector<std::vector<cv::Mat>> ReadExposureStacks(const std::filesystem::path& dir,
+                                                     const PatternScheme& scheme) {
+  if (!HasExposureFolders(dir)) return {ReadStack(dir, scheme)};
+  // Images beside the exposure folders would be ambiguous (a forgotten stack, or a misplaced
+  // exposure): refused.
+  std::error_code ec;
+  for (std::filesystem::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+    std::error_code fec;
+    if (it->is_regular_file(fec) && io::IsImageFile(it->path())) {
+      throw Error(StrCat(it->path().string(), ": image beside the exposure folders ",
+                         ExposureDir(dir, 0).filename().string(),
+                         "/...; put every image of an exposure in its folder"));
+    }
+  }
+  if (ec) throw Error(StrCat(dir.string(), ": cannot list image stack: ", ec.message()));
+  std::vector<std::vector<cv::Mat>> stacks;
+  for (int e = 0; std::filesystem::is_directory(ExposureDir(dir, e), ec); ++e) {
+    if (e >= kMaxExposures) {
+      throw Error(
+          StrCat(ExposureDir(dir, e).string(), ": more than ", kMaxExposures, " exposures"));
+    }
+    stacks.push_back(ReadStack(ExposureDir(dir, e), scheme));
+    const cv::Mat& first = stacks.front().front();
+    const cv::Mat& now = stacks.back().front();
+    if (now.size() != first.size() || now.type() != first.type()) {
+      throw Error(StrCat(ExposureDir(dir, e).string(), ": images are ", now.cols, "x", now.rows,
+                         " of ", now.elemSize() * 8, " bits, those of ",
+                         ExposureDir(dir, 0).string(), " are ", first.cols, "x", first.rows, " of ",
+                         first.elemSize() * 8, " bits"));
+    }
+  }
+  return stacks;
+}
+
 nlohmann::json DecodeSummaryToJson(const DecodeSummary& s) {
-  return {{"status", s.status == DecodeStatus::kSuccess ? "success" : "no_valid_pixels"},
-          {"message", s.message},
-          {"pixels", s.pixels},
-          {"valid", s.valid},
-          {"valid_fraction", s.ValidFraction()},
-          {"rejected_saturated", s.rejected_saturated},
-          {"rejected_underexposed", s.rejected_underexposed},
-          {"rejected_low_modulation", s.rejected_low_modulation},
-          {"rejected_shadow", s.rejected_shadow},
-          {"rejected_order_ambiguous", s.rejected_order_ambiguous},
-          {"rejected_spatial", s.rejected_spatial},
-          {"orders_repaired", s.orders_repaired},
-          {"min_modulation_dn", s.min_modulation_dn},
-          {"threshold_bounded", s.threshold_bounded},
-          {"full_scale_dn", s.full_scale_dn},
-          {"noise_sigma_dn", s.noise.sigma_dn},
-          {"noise_source", ToString(s.noise.source)},
-          {"noise_message", s.noise.message},
-          {"message", s.message},
-          {"time_ms", s.time_ms}};
+  nlohmann::json exposures = nlohmann::json::array();
+  for (const ExposureFigures& e : s.exposures) {
+    exposures.push_back({{"valid", e.valid},
+                         {"chosen", e.chosen},
+                         {"min_modulation_dn", e.min_modulation_dn},
+                         {"noise_sigma_dn", e.noise_sigma_dn}});
+  }
+  nlohmann::json j = {
+      {"status", s.status == DecodeStatus::kSuccess ? "success" : "no_valid_pixels"},
+      {"message", s.message},
+      {"pixels", s.pixels},
+      {"valid", s.valid},
+      {"valid_fraction", s.ValidFraction()},
+      {"rejected_saturated", s.rejected_saturated},
+      {"rejected_underexposed", s.rejected_underexposed},
+      {"rejected_low_modulation", s.rejected_low_modulation},
+      {"rejected_shadow", s.rejected_shadow},
+      {"rejected_order_ambiguous", s.rejected_order_ambiguous},
+      {"rejected_spatial", s.rejected_spatial},
+      {"orders_repaired", s.orders_repaired},
+      {"min_modulation_dn", s.min_modulation_dn},
+      {"threshold_bounded", s.threshold_bounded},
+      {"full_scale_dn", s.full_scale_dn},
+      {"noise_sigma_dn", s.noise.sigma_dn},
+      {"noise_source", ToString(s.noise.source)},
+      {"noise_message", s.noise.message},
+      {"message", s.message},
+      {"time_ms", s.time_ms}};
+  if (!s.exposures.empty()) j["exposures"] = exposures;
+  return j;
 }
 
 void WriteDecodeFolder(const std::filesystem::path& dir, const DecodeResult& r) {

@@ -16,6 +16,17 @@ namespace fringe::phase {
 // file in `dir` (any io::IsImageFile not in the manifest).
 std::vector<cv::Mat> ReadStack(const std::filesystem::path& dir, const PatternScheme& scheme);
 
+// One camera's stack at one or several exposures (DecodeExposures). A folder holding a
+// sub-folder "e0" holds exposures: e0/, e1/, ... (consecutive from 0, at most kMaxExposures),
+// each a stack ReadStack reads, all of one size and bit depth; the folder itself then holds no
+// image (an error naming it). Any other folder is one exposure: {ReadStack(dir, scheme)}.
+std::vector<std::vector<cv::Mat>> ReadExposureStacks(const std::filesystem::path& dir,
+                                                     const PatternScheme& scheme);
+// The folder of exposure e of a camera folder: dir / "e<e>".
+std::filesystem::path ExposureDir(const std::filesystem::path& dir, int exposure);
+// Whether `dir` holds exposure folders (ReadExposureStacks).
+bool HasExposureFolders(const std::filesystem::path& dir);
+
 nlohmann::json DecodeSummaryToJson(const DecodeSummary& summary);
 
 // Writes into `dir`, atomically (the folder appears complete or not at all):

@@ -57,5 +57,50 @@ TEST(StackIo, RoundTripAndBadStacksNameTheFile) {
   ExpectErrorMentions([&] { ReadStack(dir / "stack", s); }, names[2]);
 }
 
+// Exposure folders e0/, e1/: read in order; images beside them, or an exposure of another size,
+// are errors naming the file or folder; a plain folder is one exposure.
+TEST(StackIo, ExposureFolders) {
+  test::TempDir dir;
+  const PatternScheme s = MakeScheme("gray+4", 640, 400);
+  const cv::Mat u = LinearProjectorMap(s, cv::Size(96, 64));
+  SyntheticStackOptions dim, bright;
+  dim.modulation_dn = 20;
+  dim.background_dn = 30;
+  const auto names = s.ImageNames();
+  const std::vector<std::vector<cv::Mat>> written = {RenderSyntheticStack(s, u, dim),
+                                                     RenderSyntheticStack(s, u, bright)};
+  for (int e = 0; e < 2; ++e) {
+    std::filesystem::create_directories(ExposureDir(dir / "cam", e));
+    for (size_t i = 0; i < names.size(); ++i) {
+      cv::imwrite((ExposureDir(dir / "cam", e) / names[i]).string(), written[e][i]);
+    }
+  }
+  EXPECT_TRUE(HasExposureFolders(dir / "cam"));
+  const auto stacks = ReadExposureStacks(dir / "cam", s);
+  ASSERT_EQ(stacks.size(), 2u);
+  EXPECT_EQ(cv::norm(stacks[1][2], written[1][2], cv::NORM_INF), 0.0);
+  EXPECT_EQ(cv::norm(stacks[0][2], written[0][2], cv::NORM_INF), 0.0);
+  const auto plain = ReadExposureStacks(ExposureDir(dir / "cam", 1), s);
+  ASSERT_EQ(plain.size(), 1u);
+  // The summary JSON lists the exposures of a combined decode.
+  const DecodeResult r = DecodeExposures(s, stacks);
+  const nlohmann::json j = DecodeSummaryToJson(r.summary);
+  ASSERT_TRUE(j.contains("exposures"));
+  EXPECT_EQ(j["exposures"].size(), 2u);
+  EXPECT_FALSE(DecodeSummaryToJson(Decode(s, stacks[0]).summary).contains("exposures"));
+  // An image beside the exposure folders.
+  cv::imwrite((dir / "cam" / names[0]).string(), written[0][0]);
+  ExpectErrorMentions([&] { ReadExposureStacks(dir / "cam", s); },
+                      (dir / "cam" / names[0]).string());
+  std::filesystem::remove(dir / "cam" / names[0]);
+  // An exposure of another size.
+  std::filesystem::create_directories(ExposureDir(dir / "cam", 2));
+  for (const auto& n : names) {
+    cv::imwrite((ExposureDir(dir / "cam", 2) / n).string(), cv::Mat(32, 48, CV_8U, cv::Scalar(9)));
+  }
+  ExpectErrorMentions([&] { ReadExposureStacks(dir / "cam", s); },
+                      ExposureDir(dir / "cam", 2).string());
+}
+
 }  // namespace
 }  // namespace fringe::phase

@@ -202,15 +202,16 @@ ViewResult ProcessView(const scan::ScanFolder& folder, const std::string& name,
   std::string stage = "read";
   try {
     util::Timer timer;
-    std::vector<cv::Mat> left, right;
-    left = folder.ReadStack(name, scan::Camera::kLeft, scheme);
-    right = folder.ReadStack(name, scan::Camera::kRight, scheme);
+    // One stack or several exposures per camera (phase/stack_io.h).
+    std::vector<std::vector<cv::Mat>> left, right;
+    left = folder.ReadExposureStacks(name, scan::Camera::kLeft, scheme);
+    right = folder.ReadExposureStacks(name, scan::Camera::kRight, scheme);
     s.read_s = timer.ElapsedSeconds();
     stage = "reconstruct";
     stereo::ViewReconstruction rec = reconstructor.Reconstruct(left, right);
     if (rec.summary.ok() && options.write_report) {
       v.pictures.push_back(
-          PhasePicture(name, left, scheme, options.reconstruction.decode, kPictureWidthPx));
+          PhasePicture(name, left.front(), scheme, options.reconstruction.decode, kPictureWidthPx));
     }
     left.clear();
     right.clear();

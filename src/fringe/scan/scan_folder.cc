@@ -204,19 +204,32 @@ phase::PatternScheme ScanFolder::ReadScheme() const {
   return phase::ReadScheme(root() / manifest_.scheme);
 }
 
-std::vector<cv::Mat> ScanFolder::ReadStack(const std::string& view, Camera camera,
-                                           const phase::PatternScheme& scheme) const {
+std::vector<std::vector<cv::Mat>> ScanFolder::ReadExposureStacks(
+    const std::string& view, Camera camera, const phase::PatternScheme& scheme) const {
   if (!std::binary_search(views_.begin(), views_.end(), view)) {
     throw Error(StrCat(layout_.ViewDir(view).string(), ": no such view in the scan"));
   }
-  std::vector<cv::Mat> images = phase::ReadStack(layout_.CameraDir(view, camera), scheme);
+  std::vector<std::vector<cv::Mat>> stacks =
+      phase::ReadExposureStacks(layout_.CameraDir(view, camera), scheme);
   const cv::Size size(manifest_.image_width, manifest_.image_height);
-  if (!images.empty() && images[0].size() != size) {
-    throw Error(StrCat(layout_.CameraDir(view, camera).string(), ": images are ", images[0].cols,
-                       "x", images[0].rows, ", ", layout_.Manifest().string(), " says ", size.width,
-                       "x", size.height));
+  for (const auto& images : stacks) {
+    if (!images.empty() && images[0].size() != size) {
+      throw Error(StrCat(layout_.CameraDir(view, camera).string(), ": images are ", images[0].cols,
+                         "x", images[0].rows, ", ", layout_.Manifest().string(), " says ",
+                         size.width, "x", size.height));
+    }
   }
-  return images;
+  return stacks;
+}
+
+std::vector<cv::Mat> ScanFolder::ReadStack(const std::string& view, Camera camera,
+                                           const phase::PatternScheme& scheme) const {
+  std::vector<std::vector<cv::Mat>> stacks = ReadExposureStacks(view, camera, scheme);
+  if (stacks.size() != 1) {
+    throw Error(StrCat(layout_.CameraDir(view, camera).string(), ": holds ", stacks.size(),
+                       " exposures; this reader takes one stack"));
+  }
+  return std::move(stacks[0]);
 }
 
 CalibrationTarget ScanFolder::ReadTarget() const {

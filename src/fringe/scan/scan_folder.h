@@ -109,9 +109,14 @@ class ScanFolder {
   bool has_views() const { return !views_.empty(); }
   // The pattern scheme (scheme.json); throws when the scan has none.
   phase::PatternScheme ReadScheme() const;
-  // One camera's fringe images of a view in the scheme's order (phase::ReadStack checks them).
+  // One camera's fringe images of a view in the scheme's order (phase::ReadStack checks them);
+  // an error when the camera folder holds several exposures.
   std::vector<cv::Mat> ReadStack(const std::string& view, Camera camera,
                                  const phase::PatternScheme& scheme) const;
+  // The same at one or several exposures (exposure folders e0/, e1/, ... in the camera folder;
+  // phase::ReadExposureStacks), every image of the manifest's size.
+  std::vector<std::vector<cv::Mat>> ReadExposureStacks(const std::string& view, Camera camera,
+                                                       const phase::PatternScheme& scheme) const;
 
   bool has_calibration() const { return manifest_.calibration_images > 0; }
   // Board image file names (same in left/ and right/), sorted.

@@ -159,6 +159,21 @@ ViewReconstruction ViewReconstructor::Reconstruct(const std::vector<cv::Mat>& le
   return Reconstruct(stacks);
 }
 
+ViewReconstruction ViewReconstructor::Reconstruct(
+    const std::vector<std::vector<cv::Mat>>& left_exposures,
+    const std::vector<std::vector<cv::Mat>>& right_exposures) const {
+  if (left_exposures.empty()) throw Error("reconstruct: no left image stack");
+  ViewStacks stacks;
+  stacks.left.push_back(left_exposures[0]);
+  stacks.more_left_exposures.assign(left_exposures.begin() + 1, left_exposures.end());
+  if (correspondence_->UsesRight()) {
+    if (right_exposures.empty()) throw Error("reconstruct: no right image stack");
+    stacks.right.push_back(right_exposures[0]);
+    stacks.more_right_exposures.assign(right_exposures.begin() + 1, right_exposures.end());
+  }
+  return Reconstruct(stacks);
+}
+
 ViewReconstruction ViewReconstructor::Reconstruct(const ViewStacks& stacks) const {
   util::Timer total;
   ViewReconstruction out;
@@ -184,14 +199,35 @@ ViewReconstruction ViewReconstructor::Reconstruct(const ViewStacks& stacks) cons
     }
   };
   check_size(stacks.left, corr.Left(), "left");
-  if (two_cameras) check_size(stacks.right, *corr.Right(), "right");
+  check_size(stacks.more_left_exposures, corr.Left(), "left");
+  if (two_cameras) {
+    check_size(stacks.right, *corr.Right(), "right");
+    check_size(stacks.more_right_exposures, *corr.Right(), "right");
+  }
+  if ((!stacks.more_left_exposures.empty() || !stacks.more_right_exposures.empty()) &&
+      schemes_.size() != 1) {
+    throw Error("reconstruct: several exposures are combined for a single scheme only");
+  }
+  // Scheme k's stack with, for the first scheme, the further exposures of the same view:
+  // phase::DecodeExposures keeps per pixel the best unsaturated one.
+  auto exposures = [](const std::vector<cv::Mat>& first,
+                      const std::vector<std::vector<cv::Mat>>& more) {
+    std::vector<std::vector<cv::Mat>> all = {first};
+    all.insert(all.end(), more.begin(), more.end());
+    return all;
+  };
 
   util::Timer timer;
+  const std::vector<std::vector<cv::Mat>> kNone;
   DecodedView decoded;
   for (size_t k = 0; k < schemes_.size(); ++k) {
-    decoded.left.push_back(phase::Decode(schemes_[k], stacks.left[k], options_.decode));
+    decoded.left.push_back(phase::DecodeExposures(
+        schemes_[k], exposures(stacks.left[k], k == 0 ? stacks.more_left_exposures : kNone),
+        options_.decode));
     if (two_cameras) {
-      decoded.right.push_back(phase::Decode(schemes_[k], stacks.right[k], options_.decode));
+      decoded.right.push_back(phase::DecodeExposures(
+          schemes_[k], exposures(stacks.right[k], k == 0 ? stacks.more_right_exposures : kNone),
+          options_.decode));
     }
   }
   s.decode_left = decoded.left[0].summary;

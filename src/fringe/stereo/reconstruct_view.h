@@ -120,6 +120,10 @@ std::shared_ptr<const Correspondence> MakeStereoCorrespondence(const StereoRig& 
 // order (CV_8U or CV_16U), camera-sized; right empty for one-camera kinds.
 struct ViewStacks {
   std::vector<std::vector<cv::Mat>> left, right;
+  // Further exposures of the same view for a single scheme: more_left_exposures[e] is the left
+  // camera's stack at exposure e + 1 (left[0] is exposure 0); phase::DecodeExposures combines
+  // them per pixel. Empty: one exposure.
+  std::vector<std::vector<cv::Mat>> more_left_exposures, more_right_exposures;
 };
 
 class ViewReconstructor {
@@ -138,6 +142,10 @@ class ViewReconstructor {
   // the rig; right empty for one-camera kinds.
   ViewReconstruction Reconstruct(const std::vector<cv::Mat>& left_images,
                                  const std::vector<cv::Mat>& right_images) const;
+  // Each camera's stack at one or several exposures (phase::DecodeExposures combines them per
+  // pixel); the rest as above.
+  ViewReconstruction Reconstruct(const std::vector<std::vector<cv::Mat>>& left_exposures,
+                                 const std::vector<std::vector<cv::Mat>>& right_exposures) const;
 
   const Correspondence& correspondence() const { return *correspondence_; }
   const std::vector<phase::PatternScheme>& schemes() const { return schemes_; }

@@ -30,7 +30,10 @@
 // good to ~0.05-0.1 deg: agreement, not accuracy).
 //
 // Usage: bench_registration [--json] [--views 8] [--scale 1] [--noise 1.5] [--seed 1]
-//                           [--bunny DIR] [--no-bunny]
+//                           [--bunny DIR] [--no-bunny] [--cache DIR]
+// --cache DIR keeps the reconstructed views (organized PLY + markers file per view, and the
+// marker-match counts) and reuses them on the next run with the same arguments: registration
+// experiments then skip the minutes of simulation. The PLY stores float coordinates (~6e-5 mm).
 #include <open3d/geometry/KDTreeSearchParam.h>
 #include <open3d/geometry/PointCloud.h>
 #include <open3d/pipelines/registration/Registration.h>
@@ -52,6 +55,8 @@
 
 #include "fringe/eval/deviation.h"
 #include "fringe/geometry/align.h"
+#include "fringe/io/json.h"
+#include "fringe/io/ply.h"
 #include "fringe/registration/coarse.h"
 #include "fringe/registration/icp.h"
 #include "fringe/registration/markers.h"
@@ -202,7 +207,7 @@ int Run(int argc, char** argv) {
   int views_n = 8;
   double scale = 1.0, noise_dn = 1.5;  // below ~1 the 5 mm markers are too few pixels
   uint64_t seed = 1;
-  std::string bunny_dir;
+  std::string bunny_dir, cache_dir;
   if (const char* d = std::getenv("FRINGE_SHARED_DATA")) {
     bunny_dir = (fs::path(d) / "stanford-bunny").string();
   } else {
@@ -217,6 +222,8 @@ int Run(int argc, char** argv) {
   app.add_option("--bunny", bunny_dir, "Stanford bunny folder (bun000.ply, bun045.ply, bun.conf)")
       ->capture_default_str();
   app.add_flag("--no-bunny", no_bunny, "Skip the bunny");
+  app.add_option("--cache", cache_dir,
+                 "Keep the reconstructed views here and reuse them (same arguments only)");
   CLI11_PARSE(app, argc, argv);
   if (views_n < 3) throw Error("bench_registration: --views must be >= 3");
 
@@ -236,7 +243,27 @@ int Run(int argc, char** argv) {
   std::vector<PointCloud> clouds;
   int detected = 0, correct = 0;
   util::Timer sim_timer;
-  for (int v = 0; v < views_n; ++v) {
+  const fs::path cache(cache_dir);
+  const std::string cache_key = "views" + std::to_string(views_n) + "_scale" +
+                                std::to_string(scale) + "_noise" + std::to_string(noise_dn) +
+                                "_seed" + std::to_string(seed);
+  const fs::path cache_stats = cache / (cache_key + ".json");
+  const bool from_cache = !cache_dir.empty() && fs::exists(cache_stats);
+  for (int v = 0; from_cache && v < views_n; ++v) {
+    const fs::path stem = cache / (cache_key + "_" + std::to_string(v));
+    registration::RegistrationView rv;
+    rv.name = std::to_string(v);
+    rv.cloud = io::ReadOrganizedPly(stem.string() + ".ply").Compact();
+    rv.markers = registration::ReadViewMarkers(stem.string() + ".markers.json");
+    clouds.push_back(rv.cloud);
+    views.push_back(std::move(rv));
+  }
+  if (from_cache) {
+    const nlohmann::json stats = io::ReadJson(cache_stats);
+    detected = stats.at("detected").get<int>();
+    correct = stats.at("correct").get<int>();
+  }
+  for (int v = 0; !from_cache && v < views_n; ++v) {
     const sim::ViewImages images = simulator.RenderView(v);
     const stereo::ViewReconstruction rec =
         reconstructor.Reconstruct(images.left.images, images.right.images);
@@ -255,8 +282,17 @@ int Run(int argc, char** argv) {
         }
       }
     }
+    if (!cache_dir.empty()) {
+      fs::create_directories(cache);
+      const fs::path stem = cache / (cache_key + "_" + std::to_string(v));
+      io::WritePly(stem.string() + ".ply", rec.cloud);
+      registration::WriteViewMarkers(stem.string() + ".markers.json", rv.markers);
+    }
     clouds.push_back(rv.cloud);
     views.push_back(std::move(rv));
+  }
+  if (!cache_dir.empty() && !from_cache) {
+    io::WriteJson(cache_stats, {{"detected", detected}, {"correct", correct}});
   }
   const double sim_s = sim_timer.ElapsedSeconds();
   const std::vector<Rigid3d>& truth = simulator.view_poses();

@@ -391,8 +391,6 @@ TEST(Cli, InfoAndReadRigOnASingleCameraCalibration) {
   EXPECT_NE(out.find("1280x1024"), std::string::npos) << out;
 }
 
-// fringe register on a folder of view PLYs with markers beside them: a wavy surface seen from
-// three poses, markers stuck on it; poses.json gets every view, relative to the first.
 // evaluate --align: points on the demo part's surface (float PLY), moved by a known 1 deg / 1 mm,
 // are best-fitted back onto the mesh, and the transform is reported.
 TEST(Cli, EvaluateAlignRecoversAKnownMotion) {
@@ -433,7 +431,10 @@ TEST(Cli, EvaluateAlignRecoversAKnownMotion) {
   EXPECT_NE(err.find("pairs.json: the point pairs do not fix a pose"), std::string::npos) << err;
 }
 
-TEST(Cli, RegisterWritesPoses) {
+// fringe register on a folder of view PLYs (organized) with markers beside them: a wavy surface
+// seen from three poses, markers stuck on it; poses.json gets every view, relative to the first;
+// registered/ keeps the grids, and fringe fuse reads the folder.
+TEST(Cli, RegisterWritesPosesAndAFusableFolder) {
   test::TempDir dir;
   auto height = [](double x, double y) {
     return 6 * std::sin(x / 15) * std::cos(y / 19) + 0.003 * x * x;
@@ -451,15 +452,22 @@ TEST(Cli, RegisterWritesPoses) {
   }
   for (int v = 0; v < 3; ++v) {
     const Rigid3d sensor_from_world = world_from_sensor[v].Inverse();
-    PointCloud c;
-    for (double x = -70; x <= 70; x += 0.7) {
-      for (double y = -50; y <= 50; y += 0.7) {
+    // An organized cloud (a grid over x, y), as fringe reconstruct writes: the registered
+    // clouds must stay organized for fringe fuse.
+    OrganizedPointCloud c(201, 143, true, true, true);
+    for (int r = 0; r < c.height; ++r) {
+      for (int col = 0; col < c.width; ++col) {
+        const double x = -70 + 0.7 * col, y = -50 + 0.7 * r;
         const double z = height(x, y);
         const double dzdx = 6 / 15.0 * std::cos(x / 15) * std::cos(y / 19) + 0.006 * x;
         const double dzdy = -6 / 19.0 * std::sin(x / 15) * std::sin(y / 19);
-        c.points.push_back(sensor_from_world * Eigen::Vector3d(x, y, z));
-        c.normals.push_back(
-            sensor_from_world.RotateDirection(Eigen::Vector3d(-dzdx, -dzdy, 1).normalized()));
+        const size_t i = c.index(col, r);
+        c.cloud.points[i] = sensor_from_world * Eigen::Vector3d(x, y, z);
+        c.cloud.normals[i] =
+            sensor_from_world.RotateDirection(Eigen::Vector3d(-dzdx, -dzdy, 1).normalized());
+        c.cloud.intensity[i] = 100;
+        c.cloud.quality[i] = 50;
+        c.valid[i] = 1;
       }
     }
     const std::string name = "view" + std::to_string(v);
@@ -491,8 +499,24 @@ TEST(Cli, RegisterWritesPoses) {
     EXPECT_LT(d.angle_rad * 180 / M_PI, 0.01) << v;
     EXPECT_LT(d.translation_mm, 0.05) << v;
   }
-  EXPECT_TRUE(std::filesystem::exists(dir / "reg" / "registered" / "view2.ply"));
   EXPECT_TRUE(std::filesystem::exists(dir / "reg" / "markers.json"));
+  // The registered clouds keep the input's grid, moved into the world frame.
+  const OrganizedPointCloud reg2 = io::ReadOrganizedPly(dir / "reg" / "registered" / "view2.ply");
+  ASSERT_EQ(reg2.width, 201);
+  ASSERT_EQ(reg2.height, 143);
+  const Eigen::Vector3d corner(-70, -50, height(-70, -50));  // grid slot (0, 0), world frame
+  const Eigen::Vector3d corner_in_reg =
+      world_from_sensor[0].Inverse() * corner;  // the registration's world = view 0's frame
+  EXPECT_LT((reg2.cloud.points[0] - corner_in_reg).norm(), 0.05);
+  // register -> fuse REGDIR: the folder is fusable as it stands.
+  ASSERT_EQ(
+      RunCli({"fuse", (dir / "reg").string(), "--out", (dir / "fused.ply").string(), "--json"},
+             &out, &err),
+      0)
+      << out << err;
+  const nlohmann::json fused = nlohmann::json::parse(out);
+  EXPECT_EQ(fused["fusion"]["status"], "ok") << out;
+  EXPECT_GT(fused["fusion"]["overlap_points"].get<int64_t>(), 1000) << out;
   // An output folder holding an input is refused, the inputs untouched.
   EXPECT_EQ(
       RunCli({"register", (dir / "view0.ply").string(), "--out", dir.path().string()}, &out, &err),

@@ -40,8 +40,9 @@ void AddRegisterCommand(CLI::App& app) {
       ->required()
       ->check(CLI::ExistingFile);
   sub->add_option("--out", a->out,
-                  "Output folder: poses.json, markers.json, registered/NAME.ply, "
-                  "summary.json (created; must not be an input's folder)")
+                  "Output folder: poses.json, markers.json, registered/NAME.ply (organized when "
+                  "the input is, for fringe fuse DIR), summary.json (created; must not be an "
+                  "input's folder)")
       ->required();
   sub->add_option("--initial", a->initial, "Initial poses (poses.json schema), by view name")
       ->check(CLI::ExistingFile);
@@ -54,8 +55,10 @@ void AddRegisterCommand(CLI::App& app) {
     const fs::path out_dir = fs::absolute(a->out).lexically_normal();
     std::vector<registration::RegistrationView> views;
     std::set<std::string> names;
+    std::vector<fs::path> inputs;
     for (const std::string& c : a->clouds) {
       const fs::path p = fs::absolute(c).lexically_normal();
+      inputs.push_back(p);
       if (p.parent_path() == out_dir) {
         throw Error(util::StrCat("register: ", c, " lies in the output folder ", a->out,
                                  ", which is replaced; choose another --out"));
@@ -102,13 +105,10 @@ void AddRegisterCommand(CLI::App& app) {
       fs::create_directories(tmp / "registered");
       for (size_t i = 0; i < views.size(); ++i) {
         if (!r.views[i].placed()) continue;
-        PointCloud moved = views[i].cloud;
-        const Rigid3d& t = r.views[i].world_from_sensor;
-        for (auto& p : moved.points) p = t * p;
-        for (auto& n : moved.normals) n = t.RotateDirection(n);
-        io::WritePly(tmp / "registered" / (views[i].name + ".ply"), moved,
-                     io::PlyFormat::kBinaryLittleEndian,
-                     {"fringe register: world frame (first view's sensor frame), mm"});
+        registration::WriteRegisteredView(
+            tmp / "registered" / (views[i].name + ".ply"), inputs[i], scale, views[i],
+            r.views[i].world_from_sensor,
+            "fringe register: world frame (first view's sensor frame), mm");
       }
     });
     if (a->json) {

@@ -185,9 +185,18 @@ TEST_F(ScanTest, WholeChainMatchesTheTruth) {
   const std::string html = util::ReadTextFile(out / "report.html");
   int sources = 0;
   const std::vector<cv::Mat> images = testing::EmbeddedImages(html, &sources);
-  // Per view: phase, depth, modulation, texture with markers; then residual histograms, the
-  // marker map, mesh renderings and the deviation maps.
-  EXPECT_GE(sources, 12 + 4 + 4 + 2);
+  // Per view: phase, depth, modulation, texture with markers; then residual histograms (one per
+  // ICP level, before and after ICP), the marker map, mesh renderings and the deviation maps.
+  const auto& levels = summary["registration"]["icp"]["levels"];
+  ASSERT_FALSE(levels.empty());
+  for (const auto& l : levels) {
+    int64_t counted = 0;
+    for (const auto& c : l["residual_histogram"]["counts"]) counted += c.get<int64_t>();
+    EXPECT_EQ(counted, l["residual_histogram"]["samples"].get<int64_t>());
+    EXPECT_GT(counted, 100);
+    EXPECT_LE(l["residual_p50_mm"].get<double>(), l["residual_p90_mm"].get<double>());
+  }
+  EXPECT_GE(sources, 12 + 4 + 4 + 2 + static_cast<int>(levels.size()));
   EXPECT_EQ(static_cast<int>(images.size()), sources);
   EXPECT_EQ(html.find("://"), std::string::npos);  // no external URL (base64 has no colon)
 }

@@ -3,9 +3,17 @@
 // three reliable markers with the map and for clouds without markers.
 //
 // Both clouds are voxel-downsampled (voxel_mm), FPFH features computed within
-// feature_radius_factor x voxel, and Open3D's RegistrationRANSACBasedOnFeatureMatching run with
-// edge-length and distance checkers; the result is accepted when its fitness (fraction of
-// source samples within 1.5 voxels of the target) reaches min_fitness.
+// feature_radius_factor x voxel, and RANSAC run with edge-length and distance checkers; a
+// candidate is kept when its fitness (fraction of source samples within 1.5 voxels of the
+// target) reaches min_fitness.
+//
+// Hypotheses: every source sample is paired with its 3 nearest target features, and RANSAC
+// (Open3D's RegistrationRANSACBasedOnCorrespondence) runs `hypotheses` times in sequence, each
+// time on the correspondences the earlier alignments did not explain. The candidates are
+// therefore the best alignment and the best DIFFERENT ones: on a scene with a symmetry (a square
+// box on a plate) the second is another copy and fits as well as the first, which no single
+// fitness reveals. RegisterViews refines and compares them and refuses such a view rather than
+// place it confidently wrong.
 //
 // Determinism: Open3D's random generator is seeded with `seed`, but its RANSAC evaluates
 // hypotheses on several OpenMP threads and keeps the best as they finish, so two runs can pick
@@ -17,6 +25,7 @@
 
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "fringe/geometry/point_cloud.h"
 #include "fringe/geometry/rigid3.h"
@@ -29,6 +38,7 @@ struct CoarseOptions {
   int max_ransac_iterations = 100000;  // >= 1
   double ransac_confidence = 0.999;    // (0, 1)
   double min_fitness = 0.2;            // accepted fraction of matched source samples, (0, 1]
+  int hypotheses = 4;                  // sequential RANSAC runs (see above), >= 1
   uint64_t seed = 1;
   void Check() const;
 };
@@ -36,9 +46,18 @@ struct CoarseOptions {
 enum class CoarseStatus { kOk, kTooFewPoints, kNoAlignment };
 const char* ToString(CoarseStatus s);
 
+struct CoarseCandidate {
+  Rigid3d target_from_source;
+  double fitness = 0;
+  double inlier_rms_mm = 0;
+};
+
 struct CoarseResult {
   CoarseStatus status = CoarseStatus::kNoAlignment;
   std::string message;
+  // The sequential RANSAC's alignments with fitness >= min_fitness, best fitness first; the
+  // first is target_from_source.
+  std::vector<CoarseCandidate> candidates;
   Rigid3d target_from_source;
   double fitness = 0;  // fraction of downsampled source points with a close target point
   double inlier_rms_mm = 0;

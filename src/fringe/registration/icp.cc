@@ -90,6 +90,27 @@ using KdTree =
     nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, PointsAdaptor>,
                                         PointsAdaptor, 3, uint32_t>;
 
+// Nearest neighbour within a radius, for nanoflann: the search starts with the radius as its
+// worst distance, so branches beyond it are pruned (samples outside the overlap of two views,
+// most of them, cost a few node visits instead of a full descent).
+struct NearestWithin {
+  explicit NearestWithin(double radius_sq) : d2(radius_sq) {}
+  double d2;
+  uint32_t index = 0;
+  bool found = false;
+  size_t size() const { return found ? 1 : 0; }
+  bool full() const { return found; }
+  bool addPoint(double dist, uint32_t i) {
+    if (dist < d2) {
+      d2 = dist;
+      index = i;
+      found = true;
+    }
+    return true;
+  }
+  double worstDist() const { return d2; }
+};
+
 struct PreparedView {
   PointsAdaptor data;             // usable points, sensor frame
   std::vector<Vector3d> normals;  // unit, sensor frame
@@ -221,6 +242,7 @@ IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& o
     rep.points_per_view = options.points_per_level[level];
     rep.threshold_start_mm = threshold;
     std::vector<double> last_dists;
+    std::vector<float> last_signed;
     for (int it = 0; it < options.max_iterations_per_level; ++it) {
       // Samples of every view in the world frame at the current poses.
       std::vector<Corr> corr;
@@ -243,13 +265,12 @@ IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& o
           tbb::parallel_for(0, ns, [&](int s) {
             const uint32_t k = sv.order[s];
             const Vector3d q = u_from_v * sv.data.pts[k];
-            uint32_t idx = 0;
-            double d2 = 0;
-            nanoflann::KNNResultSet<double, uint32_t> rs(1);
-            rs.init(&idx, &d2);
+            NearestWithin rs(search_sq);
             tv.tree->findNeighbors(rs, q.data(), nanoflann::SearchParams());
             Corr& c = found[s];
-            if (rs.size() == 0 || d2 > search_sq) return;
+            if (!rs.found) return;
+            const uint32_t idx = rs.index;
+            const double d2 = rs.d2;
             const Vector3d& nt = tv.normals[idx];
             if (u_from_v.RotateDirection(sv.normals[k]).dot(nt) < cos_max) return;
             c.v = v;
@@ -380,6 +401,11 @@ IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& o
                              std::min(threshold, options.shrink_factor * sorted[q]));
       }
       last_dists.swap(dists);
+      last_signed.clear();
+      const size_t stride = corr.size() / kReportedResiduals + 1;
+      for (size_t k = 0; k < corr.size(); k += stride) {
+        last_signed.push_back(static_cast<float>(corr[k].r));
+      }
       rep.iterations = it + 1;
       if (max_rot_deg < options.convergence_rotation_deg &&
           max_trans_mm < options.convergence_translation_mm) {
@@ -387,6 +413,17 @@ IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& o
         break;
       }
     }
+    if (!last_dists.empty()) {
+      std::vector<double> sorted = last_dists;
+      std::sort(sorted.begin(), sorted.end());
+      const auto at = [&](double q) {
+        return sorted[std::min(sorted.size() - 1, static_cast<size_t>(q * sorted.size()))];
+      };
+      rep.residual_p50_mm = at(0.5);
+      rep.residual_p90_mm = at(0.9);
+      rep.residual_p99_mm = at(0.99);
+    }
+    rep.residuals_mm = std::move(last_signed);
     // Dynamic threshold, per level: min(previous, factor x percentile of the last residuals).
     // Shrinking it within a level would cut the correspondences that still carry the
     // misalignment (on a plane-dominated scene the percentile is the plate's noise while the
@@ -408,6 +445,56 @@ IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& o
   }
   result.summary.seconds = timer.ElapsedSeconds();
   return result;
+}
+
+std::vector<SurfaceAgreement> MeasureAgreement(const PointCloud& source, const PointCloud& target,
+                                               const std::vector<Rigid3d>& target_from_source,
+                                               int samples, double overlap_radius_mm,
+                                               double tolerance_mm, double max_normal_angle_deg,
+                                               uint64_t seed) {
+  const auto usable = [](const PointCloud& c, std::vector<Vector3d>* p, std::vector<Vector3d>* n) {
+    for (size_t k = 0; k < c.size() && k < c.normals.size(); ++k) {
+      if (!c.points[k].allFinite() || !c.normals[k].allFinite() ||
+          std::abs(c.normals[k].norm() - 1) > 1e-3) {
+        continue;
+      }
+      p->push_back(c.points[k]);
+      n->push_back(c.normals[k]);
+    }
+  };
+  PreparedView src, tgt;
+  usable(source, &src.data.pts, &src.normals);
+  usable(target, &tgt.data.pts, &tgt.normals);
+  std::vector<SurfaceAgreement> out(target_from_source.size());
+  if (src.data.pts.empty() || tgt.data.pts.empty()) return out;
+  const std::vector<uint32_t> order = NormalSpaceOrder(src.normals, seed);
+  const int ns = std::min<int>(samples, static_cast<int>(order.size()));
+  const KdTree tree(3, tgt.data, nanoflann::KDTreeSingleIndexAdaptorParams(16));
+  const double cos_max = std::cos(max_normal_angle_deg * M_PI / 180);
+  for (size_t h = 0; h < target_from_source.size(); ++h) {
+    const Rigid3d& t = target_from_source[h];
+    std::vector<int8_t> state(ns, 0);  // 0 outside the overlap, 1 consistent, 2 inconsistent
+    tbb::parallel_for(0, ns, [&](int s) {
+      const uint32_t k = order[s];
+      const Vector3d q = t * src.data.pts[k];
+      NearestWithin rs(overlap_radius_mm * overlap_radius_mm);
+      tree.findNeighbors(rs, q.data(), nanoflann::SearchParams());
+      if (!rs.found) return;
+      const Vector3d& nt = tgt.normals[rs.index];
+      const bool ok = std::abs(nt.dot(q - tgt.data.pts[rs.index])) <= tolerance_mm &&
+                      t.RotateDirection(src.normals[k]).dot(nt) >= cos_max;
+      state[s] = ok ? 1 : 2;
+    });
+    int in = 0, bad = 0;
+    for (int8_t x : state) {
+      in += x > 0;
+      bad += x == 2;
+    }
+    out[h].in_overlap = in;
+    out[h].overlap = ns > 0 ? static_cast<double>(in) / ns : 0.0;
+    out[h].inconsistent = in > 0 ? static_cast<double>(bad) / in : 1.0;
+  }
+  return out;
 }
 
 IcpResult AlignPointToPlane(const PointCloud& source, const PointCloud& target,

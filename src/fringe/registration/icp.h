@@ -89,7 +89,13 @@ struct IcpLevelReport {
   int correspondences = 0;                  // at the last iteration
   int overlapping_pairs = 0;                // ordered view pairs used at the last iteration
   int degenerate_directions = 0;            // unconstrained directions left unmoved (last it)
+  // The distribution at the level's last iteration: percentiles of |point-to-plane residual|
+  // over the kept correspondences, and the signed residuals themselves (an even subsample of
+  // at most kReportedResiduals, for histograms).
+  double residual_p50_mm = 0, residual_p90_mm = 0, residual_p99_mm = 0;
+  std::vector<float> residuals_mm;
 };
+constexpr size_t kReportedResiduals = 20000;
 
 enum class IcpStatus { kOk, kNotConverged, kNoOverlap };
 const char* ToString(IcpStatus s);
@@ -121,5 +127,23 @@ IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& o
 // target_from_source is result.world_from_sensor[1].
 IcpResult AlignPointToPlane(const PointCloud& source, const PointCloud& target,
                             const Rigid3d& target_from_source, const IcpOptions& options = {});
+
+// How well a source cloud placed by several candidate poses agrees with a target cloud (the
+// verification of marker-free placements, register_views.cc): of the first `samples`
+// normal-space samples of the source (usable points only), `overlap` is the fraction whose
+// nearest target point lies within overlap_radius_mm, and `inconsistent` the fraction of those
+// whose point-to-plane distance exceeds tolerance_mm or whose normals differ by more than
+// max_normal_angle_deg. A right pose has overlap with few inconsistent samples; a wrong pose
+// that still lays a plate onto the plate has the walls and objects inconsistent.
+struct SurfaceAgreement {
+  double overlap = 0;
+  double inconsistent = 1;
+  int in_overlap = 0;
+};
+std::vector<SurfaceAgreement> MeasureAgreement(const PointCloud& source, const PointCloud& target,
+                                               const std::vector<Rigid3d>& target_from_source,
+                                               int samples, double overlap_radius_mm,
+                                               double tolerance_mm, double max_normal_angle_deg,
+                                               uint64_t seed);
 
 }  // namespace fringe::registration

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "fringe/util/error.h"
 #include "fringe/util/timer.h"
@@ -20,6 +21,16 @@ void RegistrationOptions::Check() const {
                     icp_min_start_threshold_mm, "must be > 0");
   util::CheckOption(coarse_verify_min_overlap > 0 && coarse_verify_min_overlap <= 1, o,
                     "coarse_verify_min_overlap", coarse_verify_min_overlap, "must be in (0, 1]");
+  util::CheckOption(coarse_verify_tolerance_factor > 0, o, "coarse_verify_tolerance_factor",
+                    coarse_verify_tolerance_factor, "must be > 0");
+  util::CheckOption(coarse_max_inconsistent >= 0 && coarse_max_inconsistent < 1, o,
+                    "coarse_max_inconsistent", coarse_max_inconsistent, "must be in [0, 1)");
+  util::CheckOption(coarse_min_gap > 0 && coarse_min_gap < 1, o, "coarse_min_gap", coarse_min_gap,
+                    "must be in (0, 1)");
+  util::CheckOption(coarse_same_pose_deg > 0, o, "coarse_same_pose_deg", coarse_same_pose_deg,
+                    "must be > 0");
+  util::CheckOption(coarse_same_pose_mm > 0, o, "coarse_same_pose_mm", coarse_same_pose_mm,
+                    "must be > 0");
   matching.Check();
   adjustment.Check();
   coarse.Check();
@@ -64,6 +75,9 @@ std::string RegistrationSummary::BriefReport() const {
 }
 
 namespace {
+
+// Normal-space samples measured per marker-free candidate.
+constexpr int kVerifySamples = 5000;
 
 class Registrar {
  public:
@@ -246,6 +260,19 @@ class Registrar {
     return out;
   }
 
+  // Marker-free placement, verified. The coarse candidates (coarse.h: the best RANSAC
+  // alignment and the best different ones) are each refined by pairwise ICP against the placed
+  // clouds and then measured (MeasureAgreement, icp.h) on normal-space samples, so that the
+  // walls and objects count as much as a dominant plate: `inconsistent` is the fraction of the
+  // samples in the overlap whose distance to the placed surface exceeds
+  // coarse_verify_tolerance_factor x the smallest ICP RMS, or whose normals disagree. The most
+  // consistent candidate with overlap >= coarse_verify_min_overlap is placed only when
+  //  (a) its inconsistent fraction is <= coarse_max_inconsistent, and
+  //  (b) every candidate refined to a DIFFERENT pose (beyond coarse_same_pose_deg / _mm) with
+  //      overlap >= coarse_verify_min_overlap is more inconsistent by coarse_min_gap or more.
+  // A symmetric or featureless view has two equally consistent answers and is reported
+  // "cannot place", never placed confidently wrong (an 82 deg turn of a plate-dominated view
+  // overlaps the plate as well as the right pose does: only the objects tell them apart).
   void PlaceMarkerFree() {
     bool progress = true;
     while (progress) {
@@ -255,26 +282,63 @@ class Registrar {
         const PointCloud target = PlacedCloud(400000);
         const CoarseResult c = AlignCoarse(in_[v].cloud, target, o_.coarse);
         ViewRegistration& vr = r_.views[v];
-        const std::string why = vr.message;
+        const std::string why = vr.message.empty() ? "" : vr.message + "; ";
         if (!c.ok()) {
-          vr.message = why + "; " + c.BriefReport();
+          vr.message = why + c.BriefReport();
           continue;
         }
         IcpOptions io = o_.icp;
         io.initial_threshold_mm = std::max(io.initial_threshold_mm, 3 * o_.coarse.voxel_mm);
-        const IcpResult icp = AlignPointToPlane(in_[v].cloud, target, c.target_from_source, io);
-        const double overlap = icp.overlap.size() == 2 ? icp.overlap[1][0] : 0.0;
-        if (icp.summary.status == IcpStatus::kNoOverlap || overlap < o_.coarse_verify_min_overlap) {
-          vr.message = StrCat(why, "; ", c.BriefReport(), "; ICP verification overlap ", overlap,
-                              " below ", o_.coarse_verify_min_overlap);
+        std::vector<Rigid3d> refined;
+        double min_rms = std::numeric_limits<double>::infinity();
+        for (const CoarseCandidate& cand : c.candidates) {
+          const IcpResult icp =
+              AlignPointToPlane(in_[v].cloud, target, cand.target_from_source, io);
+          if (icp.summary.status == IcpStatus::kNoOverlap || icp.summary.levels.empty()) continue;
+          refined.push_back(icp.world_from_sensor[1]);
+          min_rms = std::min(min_rms, icp.summary.levels.back().rms_end_mm);
+        }
+        const double tolerance = o_.coarse_verify_tolerance_factor * min_rms;
+        const std::vector<SurfaceAgreement> agree =
+            MeasureAgreement(in_[v].cloud, target, refined, kVerifySamples, 3 * o_.coarse.voxel_mm,
+                             tolerance, io.max_normal_angle_deg, io.seed);
+        int best = -1;
+        for (int k = 0; k < static_cast<int>(refined.size()); ++k) {
+          if (agree[k].overlap < o_.coarse_verify_min_overlap) continue;
+          if (best < 0 || agree[k].inconsistent < agree[best].inconsistent) best = k;
+        }
+        std::string verdict = StrCat(c.BriefReport(), "; ", refined.size(),
+                                     " candidates refined by ICP (tolerance ", tolerance, " mm)");
+        std::string refusal;
+        if (best < 0) {
+          refusal = StrCat("no candidate overlaps the placed views by ",
+                           o_.coarse_verify_min_overlap, " or more");
+        } else {
+          double rival = 1;
+          for (int k = 0; k < static_cast<int>(refined.size()); ++k) {
+            const RigidDifference d = Difference(refined[k], refined[best]);
+            if (agree[k].overlap < o_.coarse_verify_min_overlap ||
+                (d.angle_rad * 180 / M_PI < o_.coarse_same_pose_deg &&
+                 d.translation_mm < o_.coarse_same_pose_mm)) {
+              continue;
+            }
+            rival = std::min(rival, agree[k].inconsistent);
+          }
+          verdict += StrCat(": best overlap ", agree[best].overlap, ", inconsistent ",
+                            agree[best].inconsistent, "; best different pose inconsistent ", rival);
+          if (agree[best].inconsistent > o_.coarse_max_inconsistent) {
+            refusal = StrCat("the best pose is inconsistent beyond ", o_.coarse_max_inconsistent);
+          } else if (rival - agree[best].inconsistent < o_.coarse_min_gap) {
+            refusal = "a different pose fits about as well (a symmetric or featureless view)";
+          }
+        }
+        if (!refusal.empty()) {
+          vr.message = StrCat(why, verdict, "; cannot place: ", refusal);
           continue;
         }
         vr.path = ViewPath::kMarkerFree;
-        vr.world_from_sensor = vr.world_from_sensor_markers = icp.world_from_sensor[1];
-        vr.message = StrCat(why.empty() ? "" : why + "; ", c.BriefReport(),
-                            "; verified by ICP, "
-                            "overlap ",
-                            overlap);
+        vr.world_from_sensor = vr.world_from_sensor_markers = refined[best];
+        vr.message = StrCat(why, verdict, "; placed");
         progress = true;
       }
     }

@@ -9,8 +9,10 @@
 //     pending view with the most verified correspondences, until no pending view matches. A
 //     view with an initial pose (e.g. fringe register --initial) is placed by it.
 //  3. Views still pending fall back to marker-free coarse alignment against the clouds placed
-//     so far (coarse.h, Open3D FPFH + RANSAC), verified by a pairwise ICP; what still cannot be
-//     placed is reported as unplaced, never dropped silently.
+//     so far (coarse.h, Open3D FPFH + RANSAC, several seeds), each candidate refined by a
+//     pairwise ICP; placed only when the candidates agree and no different pose fits about as
+//     well (never a confidently wrong pose on a symmetric scene); what cannot be placed is
+//     reported as unplaced with the reason, never dropped silently.
 //  4. Global marker adjustment of the map and the marker-placed poses (adjustment.h, Ceres).
 //  5. Multi-level simultaneous multi-view ICP (icp.h) over all placed views, the world view
 //     fixed; its first threshold follows the marker alignment error (or the coarse alignment's).
@@ -52,7 +54,16 @@ struct RegistrationOptions {
   // icp_min_start_threshold_mm (the point spacing and noise must fit under it), > 0.
   double icp_threshold_factor = 10.0;
   double icp_min_start_threshold_mm = 1.0;
-  double coarse_verify_min_overlap = 0.2;  // pairwise ICP overlap accepting a coarse alignment
+  // Marker-free placement (register_views.cc, PlaceMarkerFree): the placed candidate needs
+  // overlap >= coarse_verify_min_overlap, (0, 1], and at most coarse_max_inconsistent of its
+  // overlapping samples farther than coarse_verify_tolerance_factor x the ICP RMS, [0, 1);
+  // every different candidate pose must be more inconsistent by coarse_min_gap, (0, 1).
+  double coarse_verify_min_overlap = 0.2;
+  double coarse_verify_tolerance_factor = 4.0;  // > 0
+  double coarse_max_inconsistent = 0.1;
+  double coarse_min_gap = 0.05;
+  double coarse_same_pose_deg = 1.0;  // > 0
+  double coarse_same_pose_mm = 1.0;   // > 0
   MarkerMatchOptions matching;
   AdjustmentOptions adjustment;
   CoarseOptions coarse;

@@ -171,6 +171,117 @@ TEST(RegisterViews, BadViewsAreReportedAndGoodViewsKept) {
   }
 }
 
+// Marker-free placement must never be confidently wrong. Synthetic complete scans (every
+// surface sampled on a 1 mm grid, noise 0.02 mm) of a round plate with a square box in its
+// centre: every quarter turn about the box's axis maps the scene onto itself, so the second
+// view (no markers) has four equally good poses and must be refused ("cannot place"). With an
+// off-centre block and a dome added the pose is unique and must be found.
+constexpr double kSyntheticNoiseMm = 0.02;
+constexpr double kMarkerFreeRotTolDeg = 0.01;  // exact synthetic surfaces, 0.02 mm noise
+constexpr double kMarkerFreeCentroidTolMm = 0.01;
+
+// Points and outward normals of the scene, world frame (plate z = 0).
+void AddPatch(const Eigen::Vector3d& origin, const Eigen::Vector3d& u, const Eigen::Vector3d& v,
+              double lu, double lv, PointCloud* c) {
+  const Eigen::Vector3d n = u.cross(v).normalized();
+  for (double a = 0.5; a < lu; a += 1) {
+    for (double b = 0.5; b < lv; b += 1) {
+      c->points.push_back(origin + a * u + b * v);
+      c->normals.push_back(n);
+    }
+  }
+}
+void AddBox(const Eigen::Vector3d& centre, double sx, double sy, double h, double turn_rad,
+            PointCloud* c) {
+  const Rigid3d t = Rigid3d::FromAxisAngle(Eigen::Vector3d::UnitZ(), turn_rad, centre);
+  PointCloud b;
+  const Eigen::Vector3d x = Eigen::Vector3d::UnitX(), y = Eigen::Vector3d::UnitY(),
+                        z = Eigen::Vector3d::UnitZ();
+  AddPatch({-sx / 2, -sy / 2, h}, x, y, sx, sy, &b);  // top
+  AddPatch({-sx / 2, -sy / 2, 0}, z, y, h, sy, &b);   // -x wall (z x y = -x)
+  AddPatch({sx / 2, -sy / 2, 0}, y, z, sy, h, &b);    // +x
+  AddPatch({-sx / 2, -sy / 2, 0}, x, z, sx, h, &b);   // -y
+  AddPatch({-sx / 2, sy / 2, 0}, z, x, h, sx, &b);    // +y
+  for (size_t i = 0; i < b.size(); ++i) {
+    c->points.push_back(t * b.points[i]);
+    c->normals.push_back(t.RotateDirection(b.normals[i]));
+  }
+}
+PointCloud SyntheticScene(bool asymmetric) {
+  PointCloud c;
+  const double plate_r = 90, box = 60;
+  for (double x = -plate_r + 0.5; x < plate_r; x += 1) {
+    for (double y = -plate_r + 0.5; y < plate_r; y += 1) {
+      if (x * x + y * y > plate_r * plate_r) continue;
+      if (std::abs(x) < box / 2 && std::abs(y) < box / 2) continue;  // under the box
+      if (asymmetric && (x - 55) * (x - 55) + (y + 45) * (y + 45) < 15 * 15) continue;
+      c.points.emplace_back(x, y, 0);
+      c.normals.push_back(Eigen::Vector3d::UnitZ());
+    }
+  }
+  AddBox(Eigen::Vector3d::Zero(), box, box, 25, 0, &c);
+  if (asymmetric) {
+    AddBox({-50, 50, 0}, 24, 10, 14, 0.4, &c);
+    for (double a = 0; a < 1.45; a += 0.06) {  // a dome: sphere cap, radius 15 at (55, -45)
+      for (double b = 0; b < 2 * M_PI; b += 0.06 / std::max(0.1, std::sin(a))) {
+        const Eigen::Vector3d n(std::sin(a) * std::cos(b), std::sin(a) * std::sin(b), std::cos(a));
+        c.points.push_back(Eigen::Vector3d(55, -45, 0) + 15 * n);
+        c.normals.push_back(n);
+      }
+    }
+  }
+  return c;
+}
+RegistrationView SeeSynthetic(const PointCloud& world, const Rigid3d& world_from_sensor,
+                              const std::string& name, uint64_t seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> noise(0, kSyntheticNoiseMm);
+  const Rigid3d sensor_from_world = world_from_sensor.Inverse();
+  RegistrationView v;
+  v.name = name;
+  for (size_t i = 0; i < world.size(); ++i) {
+    v.cloud.points.push_back(sensor_from_world * world.points[i] +
+                             Eigen::Vector3d(noise(rng), noise(rng), noise(rng)));
+    v.cloud.normals.push_back(sensor_from_world.RotateDirection(world.normals[i]));
+  }
+  return v;
+}
+
+TEST(RegisterViews, MarkerFreePathPlacesAUniqueSceneAndRefusesASymmetricOne) {
+  const Rigid3d pose0 =
+      Rigid3d::FromAxisAngle(Eigen::Vector3d(1, 0, 0), M_PI * 0.9, Eigen::Vector3d(0, 20, 450));
+  const Rigid3d pose1 = Rigid3d::FromAxisAngle(Eigen::Vector3d(0.9, 0.3, 0.1).normalized(),
+                                               M_PI * 0.8, Eigen::Vector3d(25, -10, 430));
+  const Rigid3d truth = pose0.Inverse() * pose1;  // world = view 0's sensor frame
+  for (const bool asymmetric : {true, false}) {
+    SCOPED_TRACE(asymmetric ? "unique scene" : "four-fold symmetric scene");
+    const PointCloud world = SyntheticScene(asymmetric);
+    const std::vector<RegistrationView> views = {SeeSynthetic(world, pose0, "a", 1),
+                                                 SeeSynthetic(world, pose1, "b", 2)};
+    RegistrationOptions o;
+    // Smaller than the defaults, for a test of seconds: ~5000 samples (the scene's features are
+    // >= 10 mm), 20000 RANSAC iterations per hypothesis (the later, unexplained ones run to it).
+    o.coarse.voxel_mm = 3;
+    o.coarse.max_ransac_iterations = 20000;
+    const RegistrationResult r = RegisterViews(views, o);
+    const ViewRegistration& b = r.views[1];
+    if (asymmetric) {
+      ASSERT_EQ(b.path, ViewPath::kMarkerFree) << b.message;
+      const RigidDifference d = Difference(b.world_from_sensor, truth);
+      EXPECT_LT(d.angle_rad * 180 / M_PI, kMarkerFreeRotTolDeg) << b.message;
+      Eigen::Vector3d c = Eigen::Vector3d::Zero();
+      for (const auto& p : views[1].cloud.points) c += p;
+      c /= static_cast<double>(views[1].cloud.size());
+      EXPECT_LT((b.world_from_sensor * c - truth * c).norm(), kMarkerFreeCentroidTolMm)
+          << b.message;
+    } else {
+      EXPECT_EQ(b.path, ViewPath::kUnplaced) << b.message;
+      EXPECT_NE(b.message.find("cannot place"), std::string::npos) << b.message;
+      EXPECT_EQ(r.summary.status, RegistrationStatus::kPartial);
+    }
+  }
+}
+
 // Bad input: an unorganized cloud without normals gets them estimated (and says so), oriented
 // toward the sensor; a cloud in metres read with --units m comes back in millimetres.
 constexpr double kEstimatedNormalTolDeg = 3;  // 20-neighbour PCA on a 1 mm grid, no noise

@@ -3,6 +3,7 @@
 #include <open3d/geometry/KDTreeSearchParam.h>
 #include <open3d/geometry/PointCloud.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "fringe/geometry/normals.h"
@@ -20,6 +21,22 @@ using util::StrCat;
 namespace {
 json Vec(const Eigen::Vector3d& v) { return json::array({v.x(), v.y(), v.z()}); }
 json Vec(const Eigen::Vector2d& v) { return json::array({v.x(), v.y()}); }
+// Signed residuals of a level over [-threshold_start, threshold_start] in kHistogramBins bins
+// (the residuals lie within the level's thresholds by construction).
+constexpr int kHistogramBins = 40;
+json ResidualHistogram(const IcpLevelReport& l) {
+  const double lim = l.threshold_start_mm;
+  std::vector<int64_t> counts(kHistogramBins, 0);
+  for (float r : l.residuals_mm) {
+    const int b = static_cast<int>(std::floor((r + lim) / (2 * lim) * kHistogramBins));
+    ++counts[std::clamp(b, 0, kHistogramBins - 1)];
+  }
+  return {{"min_mm", -lim},
+          {"max_mm", lim},
+          {"samples", l.residuals_mm.size()},
+          {"correspondences", l.correspondences},
+          {"counts", counts}};
+}
 }  // namespace
 
 RegistrationView ReadRegistrationView(const std::filesystem::path& ply, double scale_to_mm,
@@ -29,13 +46,7 @@ RegistrationView ReadRegistrationView(const std::filesystem::path& ply, double s
   const io::PlyHeader header = io::ReadPlyHeader(ply);
   std::string note;
   if (header.grid_width > 0 && header.grid_height > 0) {
-    OrganizedPointCloud grid = io::ReadOrganizedPly(ply);
-    for (auto& p : grid.cloud.points) p *= scale_to_mm;
-    if (!grid.cloud.has_normals()) {
-      EstimateGridNormals(&grid);
-      note = "normals estimated on the grid";
-    }
-    v.cloud = grid.Compact();
+    v.cloud = ReadViewGrid(ply, scale_to_mm, &note).Compact();
   } else {
     v.cloud = io::ReadPly(ply).cloud;
     for (auto& p : v.cloud.points) p *= scale_to_mm;
@@ -63,6 +74,47 @@ RegistrationView ReadRegistrationView(const std::filesystem::path& ply, double s
   }
   if (normals_note) *normals_note = note;
   return v;
+}
+
+OrganizedPointCloud ReadViewGrid(const std::filesystem::path& ply, double scale_to_mm,
+                                 std::string* normals_note) {
+  OrganizedPointCloud grid = io::ReadOrganizedPly(ply);
+  for (size_t i = 0; i < grid.valid.size(); ++i) {
+    if (grid.valid[i]) grid.cloud.points[i] *= scale_to_mm;
+  }
+  std::string note;
+  if (!grid.cloud.has_normals()) {
+    EstimateGridNormals(&grid);
+    note = "normals estimated on the grid";
+  }
+  if (normals_note) *normals_note = note;
+  return grid;
+}
+
+void TransformGrid(const Rigid3d& b_from_a, OrganizedPointCloud* grid) {
+  PointCloud& c = grid->cloud;
+  for (size_t i = 0; i < grid->valid.size(); ++i) {
+    if (!grid->valid[i]) continue;
+    c.points[i] = b_from_a * c.points[i];
+    if (c.has_normals()) c.normals[i] = b_from_a.RotateDirection(c.normals[i]);
+  }
+}
+
+void WriteRegisteredView(const std::filesystem::path& out, const std::filesystem::path& ply,
+                         double scale_to_mm, const RegistrationView& view,
+                         const Rigid3d& world_from_sensor, const std::string& comment) {
+  const io::PlyHeader header = io::ReadPlyHeader(ply);
+  if (header.grid_width > 0 && header.grid_height > 0) {
+    // Read again rather than kept from ReadRegistrationView: one grid in memory at a time.
+    OrganizedPointCloud grid = ReadViewGrid(ply, scale_to_mm, nullptr);
+    TransformGrid(world_from_sensor, &grid);
+    io::WritePly(out, grid, io::PlyFormat::kBinaryLittleEndian, {comment});
+    return;
+  }
+  PointCloud moved = view.cloud;
+  for (auto& p : moved.points) p = world_from_sensor * p;
+  for (auto& n : moved.normals) n = world_from_sensor.RotateDirection(n);
+  io::WritePly(out, moved, io::PlyFormat::kBinaryLittleEndian, {comment});
 }
 
 void WritePoses(const std::filesystem::path& path, const std::vector<std::string>& names,
@@ -134,7 +186,11 @@ json SummaryToJson(const RegistrationResult& r) {
                       {"rms_start_mm", l.rms_start_mm},
                       {"rms_end_mm", l.rms_end_mm},
                       {"correspondences", l.correspondences},
-                      {"degenerate_directions", l.degenerate_directions}});
+                      {"degenerate_directions", l.degenerate_directions},
+                      {"residual_p50_mm", l.residual_p50_mm},
+                      {"residual_p90_mm", l.residual_p90_mm},
+                      {"residual_p99_mm", l.residual_p99_mm},
+                      {"residual_histogram", ResidualHistogram(l)}});
   }
   const AdjustmentSummary& a = r.summary.adjustment;
   return {{"status", ToString(r.summary.status)},

@@ -24,6 +24,22 @@ namespace fringe::registration {
 RegistrationView ReadRegistrationView(const std::filesystem::path& ply, double scale_to_mm,
                                       bool read_markers, std::string* normals_note);
 
+// The grid of an organized view PLY, scaled to mm, with grid normals estimated when it has none
+// (as ReadRegistrationView does). Throws fringe::Error naming the file when it has no grid.
+OrganizedPointCloud ReadViewGrid(const std::filesystem::path& ply, double scale_to_mm,
+                                 std::string* normals_note);
+
+// Moves the valid points (and their normals) of `grid` by b_from_a; invalid slots stay as they
+// are, so the grid structure survives (fringe fuse reads registered clouds as grids).
+void TransformGrid(const Rigid3d& b_from_a, OrganizedPointCloud* grid);
+
+// DIR/registered/NAME.ply for one placed view: the input's grid moved into the world when the
+// input `ply` is organized (fringe fuse REGDIR needs grids), else the view's compact cloud
+// moved. Written atomically.
+void WriteRegisteredView(const std::filesystem::path& out, const std::filesystem::path& ply,
+                         double scale_to_mm, const RegistrationView& view,
+                         const Rigid3d& world_from_sensor, const std::string& comment);
+
 // poses.json: scan::PosesToJson's schema plus format/version (read back with
 // scan::ReadTruthPoses, the one poses reader).
 void WritePoses(const std::filesystem::path& path, const std::vector<std::string>& names,

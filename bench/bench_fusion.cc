@@ -340,9 +340,15 @@ int main(int argc, char** argv) {
   }
   if (diagnose) Diagnose(views, fused, truth);
   const std::vector<double> d_fused = Distances(fused.fused.points, truth);
-  std::vector<double> d_fused_overlap;
+  std::vector<double> d_fused_overlap, d_fused_lone_cluster, d_fused_passed;
   for (size_t i = 0; i < d_fused.size(); ++i) {
-    if (fused.support[i] >= 2) d_fused_overlap.push_back(d_fused[i]);
+    if (fused.support[i] >= 2) {
+      d_fused_overlap.push_back(d_fused[i]);
+    } else if (static_cast<int64_t>(i) < fused.summary.clusters) {
+      d_fused_lone_cluster.push_back(d_fused[i]);  // a cluster whose members came from one view
+    } else {
+      d_fused_passed.push_back(d_fused[i]);
+    }
   }
   // Single-view points in the overlaps, and the plain concatenation.
   std::vector<Eigen::Vector3d> concat, single_overlap;
@@ -393,6 +399,11 @@ int main(int argc, char** argv) {
       {"fused_rms_mm", s_fused.rms},
       {"fused_p95_mm", s_fused.p95},
       {"fused_overlap_rms_mm", s_overlap.rms},
+      {"fused_overlap_points", s_overlap.n},
+      {"fused_one_view_cluster_rms_mm", StatsOf(d_fused_lone_cluster).rms},
+      {"fused_one_view_clusters", d_fused_lone_cluster.size()},
+      {"fused_passed_rms_mm", StatsOf(d_fused_passed).rms},
+      {"fused_passed_points", d_fused_passed.size()},
       {"single_view_rms_mm", s_single.rms},
       {"single_view_p95_mm", s_single.p95},
       {"overlap_rms_ratio", s_overlap.rms / s_single.rms},

@@ -280,9 +280,10 @@ std::string FusionSummary::BriefReport() const {
       "fusion: ", ToString(status), ", ", views, " views, ", input_points, " points -> ",
       fused_points, " (", overlap_points, " in overlaps -> ", clusters, " clusters, ",
       passed_through, " passed through, ", unassigned, " unassigned and ", absorbed,
-      " border points absorbed by better points, ", trimmed, " lone border points trimmed, ",
-      disagreeing_clusters, " kept their best view), ", iterations, " iterations (last max shift ",
-      last_max_shift_mm, " mm), spacing ", median_spacing_mm, " mm, ", time_s, " s");
+      " border points and ", absorbed_clusters, " one-view clusters absorbed by better points, ",
+      trimmed, " lone border points trimmed, ", disagreeing_clusters, " kept their best view), ",
+      iterations, " iterations (last max shift ", last_max_shift_mm, " mm), spacing ",
+      median_spacing_mm, " mm, ", time_s, " s");
   if (!message.empty()) s += ": " + message;
   return s;
 }
@@ -297,6 +298,7 @@ nlohmann::json SummaryToJson(const FusionSummary& s) {
           {"passed_through", s.passed_through},
           {"unassigned", s.unassigned},
           {"absorbed", s.absorbed},
+          {"absorbed_clusters", s.absorbed_clusters},
           {"trimmed", s.trimmed},
           {"disagreeing_clusters", s.disagreeing_clusters},
           {"fused_points", s.fused_points},
@@ -462,7 +464,8 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
   const float cos_max = static_cast<float>(std::cos(options.max_normal_angle_deg * kPi / 180));
   Tiles tiles = MakeTiles(pts.pos, std::max(options.tile_mm, 2 * margin_mm));
   FillTiles(&tiles, pts.pos, pts.usable, margin_mm);
-  constexpr uint8_t kOverlap = 1, kSeed = 2, kAbsorbed = 4;
+  // kOutranked: a compatible point of another view within the radius outranks this one.
+  constexpr uint8_t kOverlap = 1, kSeed = 2, kAbsorbed = 4, kOutranked = 8;
   std::vector<uint8_t> flags(pts.size(), 0);
   const nanoflann::SearchParams unsorted(32, 0, false);
   tbb::parallel_for(size_t{0}, tiles.core.size(), [&](size_t t) {
@@ -475,17 +478,21 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
       const float r = pts.radius_mm[i];
       const float rho = pts.seed_radius_mm[i];
       tree.radiusSearch(pts.pos[i].data(), r * r, nb, unsorted);
-      bool overlap = false, seed = true, better = false;
+      bool overlap = false, seed = true, better = false, outranked = false;
       for (const auto& [local, dist_sq] : nb) {
         const uint32_t j = tiles.halo[t][local];
         if (pts.view[j] == pts.view[i]) continue;
         better = better || pts.weight[j] > pts.weight[i];
         if (pts.nrm[i].dot(pts.nrm[j]) < cos_max) continue;
         overlap = true;
-        if (dist_sq <= rho * rho && Outranks(pts, j, i)) seed = false;
+        if (Outranks(pts, j, i)) {
+          outranked = true;
+          if (dist_sq <= rho * rho) seed = false;
+        }
       }
       if (overlap) {
-        flags[i] = seed ? (kOverlap | kSeed) : kOverlap;
+        flags[i] = static_cast<uint8_t>((seed ? (kOverlap | kSeed) : kOverlap) |
+                                        (outranked ? kOutranked : 0));
       } else if (better && pts.border[i] < options.border_trim_px) {
         flags[i] = kAbsorbed;
       }
@@ -678,6 +685,13 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
         view_bits[v / 64] |= uint64_t{1} << (v % 64);
         ++distinct;
       }
+    }
+    // A centre that gathered only its own view's points while a better compatible point of
+    // another view lies within its radius: that point's cluster represents the place (the
+    // seed is typically a mixed pixel off the surface, beyond the others' seed radius).
+    if (distinct == 1 && (flags[seeds[c]] & kOutranked)) {
+      ++s.absorbed_clusters;
+      continue;
     }
     out.points.push_back(centre[c].cast<double>());
     out.normals.push_back(centre_n[c].cast<double>());

@@ -24,9 +24,12 @@
 //      measurement instead of an average that would round the edge.
 //   Points outside overlaps pass through unchanged; overlap points no centre reaches are dropped
 //   (they are no centre because a better compatible point of another view lies within their
-//   seed radius). Weight of a point: cos^2 of its viewing angle (normal vs the direction to its
-//   sensor) * B^2 / (B^2 + B0^2) with B its fringe modulation (quality) *
-//   1 / (1 + (residual / residual0)^2) with its reprojection residual * a border ramp
+//   seed radius), so is a cluster that gathered only its own view's points while a better
+//   compatible point of another view lies within its seed's radius (on the demo part these
+//   one-view clusters had an RMS error of 0.3 mm: mixed pixels beside the overlap). Weight of a
+//   point: cos^2 of its viewing angle (normal vs the direction to its sensor) * B^2 / (B^2 + B0^2)
+//   with B its fringe modulation (quality) * 1 / (1 + (residual / residual0)^2) with its
+//   reprojection residual * a border ramp
 //   ((b + 1) / (border_ramp_px + 1))^2, b its grid distance to the nearest invalid slot (as
 //   Curless & Levoy, SIGGRAPH 1996, and Turk & Levoy, SIGGRAPH 1994, weigh range-image borders:
 //   the pixels beside a silhouette or a decoding hole mix two surfaces' phases; measured on the
@@ -128,6 +131,9 @@ struct FusionSummary {
   int64_t unassigned = 0;
   int64_t absorbed = 0;  // single-coverage border points with a better point of another view
   int64_t trimmed = 0;   // single-coverage border points without one (mixed pixels), dropped
+  // Clusters of one view's points whose seed a better compatible point of another view within
+  // its radius outranks: dropped (that point's cluster represents the place).
+  int64_t absorbed_clusters = 0;
   int64_t disagreeing_clusters = 0;  // kept their seed view's point (last iteration)
   int64_t fused_points = 0;          // output size
   int iterations = 0;

@@ -69,6 +69,21 @@ constexpr double kMaxDistanceMm = 2.0;  // farther points are unmatched (not the
 // Restarts the peak resident size (VmHWM) so that the fusion's own peak is measured (Linux >= 4.0).
 void ResetPeak() { std::ofstream("/proc/self/clear_refs") << "5"; }
 
+// Process CPU time (user + system, all threads), s: on a shared machine wall time depends on
+// the load, CPU time far less.
+double LoadAverage() {
+  double load = 0;
+  std::ifstream("/proc/loadavg") >> load;
+  return load;
+}
+
+double CpuSeconds() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return static_cast<double>(u.ru_utime.tv_sec + u.ru_stime.tv_sec) +
+         1e-6 * static_cast<double>(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
+}
+
 struct Stats {
   int n = 0, unmatched = 0;
   double rms = 0, p95 = 0, mean = 0, spread = 0;
@@ -331,8 +346,10 @@ int main(int argc, char** argv) {
   const double mem_before = util::CurrentMemoryGiB();
   ResetPeak();
   util::Timer fuse_timer;
+  const double cpu_before = CpuSeconds();
   const fusion::FusionResult fused = fusion::FuseViews(views, options);
   const double time_s = fuse_timer.ElapsedSeconds();
+  const double cpu_s = CpuSeconds() - cpu_before;
   const double peak_mem_gib = util::PeakMemoryGiB() - mem_before;
   if (!fused.summary.has_output()) {
     std::cerr << fused.summary.BriefReport() << "\n";
@@ -416,6 +433,8 @@ int main(int argc, char** argv) {
       {"detail_err_mm", DetailRms(fused.fused.points, d_fused)},
       {"concat_detail_err_mm", DetailRms(concat, d_concat)},
       {"time_s", time_s},
+      {"cpu_s", cpu_s},
+      {"load_average", LoadAverage()},
       {"peak_mem_gib", peak_mem_gib},
       {"simulate_reconstruct_s", sim_s},
       {"reconstruct_s", reconstruct_s},

@@ -32,19 +32,24 @@ struct Points {
   size_t size() const { return pos.size(); }
 };
 
-// A subset of a point array (by index list) as a nanoflann dataset.
-struct SubsetAdaptor {
-  const std::vector<Eigen::Vector3f>* pos;
-  const std::vector<uint32_t>* idx;
-  size_t kdtree_get_point_count() const { return idx->size(); }
-  float kdtree_get_pt(size_t i, size_t d) const { return (*pos)[(*idx)[i]][static_cast<int>(d)]; }
+// A tile's points copied into one contiguous array (the tree's distance tests then read
+// neighbouring memory instead of chasing an index list into the whole cloud) as a nanoflann
+// dataset.
+struct TileAdaptor {
+  std::vector<Eigen::Vector3f> pos;
+  TileAdaptor(const std::vector<Eigen::Vector3f>& all, const std::vector<uint32_t>& idx)
+      : pos(idx.size()) {
+    for (size_t i = 0; i < idx.size(); ++i) pos[i] = all[idx[i]];
+  }
+  size_t kdtree_get_point_count() const { return pos.size(); }
+  float kdtree_get_pt(size_t i, size_t d) const { return pos[i][static_cast<int>(d)]; }
   template <class Box>
   bool kdtree_get_bbox(Box&) const {
     return false;
   }
 };
-using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<float, SubsetAdaptor>,
-                                                 SubsetAdaptor, 3, uint32_t>;
+using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<float, TileAdaptor>,
+                                                 TileAdaptor, 3, uint32_t>;
 using Neighbours = std::vector<std::pair<uint32_t, float>>;
 
 // Cubic tiles over the bounding box; each tile lists its own points (core) and those within
@@ -470,7 +475,7 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
   const nanoflann::SearchParams unsorted(32, 0, false);
   tbb::parallel_for(size_t{0}, tiles.core.size(), [&](size_t t) {
     if (tiles.core[t].empty()) return;
-    const SubsetAdaptor adaptor{&pts.pos, &tiles.halo[t]};
+    const TileAdaptor adaptor(pts.pos, tiles.halo[t]);
     Tree tree(3, adaptor, nanoflann::KDTreeSingleIndexAdaptorParams(16));
     tree.buildIndex();
     Neighbours nb;
@@ -523,43 +528,70 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
   std::vector<int32_t> assign(pts.size(), kNone);
   std::vector<uint8_t> keep_own(nc, 0);
   std::vector<uint32_t> member_start(nc + 1, 0), members;
-  Tiles centre_tiles;  // the same tiles, listing centres
-  centre_tiles.origin = tiles.origin;
-  centre_tiles.size = tiles.size;
-  centre_tiles.count = tiles.count;
-  centre_tiles.core.resize(tiles.core.size());
-  centre_tiles.halo.resize(tiles.halo.size());
-  // Centres move by a fraction of a spacing; a larger halo keeps the queries exact.
-  const double centre_margin_mm = 2 * margin_mm;
-  for (int it = 0; it < options.max_iterations && nc > 0; ++it) {
-    FillTiles(&centre_tiles, centre, {}, centre_margin_mm);
+  // Candidate centres of every overlap point, found once: centres move along their normals by
+  // noise and registration error, a fraction of a spacing; each centre's total travel from its
+  // seed is bounded by the seed's radius (a cluster that would travel farther is no surface
+  // estimate anymore), so the centres within a point's radius at any iteration are among those
+  // whose seeds lie within radius + the largest travel. Of those the kCandidates nearest are
+  // kept (ordered by seed distance, then index: deterministic); the iterations then assign
+  // among them without a tree query.
+  constexpr int kCandidates = 8;
+  double max_travel_mm = 0;
+  std::vector<float> travel_mm(nc);
+  for (size_t c = 0; c < nc; ++c) {
+    travel_mm[c] = pts.seed_radius_mm[seeds[c]];
+    max_travel_mm = std::max(max_travel_mm, static_cast<double>(travel_mm[c]));
+  }
+  std::vector<int32_t> candidates;
+  {
+    Tiles centre_tiles;  // the same tiles, listing the seeds
+    centre_tiles.origin = tiles.origin;
+    centre_tiles.size = tiles.size;
+    centre_tiles.count = tiles.count;
+    centre_tiles.core.resize(tiles.core.size());
+    centre_tiles.halo.resize(tiles.halo.size());
+    FillTiles(&centre_tiles, centre, {}, margin_mm + max_travel_mm);
+    candidates.assign(pts.size() * kCandidates, kNone);
     tbb::parallel_for(size_t{0}, tiles.core.size(), [&](size_t t) {
-      if (tiles.core[t].empty()) return;
       const std::vector<uint32_t>& local_centres = centre_tiles.halo[t];
-      if (local_centres.empty()) {
-        for (uint32_t i : tiles.core[t]) assign[i] = kNone;
-        return;
-      }
-      const SubsetAdaptor adaptor{&centre, &local_centres};
+      if (tiles.core[t].empty() || local_centres.empty()) return;
+      const TileAdaptor adaptor(centre, local_centres);
       Tree tree(3, adaptor, nanoflann::KDTreeSingleIndexAdaptorParams(16));
       tree.buildIndex();
       Neighbours nb;
+      std::vector<std::pair<float, uint32_t>> found;
       for (uint32_t i : tiles.core[t]) {
         if (!in_overlap[i]) continue;
-        const float r = pts.radius_mm[i];
+        const float r = pts.radius_mm[i] + static_cast<float>(max_travel_mm);
         tree.radiusSearch(pts.pos[i].data(), r * r, nb, unsorted);
-        int32_t best = kNone;
-        float best_d = std::numeric_limits<float>::infinity();
-        for (const auto& [local, dist_sq] : nb) {
-          const uint32_t c = local_centres[local];
-          if (pts.nrm[i].dot(centre_n[c]) < cos_max) continue;
-          if (dist_sq < best_d || (dist_sq == best_d && static_cast<int32_t>(c) < best)) {
-            best = static_cast<int32_t>(c);
-            best_d = dist_sq;
-          }
+        found.clear();
+        for (const auto& [local, dist_sq] : nb) found.emplace_back(dist_sq, local_centres[local]);
+        const size_t keep = std::min<size_t>(found.size(), kCandidates);
+        std::partial_sort(found.begin(), found.begin() + static_cast<std::ptrdiff_t>(keep),
+                          found.end());
+        for (size_t k = 0; k < keep; ++k) {
+          candidates[i * kCandidates + k] = static_cast<int32_t>(found[k].second);
         }
-        assign[i] = best;
       }
+    });
+  }
+  for (int it = 0; it < options.max_iterations && nc > 0; ++it) {
+    tbb::parallel_for(size_t{0}, pts.size(), [&](size_t i) {
+      if (!in_overlap[i]) return;
+      const float r_sq = pts.radius_mm[i] * pts.radius_mm[i];
+      int32_t best = kNone;
+      float best_d = std::numeric_limits<float>::infinity();
+      for (int k = 0; k < kCandidates; ++k) {
+        const int32_t c = candidates[i * kCandidates + k];
+        if (c == kNone) break;
+        const float dist_sq = (centre[c] - pts.pos[i]).squaredNorm();
+        if (dist_sq > r_sq || pts.nrm[i].dot(centre_n[c]) < cos_max) continue;
+        if (dist_sq < best_d || (dist_sq == best_d && c < best)) {
+          best = c;
+          best_d = dist_sq;
+        }
+      }
+      assign[i] = best;
     });
     // Members per centre in ascending point order (counting sort): fixed summation order.
     std::fill(member_start.begin(), member_start.end(), 0);
@@ -657,9 +689,14 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
     tbb::parallel_for(size_t{0}, nc, [&](size_t c) {
       const bool disagree = keep_own[c] != 0;
       const double d = disagree ? own_step[c] : step[c];
-      centre[c] = (centre[c].cast<double>() + d * centre_n[c].cast<double>()).cast<float>();
+      Eigen::Vector3d moved = centre[c].cast<double>() + d * centre_n[c].cast<double>();
+      const Eigen::Vector3d from_seed = moved - pts.pos[seeds[c]].cast<double>();
+      if (from_seed.norm() > travel_mm[c]) {
+        moved = pts.pos[seeds[c]].cast<double>() + from_seed * (travel_mm[c] / from_seed.norm());
+      }
+      shift[c] = static_cast<float>((moved - centre[c].cast<double>()).norm());
+      centre[c] = moved.cast<float>();
       if (!disagree) centre_n[c] = new_normal[c];
-      shift[c] = static_cast<float>(std::abs(d));
     });
     s.iterations = it + 1;
     s.last_max_shift_mm = nc > 0 ? *std::max_element(shift.begin(), shift.end()) : 0;

@@ -32,6 +32,7 @@
 
 #include <open3d/camera/PinholeCameraIntrinsic.h>
 #include <open3d/geometry/Image.h>
+#include <open3d/geometry/KDTreeFlann.h>
 #include <open3d/geometry/PointCloud.h>
 #include <open3d/geometry/RGBDImage.h>
 #include <open3d/geometry/TriangleMesh.h>
@@ -40,6 +41,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <nlohmann/json.hpp>
@@ -50,6 +52,8 @@
 #include "fringe/eval/deviation.h"
 #include "fringe/fusion/fuse.h"
 #include "fringe/fusion/mesh.h"
+#include "fringe/io/json.h"
+#include "fringe/io/ply.h"
 #include "fringe/sim/demo_part.h"
 #include "fringe/sim/scan.h"
 #include "fringe/stereo/reconstruct_view.h"
@@ -64,6 +68,21 @@ constexpr double kMaxDistanceMm = 2.0;  // farther points are unmatched (not the
 
 // Restarts the peak resident size (VmHWM) so that the fusion's own peak is measured (Linux >= 4.0).
 void ResetPeak() { std::ofstream("/proc/self/clear_refs") << "5"; }
+
+// Process CPU time (user + system, all threads), s: on a shared machine wall time depends on
+// the load, CPU time far less.
+double LoadAverage() {
+  double load = 0;
+  std::ifstream("/proc/loadavg") >> load;
+  return load;
+}
+
+double CpuSeconds() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return static_cast<double>(u.ru_utime.tv_sec + u.ru_stime.tv_sec) +
+         1e-6 * static_cast<double>(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
+}
 
 struct Stats {
   int n = 0, unmatched = 0;
@@ -137,6 +156,82 @@ open3d::geometry::PointCloud ToOpen3d(const std::vector<fusion::FusionView>& vie
   return pcd;
 }
 
+// Where the errors are: every view point's distance to the truth binned by its grid distance to
+// the view's border (nearest invalid slot), its viewing-angle cosine, modulation and residual,
+// separately for points in overlaps and outside them (the latter pass through fusion). Prints
+// count, RMS and share of the total squared error per bin to stderr.
+void Diagnose(const std::vector<fusion::FusionView>& views, const fusion::FusionResult& fused,
+              const eval::MeshDistance& truth) {
+  struct Bin {
+    int64_t n = 0;
+    double sq = 0;
+  };
+  constexpr int kKinds = 5, kBins = 8;
+  const char* kind_name[kKinds] = {"border px", "cos view", "modulation DN", "residual px",
+                                   "cos, border<2"};
+  const double edges[kKinds][kBins - 1] = {{1, 2, 3, 4, 6, 10, 20},
+                                           {0.1, 0.2, 0.3, 0.4, 0.5, 0.7, 0.9},
+                                           {5, 10, 15, 20, 30, 40, 60},
+                                           {0.05, 0.1, 0.2, 0.3, 0.5, 1, 2},
+                                           {0.1, 0.2, 0.3, 0.4, 0.5, 0.7, 0.9}};
+  Bin bins[2][kKinds][kBins];
+  double total_sq[2] = {0, 0};
+  int64_t total_n[2] = {0, 0}, far_n[2] = {0, 0};
+  for (size_t v = 0; v < views.size(); ++v) {
+    const OrganizedPointCloud& g = views[v].cloud;
+    const std::vector<uint16_t> border =
+        fusion::BorderDistancePx(g, fusion::FusionOptions().min_border_hole_px);
+    std::vector<double> d(g.valid.size(), std::numeric_limits<double>::quiet_NaN());
+    tbb::parallel_for(size_t{0}, g.valid.size(), [&](size_t i) {
+      if (g.valid[i])
+        d[i] = truth.SignedDistance(views[v].world_from_sensor * g.cloud.points[i], kMaxDistanceMm);
+    });
+    const PointCloud& c = g.cloud;
+    for (size_t i = 0; i < g.valid.size(); ++i) {
+      if (!g.valid[i]) continue;
+      const int o = fused.overlap[v][i] ? 1 : 0;
+      if (!std::isfinite(d[i])) {
+        ++far_n[o];
+        continue;
+      }
+      const double sq = d[i] * d[i];
+      total_sq[o] += sq;
+      ++total_n[o];
+      const Eigen::Vector3d& p = c.points[i];
+      double x[kKinds] = {
+          static_cast<double>(border[i]),
+          c.normals[i].allFinite() ? std::abs(c.normals[i].dot(p)) / p.norm() : -1.0,
+          c.has_quality() ? c.quality[i] : -1.0, c.has_residual() ? c.residual_px[i] : -1.0, 0.0};
+      x[4] = x[1];
+      for (int k = 0; k < kKinds; ++k) {
+        if (k == 4 && border[i] >= 2) continue;
+        const int b =
+            static_cast<int>(std::upper_bound(edges[k], edges[k] + kBins - 1, x[k]) - edges[k]);
+        bins[o][k][b].n++;
+        bins[o][k][b].sq += sq;
+      }
+    }
+  }
+  for (int o = 1; o >= 0; --o) {
+    std::fprintf(stderr, "%s points: %lld, RMS %.4f mm, %lld beyond %.1f mm (unmatched)\n",
+                 o ? "overlap" : "non-overlap", static_cast<long long>(total_n[o]),
+                 std::sqrt(total_sq[o] / std::max<int64_t>(total_n[o], 1)),
+                 static_cast<long long>(far_n[o]), kMaxDistanceMm);
+    for (int k = 0; k < kKinds; ++k) {
+      std::fprintf(stderr, "  %-14s", kind_name[k]);
+      for (int b = 0; b < kBins; ++b) {
+        const Bin& x = bins[o][k][b];
+        std::fprintf(stderr, " | <%-5g n %5.1f%% rms %.3f sq %4.1f%%",
+                     b < kBins - 1 ? edges[k][b] : INFINITY,
+                     100.0 * x.n / std::max<int64_t>(total_n[o], 1),
+                     std::sqrt(x.sq / std::max<int64_t>(x.n, 1)),
+                     100.0 * x.sq / std::max(total_sq[o], 1e-30));
+      }
+      std::fprintf(stderr, "\n");
+    }
+  }
+}
+
 }  // namespace
 }  // namespace fringe
 
@@ -158,7 +253,14 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--poisson-depth", poisson_depth, "Poisson octree depth")->capture_default_str();
   app.add_option("--seed", seed, "Scene, noise and error seed")->capture_default_str();
-  bool no_peers = false, no_mesh = false;
+  std::string cache;
+  app.add_option("--cache", cache,
+                 "Folder keeping the reconstructed views (PLY + poses): reused when it holds "
+                 "views of the same parameters, else written (saves the simulation when "
+                 "re-running the fusion)");
+  bool no_peers = false, no_mesh = false, diagnose = false;
+  app.add_flag("--diagnose", diagnose,
+               "Print where the views' errors are (border, viewing angle, modulation, residual)");
   app.add_flag("--no-peers", no_peers, "Skip voxel, TSDF and Poisson-on-concatenation");
   app.add_flag("--no-mesh", no_mesh, "Skip meshing");
   CLI11_PARSE(app, argc, argv);
@@ -182,7 +284,30 @@ int main(int argc, char** argv) {
   std::vector<fusion::FusionView> views;
   util::Timer sim_timer;
   double reconstruct_s = 0;
-  for (int v = 0; v < views_n; ++v) {
+  const nlohmann::json params = {{"views", views_n},
+                                 {"scale", scale},
+                                 {"noise", noise_dn},
+                                 {"rot_err_deg", rot_err_deg},
+                                 {"trans_err_mm", trans_err_mm},
+                                 {"seed", seed}};
+  const std::filesystem::path cache_dir(cache);
+  // Cached views are read back as written (float PLY), so that every run fuses the same input.
+  auto load_cache = [&] {
+    const nlohmann::json cached = io::ReadJson(cache_dir / "views.json");
+    if (cached["params"] != params) return;
+    views.clear();
+    for (int v = 0; v < views_n; ++v) {
+      const std::vector<double> m =
+          io::GetNumbers(cached["poses"], std::to_string(v).c_str(), 12, "cached poses");
+      Eigen::Matrix<double, 3, 4> world_from_sensor;
+      for (int k = 0; k < 12; ++k) world_from_sensor(k / 4, k % 4) = m[k];
+      views.push_back({std::to_string(v),
+                       io::ReadOrganizedPly(cache_dir / (std::to_string(v) + ".ply")),
+                       Rigid3d::FromMatrix(world_from_sensor)});
+    }
+  };
+  if (!cache.empty() && std::filesystem::exists(cache_dir / "views.json")) load_cache();
+  for (int v = static_cast<int>(views.size()); v < views_n; ++v) {
     const sim::ViewImages images = simulator.RenderView(v);
     util::Timer t;
     stereo::ViewReconstruction rec =
@@ -197,6 +322,19 @@ int main(int argc, char** argv) {
     views.push_back({std::to_string(v), std::move(rec.cloud), error * simulator.view_poses()[v]});
   }
   const double sim_s = sim_timer.ElapsedSeconds();
+  if (!cache.empty() && !std::filesystem::exists(cache_dir / "views.json")) {
+    std::filesystem::create_directories(cache_dir);
+    nlohmann::json poses;
+    for (int v = 0; v < views_n; ++v) {
+      io::WritePly(cache_dir / (std::to_string(v) + ".ply"), views[v].cloud);
+      const Eigen::Matrix<double, 3, 4> m = views[v].world_from_sensor.ToMatrix3x4();
+      std::vector<double> row;
+      for (int k = 0; k < 12; ++k) row.push_back(m(k / 4, k % 4));
+      poses[std::to_string(v)] = row;
+    }
+    io::WriteJson(cache_dir / "views.json", {{"params", params}, {"poses", poses}});
+    load_cache();
+  }
   int64_t input_points = 0;
   for (const auto& v : views) input_points += static_cast<int64_t>(v.cloud.NumValid());
 
@@ -208,17 +346,26 @@ int main(int argc, char** argv) {
   const double mem_before = util::CurrentMemoryGiB();
   ResetPeak();
   util::Timer fuse_timer;
+  const double cpu_before = CpuSeconds();
   const fusion::FusionResult fused = fusion::FuseViews(views, options);
   const double time_s = fuse_timer.ElapsedSeconds();
+  const double cpu_s = CpuSeconds() - cpu_before;
   const double peak_mem_gib = util::PeakMemoryGiB() - mem_before;
   if (!fused.summary.has_output()) {
     std::cerr << fused.summary.BriefReport() << "\n";
     return 1;
   }
+  if (diagnose) Diagnose(views, fused, truth);
   const std::vector<double> d_fused = Distances(fused.fused.points, truth);
-  std::vector<double> d_fused_overlap;
+  std::vector<double> d_fused_overlap, d_fused_lone_cluster, d_fused_passed;
   for (size_t i = 0; i < d_fused.size(); ++i) {
-    if (fused.support[i] >= 2) d_fused_overlap.push_back(d_fused[i]);
+    if (fused.support[i] >= 2) {
+      d_fused_overlap.push_back(d_fused[i]);
+    } else if (static_cast<int64_t>(i) < fused.summary.clusters) {
+      d_fused_lone_cluster.push_back(d_fused[i]);  // a cluster whose members came from one view
+    } else {
+      d_fused_passed.push_back(d_fused[i]);
+    }
   }
   // Single-view points in the overlaps, and the plain concatenation.
   std::vector<Eigen::Vector3d> concat, single_overlap;
@@ -233,6 +380,26 @@ int main(int argc, char** argv) {
   }
   const std::vector<double> d_concat = Distances(concat, truth);
   const std::vector<double> d_single = Distances(single_overlap, truth);
+  // Coverage: the truth surface where the views measured it (the closest truth points of every
+  // 7th concatenated point) with a fused point within 3 median spacings; points the fusion
+  // absorbed must not open holes.
+  double coverage = 0;
+  {
+    open3d::geometry::PointCloud fused_pcd;
+    fused_pcd.points_ = fused.fused.points;
+    const open3d::geometry::KDTreeFlann tree(fused_pcd);
+    const double reach = 3 * fused.summary.median_spacing_mm;
+    int64_t covered = 0, sampled = 0;
+    for (size_t i = 0; i < concat.size(); i += 7) {
+      Eigen::Vector3d q;
+      if (!std::isfinite(truth.SignedDistance(concat[i], kMaxDistanceMm, &q))) continue;
+      std::vector<int> idx(1);
+      std::vector<double> d2(1);
+      ++sampled;
+      covered += tree.SearchKNN(q, 1, idx, d2) == 1 && d2[0] <= reach * reach;
+    }
+    coverage = static_cast<double>(covered) / std::max<int64_t>(sampled, 1);
+  }
   const Stats s_fused = StatsOf(d_fused), s_overlap = StatsOf(d_fused_overlap),
               s_single = StatsOf(d_single), s_concat = StatsOf(d_concat);
 
@@ -249,15 +416,25 @@ int main(int argc, char** argv) {
       {"fused_rms_mm", s_fused.rms},
       {"fused_p95_mm", s_fused.p95},
       {"fused_overlap_rms_mm", s_overlap.rms},
+      {"fused_overlap_points", s_overlap.n},
+      {"fused_one_view_cluster_rms_mm", StatsOf(d_fused_lone_cluster).rms},
+      {"fused_one_view_clusters", d_fused_lone_cluster.size()},
+      {"fused_passed_rms_mm", StatsOf(d_fused_passed).rms},
+      {"fused_passed_points", d_fused_passed.size()},
       {"single_view_rms_mm", s_single.rms},
       {"single_view_p95_mm", s_single.p95},
       {"overlap_rms_ratio", s_overlap.rms / s_single.rms},
       {"concat_rms_mm", s_concat.rms},
       {"concat_p95_mm", s_concat.p95},
       {"thickness_ratio", s_overlap.spread / s_single.spread},
+      {"fused_to_single_ratio", s_fused.rms / s_single.rms},
+      {"coverage", coverage},
+      {"absorbed", fused.summary.absorbed},
       {"detail_err_mm", DetailRms(fused.fused.points, d_fused)},
       {"concat_detail_err_mm", DetailRms(concat, d_concat)},
       {"time_s", time_s},
+      {"cpu_s", cpu_s},
+      {"load_average", LoadAverage()},
       {"peak_mem_gib", peak_mem_gib},
       {"simulate_reconstruct_s", sim_s},
       {"reconstruct_s", reconstruct_s},

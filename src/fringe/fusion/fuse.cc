@@ -8,6 +8,7 @@
 #include <cmath>
 #include <limits>
 #include <nanoflann.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "fringe/util/error.h"
 #include "fringe/util/timer.h"
@@ -25,24 +26,30 @@ struct Points {
   std::vector<Eigen::Vector3f> pos, nrm;
   std::vector<float> weight, spacing_mm, radius_mm, seed_radius_mm, intensity, quality;
   std::vector<uint16_t> view;
-  std::vector<uint32_t> grid;   // slot in the view's grid
-  std::vector<uint8_t> usable;  // finite normal: takes part in the fusion
+  std::vector<uint32_t> grid;    // slot in the view's grid
+  std::vector<uint16_t> border;  // grid distance to the view's border, px
+  std::vector<uint8_t> usable;   // finite normal: takes part in the fusion
   size_t size() const { return pos.size(); }
 };
 
-// A subset of a point array (by index list) as a nanoflann dataset.
-struct SubsetAdaptor {
-  const std::vector<Eigen::Vector3f>* pos;
-  const std::vector<uint32_t>* idx;
-  size_t kdtree_get_point_count() const { return idx->size(); }
-  float kdtree_get_pt(size_t i, size_t d) const { return (*pos)[(*idx)[i]][static_cast<int>(d)]; }
+// A tile's points copied into one contiguous array (the tree's distance tests then read
+// neighbouring memory instead of chasing an index list into the whole cloud) as a nanoflann
+// dataset.
+struct TileAdaptor {
+  std::vector<Eigen::Vector3f> pos;
+  TileAdaptor(const std::vector<Eigen::Vector3f>& all, const std::vector<uint32_t>& idx)
+      : pos(idx.size()) {
+    for (size_t i = 0; i < idx.size(); ++i) pos[i] = all[idx[i]];
+  }
+  size_t kdtree_get_point_count() const { return pos.size(); }
+  float kdtree_get_pt(size_t i, size_t d) const { return pos[i][static_cast<int>(d)]; }
   template <class Box>
   bool kdtree_get_bbox(Box&) const {
     return false;
   }
 };
-using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<float, SubsetAdaptor>,
-                                                 SubsetAdaptor, 3, uint32_t>;
+using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<float, TileAdaptor>,
+                                                 TileAdaptor, 3, uint32_t>;
 using Neighbours = std::vector<std::pair<uint32_t, float>>;
 
 // Cubic tiles over the bounding box; each tile lists its own points (core) and those within
@@ -143,6 +150,13 @@ std::vector<float> GridSpacing(const OrganizedPointCloud& g) {
   return s;
 }
 
+// The border ramp of a point's weight (FusionOptions::border_ramp_px).
+double BorderWeight(int border_px, int ramp_px) {
+  if (border_px >= ramp_px) return 1;
+  const double x = (border_px + 1.0) / (ramp_px + 1.0);
+  return x * x;
+}
+
 double Median(std::vector<float> v) {
   v.erase(std::remove_if(v.begin(), v.end(), [](float x) { return !std::isfinite(x); }), v.end());
   if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
@@ -164,6 +178,52 @@ FusionResult Fail(FusionResult r, FusionStatus status, std::string message) {
 }
 
 }  // namespace
+
+std::vector<uint16_t> BorderDistancePx(const OrganizedPointCloud& g, int min_hole_px) {
+  // Border sources: invalid slots in invalid regions (8-connected) of at least min_hole_px.
+  std::vector<uint8_t> source(g.valid.size(), 0);
+  if (g.width > 0 && g.height > 0) {
+    cv::Mat invalid(g.height, g.width, CV_8U);
+    for (int r = 0; r < g.height; ++r) {
+      for (int c = 0; c < g.width; ++c) invalid.at<uint8_t>(r, c) = g.valid[g.index(c, r)] ? 0 : 1;
+    }
+    cv::Mat labels, stats, centroids;
+    cv::connectedComponentsWithStats(invalid, labels, stats, centroids, 8, CV_32S);
+    for (int r = 0; r < g.height; ++r) {
+      for (int c = 0; c < g.width; ++c) {
+        const int l = labels.at<int32_t>(r, c);
+        source[g.index(c, r)] = l > 0 && stats.at<int32_t>(l, cv::CC_STAT_AREA) >= min_hole_px;
+      }
+    }
+  }
+  // Two passes of a city-block distance transform; beyond the frame counts as far.
+  constexpr int kFar = 65535;
+  std::vector<int> d(g.valid.size(), 0);
+  for (int r = 0; r < g.height; ++r) {
+    for (int c = 0; c < g.width; ++c) {
+      const size_t i = g.index(c, r);
+      if (source[i]) continue;
+      const int left = c > 0 ? d[i - 1] + 1 : kFar;
+      const int up = r > 0 ? d[i - static_cast<size_t>(g.width)] + 1 : kFar;
+      d[i] = std::min({left, up, kFar});
+    }
+  }
+  for (int r = g.height - 1; r >= 0; --r) {
+    for (int c = g.width - 1; c >= 0; --c) {
+      const size_t i = g.index(c, r);
+      if (source[i]) continue;
+      const int right = c + 1 < g.width ? d[i + 1] + 1 : kFar;
+      const int down = r + 1 < g.height ? d[i + static_cast<size_t>(g.width)] + 1 : kFar;
+      d[i] = std::min({d[i], right, down});
+    }
+  }
+  // d counts steps to the nearest source (1 beside it); the result counts from 0.
+  std::vector<uint16_t> out(d.size(), 0);
+  for (size_t i = 0; i < d.size(); ++i) {
+    out[i] = static_cast<uint16_t>(g.valid[i] ? std::max(d[i] - 1, 0) : 0);
+  }
+  return out;
+}
 
 void FusionOptions::Check() const {
   constexpr const char* kName = "FusionOptions";
@@ -190,6 +250,12 @@ void FusionOptions::Check() const {
                     "must be > 0");
   util::CheckOption(min_cos_view > 0 && min_cos_view <= 1, kName, "min_cos_view", min_cos_view,
                     "must be in (0, 1]");
+  util::CheckOption(border_ramp_px >= 0 && border_ramp_px <= 100, kName, "border_ramp_px",
+                    border_ramp_px, "must be in [0, 100]");
+  util::CheckOption(border_trim_px >= 0 && border_trim_px <= 100, kName, "border_trim_px",
+                    border_trim_px, "must be in [0, 100]");
+  util::CheckOption(min_border_hole_px >= 1, kName, "min_border_hole_px", min_border_hole_px,
+                    "must be >= 1");
   util::CheckOption(tile_mm > 0 && tile_mm <= 1e4, kName, "tile_mm", tile_mm,
                     "must be in (0, 1e4]");
   util::CheckOption(max_spacing_ratio > 1, kName, "max_spacing_ratio", max_spacing_ratio,
@@ -218,9 +284,11 @@ std::string FusionSummary::BriefReport() const {
   std::string s = util::StrCat(
       "fusion: ", ToString(status), ", ", views, " views, ", input_points, " points -> ",
       fused_points, " (", overlap_points, " in overlaps -> ", clusters, " clusters, ",
-      passed_through, " passed through, ", unassigned, " unassigned, ", disagreeing_clusters,
-      " kept their best view), ", iterations, " iterations (last max shift ", last_max_shift_mm,
-      " mm), spacing ", median_spacing_mm, " mm, ", time_s, " s");
+      passed_through, " passed through, ", unassigned, " unassigned and ", absorbed,
+      " border points and ", absorbed_clusters, " one-view clusters absorbed by better points, ",
+      trimmed, " lone border points trimmed, ", disagreeing_clusters, " kept their best view), ",
+      iterations, " iterations (last max shift ", last_max_shift_mm, " mm), spacing ",
+      median_spacing_mm, " mm, ", time_s, " s");
   if (!message.empty()) s += ": " + message;
   return s;
 }
@@ -234,6 +302,9 @@ nlohmann::json SummaryToJson(const FusionSummary& s) {
           {"clusters", s.clusters},
           {"passed_through", s.passed_through},
           {"unassigned", s.unassigned},
+          {"absorbed", s.absorbed},
+          {"absorbed_clusters", s.absorbed_clusters},
+          {"trimmed", s.trimmed},
           {"disagreeing_clusters", s.disagreeing_clusters},
           {"fused_points", s.fused_points},
           {"iterations", s.iterations},
@@ -255,6 +326,7 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
 
   // Validate the views and find their spacing; the units check compares median spacings.
   std::vector<std::vector<float>> spacing(views.size());
+  std::vector<std::vector<uint16_t>> border(views.size());
   std::vector<double> median_spacing(views.size(), 0);
   int64_t total = 0;
   for (size_t v = 0; v < views.size(); ++v) {
@@ -282,6 +354,7 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
     }
     total += static_cast<int64_t>(valid);
     spacing[v] = GridSpacing(g);
+    border[v] = BorderDistancePx(g, options.min_border_hole_px);
     median_spacing[v] = Median(spacing[v]);
   }
   s.input_points = total;
@@ -316,6 +389,7 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
   pts.quality.resize(total);
   pts.view.resize(total);
   pts.grid.resize(total);
+  pts.border.resize(total);
   pts.usable.resize(total);
   std::vector<float> all_spacing;
   {
@@ -363,6 +437,8 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
             const double q = c.residual_px[i] / options.residual_half_px;
             w *= 1 / (1 + q * q);
           }
+          pts.border[k] = border[pts.view[k]][i];
+          w *= BorderWeight(pts.border[k], options.border_ramp_px);
           pts.weight[k] = static_cast<float>(std::isfinite(w) ? w : 0);
           // Isolated points take the view's median spacing; grazing ones at most 4 times it
           // (the largest radius sets every tile's halo).
@@ -393,12 +469,13 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
   const float cos_max = static_cast<float>(std::cos(options.max_normal_angle_deg * kPi / 180));
   Tiles tiles = MakeTiles(pts.pos, std::max(options.tile_mm, 2 * margin_mm));
   FillTiles(&tiles, pts.pos, pts.usable, margin_mm);
-  constexpr uint8_t kOverlap = 1, kSeed = 2;
+  // kOutranked: a compatible point of another view within the radius outranks this one.
+  constexpr uint8_t kOverlap = 1, kSeed = 2, kAbsorbed = 4, kOutranked = 8;
   std::vector<uint8_t> flags(pts.size(), 0);
   const nanoflann::SearchParams unsorted(32, 0, false);
   tbb::parallel_for(size_t{0}, tiles.core.size(), [&](size_t t) {
     if (tiles.core[t].empty()) return;
-    const SubsetAdaptor adaptor{&pts.pos, &tiles.halo[t]};
+    const TileAdaptor adaptor(pts.pos, tiles.halo[t]);
     Tree tree(3, adaptor, nanoflann::KDTreeSingleIndexAdaptorParams(16));
     tree.buildIndex();
     Neighbours nb;
@@ -406,14 +483,24 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
       const float r = pts.radius_mm[i];
       const float rho = pts.seed_radius_mm[i];
       tree.radiusSearch(pts.pos[i].data(), r * r, nb, unsorted);
-      bool overlap = false, seed = true;
+      bool overlap = false, seed = true, better = false, outranked = false;
       for (const auto& [local, dist_sq] : nb) {
         const uint32_t j = tiles.halo[t][local];
-        if (pts.view[j] == pts.view[i] || pts.nrm[i].dot(pts.nrm[j]) < cos_max) continue;
+        if (pts.view[j] == pts.view[i]) continue;
+        better = better || pts.weight[j] > pts.weight[i];
+        if (pts.nrm[i].dot(pts.nrm[j]) < cos_max) continue;
         overlap = true;
-        if (dist_sq <= rho * rho && Outranks(pts, j, i)) seed = false;
+        if (Outranks(pts, j, i)) {
+          outranked = true;
+          if (dist_sq <= rho * rho) seed = false;
+        }
       }
-      if (overlap) flags[i] = seed ? (kOverlap | kSeed) : kOverlap;
+      if (overlap) {
+        flags[i] = static_cast<uint8_t>((seed ? (kOverlap | kSeed) : kOverlap) |
+                                        (outranked ? kOutranked : 0));
+      } else if (better && pts.border[i] < options.border_trim_px) {
+        flags[i] = kAbsorbed;
+      }
     }
   });
 
@@ -441,43 +528,70 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
   std::vector<int32_t> assign(pts.size(), kNone);
   std::vector<uint8_t> keep_own(nc, 0);
   std::vector<uint32_t> member_start(nc + 1, 0), members;
-  Tiles centre_tiles;  // the same tiles, listing centres
-  centre_tiles.origin = tiles.origin;
-  centre_tiles.size = tiles.size;
-  centre_tiles.count = tiles.count;
-  centre_tiles.core.resize(tiles.core.size());
-  centre_tiles.halo.resize(tiles.halo.size());
-  // Centres move by a fraction of a spacing; a larger halo keeps the queries exact.
-  const double centre_margin_mm = 2 * margin_mm;
-  for (int it = 0; it < options.max_iterations && nc > 0; ++it) {
-    FillTiles(&centre_tiles, centre, {}, centre_margin_mm);
+  // Candidate centres of every overlap point, found once: centres move along their normals by
+  // noise and registration error, a fraction of a spacing; each centre's total travel from its
+  // seed is bounded by the seed's radius (a cluster that would travel farther is no surface
+  // estimate anymore), so the centres within a point's radius at any iteration are among those
+  // whose seeds lie within radius + the largest travel. Of those the kCandidates nearest are
+  // kept (ordered by seed distance, then index: deterministic); the iterations then assign
+  // among them without a tree query.
+  constexpr int kCandidates = 8;
+  double max_travel_mm = 0;
+  std::vector<float> travel_mm(nc);
+  for (size_t c = 0; c < nc; ++c) {
+    travel_mm[c] = pts.seed_radius_mm[seeds[c]];
+    max_travel_mm = std::max(max_travel_mm, static_cast<double>(travel_mm[c]));
+  }
+  std::vector<int32_t> candidates;
+  {
+    Tiles centre_tiles;  // the same tiles, listing the seeds
+    centre_tiles.origin = tiles.origin;
+    centre_tiles.size = tiles.size;
+    centre_tiles.count = tiles.count;
+    centre_tiles.core.resize(tiles.core.size());
+    centre_tiles.halo.resize(tiles.halo.size());
+    FillTiles(&centre_tiles, centre, {}, margin_mm + max_travel_mm);
+    candidates.assign(pts.size() * kCandidates, kNone);
     tbb::parallel_for(size_t{0}, tiles.core.size(), [&](size_t t) {
-      if (tiles.core[t].empty()) return;
       const std::vector<uint32_t>& local_centres = centre_tiles.halo[t];
-      if (local_centres.empty()) {
-        for (uint32_t i : tiles.core[t]) assign[i] = kNone;
-        return;
-      }
-      const SubsetAdaptor adaptor{&centre, &local_centres};
+      if (tiles.core[t].empty() || local_centres.empty()) return;
+      const TileAdaptor adaptor(centre, local_centres);
       Tree tree(3, adaptor, nanoflann::KDTreeSingleIndexAdaptorParams(16));
       tree.buildIndex();
       Neighbours nb;
+      std::vector<std::pair<float, uint32_t>> found;
       for (uint32_t i : tiles.core[t]) {
         if (!in_overlap[i]) continue;
-        const float r = pts.radius_mm[i];
+        const float r = pts.radius_mm[i] + static_cast<float>(max_travel_mm);
         tree.radiusSearch(pts.pos[i].data(), r * r, nb, unsorted);
-        int32_t best = kNone;
-        float best_d = std::numeric_limits<float>::infinity();
-        for (const auto& [local, dist_sq] : nb) {
-          const uint32_t c = local_centres[local];
-          if (pts.nrm[i].dot(centre_n[c]) < cos_max) continue;
-          if (dist_sq < best_d || (dist_sq == best_d && static_cast<int32_t>(c) < best)) {
-            best = static_cast<int32_t>(c);
-            best_d = dist_sq;
-          }
+        found.clear();
+        for (const auto& [local, dist_sq] : nb) found.emplace_back(dist_sq, local_centres[local]);
+        const size_t keep = std::min<size_t>(found.size(), kCandidates);
+        std::partial_sort(found.begin(), found.begin() + static_cast<std::ptrdiff_t>(keep),
+                          found.end());
+        for (size_t k = 0; k < keep; ++k) {
+          candidates[i * kCandidates + k] = static_cast<int32_t>(found[k].second);
         }
-        assign[i] = best;
       }
+    });
+  }
+  for (int it = 0; it < options.max_iterations && nc > 0; ++it) {
+    tbb::parallel_for(size_t{0}, pts.size(), [&](size_t i) {
+      if (!in_overlap[i]) return;
+      const float r_sq = pts.radius_mm[i] * pts.radius_mm[i];
+      int32_t best = kNone;
+      float best_d = std::numeric_limits<float>::infinity();
+      for (int k = 0; k < kCandidates; ++k) {
+        const int32_t c = candidates[i * kCandidates + k];
+        if (c == kNone) break;
+        const float dist_sq = (centre[c] - pts.pos[i]).squaredNorm();
+        if (dist_sq > r_sq || pts.nrm[i].dot(centre_n[c]) < cos_max) continue;
+        if (dist_sq < best_d || (dist_sq == best_d && c < best)) {
+          best = c;
+          best_d = dist_sq;
+        }
+      }
+      assign[i] = best;
     });
     // Members per centre in ascending point order (counting sort): fixed summation order.
     std::fill(member_start.begin(), member_start.end(), 0);
@@ -575,9 +689,14 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
     tbb::parallel_for(size_t{0}, nc, [&](size_t c) {
       const bool disagree = keep_own[c] != 0;
       const double d = disagree ? own_step[c] : step[c];
-      centre[c] = (centre[c].cast<double>() + d * centre_n[c].cast<double>()).cast<float>();
+      Eigen::Vector3d moved = centre[c].cast<double>() + d * centre_n[c].cast<double>();
+      const Eigen::Vector3d from_seed = moved - pts.pos[seeds[c]].cast<double>();
+      if (from_seed.norm() > travel_mm[c]) {
+        moved = pts.pos[seeds[c]].cast<double>() + from_seed * (travel_mm[c] / from_seed.norm());
+      }
+      shift[c] = static_cast<float>((moved - centre[c].cast<double>()).norm());
+      centre[c] = moved.cast<float>();
       if (!disagree) centre_n[c] = new_normal[c];
-      shift[c] = static_cast<float>(std::abs(d));
     });
     s.iterations = it + 1;
     s.last_max_shift_mm = nc > 0 ? *std::max_element(shift.begin(), shift.end()) : 0;
@@ -604,6 +723,13 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
         ++distinct;
       }
     }
+    // A centre that gathered only its own view's points while a better compatible point of
+    // another view lies within its radius: that point's cluster represents the place (the
+    // seed is typically a mixed pixel off the surface, beyond the others' seed radius).
+    if (distinct == 1 && (flags[seeds[c]] & kOutranked)) {
+      ++s.absorbed_clusters;
+      continue;
+    }
     out.points.push_back(centre[c].cast<double>());
     out.normals.push_back(centre_n[c].cast<double>());
     out.intensity.push_back(static_cast<float>(si / sw));
@@ -613,10 +739,21 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
   }
   for (size_t k = 0; k < pts.size(); ++k) {
     if (in_overlap[k] && assign[k] != kNone) continue;
-    if (in_overlap[k])
+    if (flags[k] & kAbsorbed) {
+      ++s.absorbed;
+      continue;
+    }
+    if (in_overlap[k]) {
+      // Not a seed, so a compatible point of another view outranks it within its seed radius:
+      // that better point represents the place.
       ++s.unassigned;
-    else
-      ++s.passed_through;
+      continue;
+    }
+    if (pts.border[k] < options.border_trim_px) {
+      ++s.trimmed;
+      continue;
+    }
+    ++s.passed_through;
     const FusionView& fv = views[pts.view[k]];
     const PointCloud& c = fv.cloud.cloud;
     const uint32_t i = pts.grid[k];
@@ -634,8 +771,10 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
   s.fused_points = static_cast<int64_t>(out.size());
   if (s.overlap_points == 0) {
     s.status = FusionStatus::kNoOverlap;
-    s.message = views.size() > 1 ? "no view overlaps another; all points passed through"
-                                 : "one view; all points passed through";
+    s.message = util::StrCat(
+        views.size() > 1 ? "no view overlaps another" : "one view", "; all points passed through",
+        s.trimmed > 0 ? util::StrCat(" except ", s.trimmed, " lone border points (trimmed)")
+                      : std::string());
   }
   s.time_s = timer.ElapsedSeconds();
   return result;

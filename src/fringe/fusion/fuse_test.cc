@@ -99,7 +99,9 @@ TEST(Fusion, TwoNoisySlightlyMisregisteredPlaneViewsFuseIntoOneThinnerLayer) {
   EXPECT_LT(fused.n, kMaxCountRatio * std::max(a.n, b.n));
   EXPECT_GT(fused.n, std::min(a.n, b.n) / kMaxCountRatio);
   // Every input point is accounted for: in a cluster or passed through.
-  EXPECT_EQ(r.summary.overlap_points + r.summary.passed_through, r.summary.input_points);
+  EXPECT_EQ(
+      r.summary.overlap_points + r.summary.passed_through + r.summary.absorbed + r.summary.trimmed,
+      r.summary.input_points);
 }
 
 TEST(Fusion, DoubleLayerFromA03MmRegistrationErrorCollapses) {
@@ -206,14 +208,24 @@ TEST(Fusion, PartialOverlapKeepsTheRestUnchanged) {
   const Rigid3d pose0 = Looking(rig, {-40, 0, 0}, 10), pose1 = Looking(rig, {40, 0, 0}, -10);
   const std::vector<FusionView> views = {TruthView(renderer, "a", pose0, pose0, 0.03, 1),
                                          TruthView(renderer, "b", pose1, pose1, 0.03, 2)};
-  const FusionResult r = FuseViews(views);
+  const FusionOptions options;
+  const FusionResult r = FuseViews(views, options);
+  SCOPED_TRACE(r.summary.BriefReport());
   ASSERT_EQ(r.summary.status, FusionStatus::kOk);
   ASSERT_GT(r.summary.passed_through, 1000);
-  // The passed-through points follow the clusters, in view and grid order.
+  // The passed-through points follow the clusters, in view and grid order: all points outside
+  // the overlap but those beside the plane's silhouette (absorbed or trimmed).
   size_t k = static_cast<size_t>(r.summary.clusters);
+  int64_t at_border = 0;
   for (size_t v = 0; v < views.size(); ++v) {
+    const std::vector<uint16_t> border =
+        BorderDistancePx(views[v].cloud, options.min_border_hole_px);
     for (size_t i = 0; i < views[v].cloud.valid.size(); ++i) {
       if (!views[v].cloud.valid[i] || r.overlap[v][i]) continue;
+      if (border[i] < options.border_trim_px) {
+        ++at_border;
+        continue;
+      }
       ASSERT_LT(k, r.fused.size());
       ASSERT_EQ(r.fused.points[k], views[v].world_from_sensor * views[v].cloud.cloud.points[i]);
       ASSERT_EQ(r.support[k], 1);
@@ -221,6 +233,8 @@ TEST(Fusion, PartialOverlapKeepsTheRestUnchanged) {
     }
   }
   EXPECT_EQ(k, r.fused.size());
+  EXPECT_GT(at_border, 0);
+  EXPECT_EQ(r.summary.absorbed + r.summary.trimmed, at_border);
 }
 
 TEST(Fusion, DeterministicAndIndependentOfThreadCount) {
@@ -285,10 +299,16 @@ TEST(Fusion, BadInputsGiveTheirStatus) {
       Rigid3d(Eigen::Quaterniond::Identity(), Eigen::Vector3d(std::nan(""), 0, 0));
   EXPECT_EQ(FuseViews({a, bad_pose}).summary.status, FusionStatus::kBadView);
 
-  // One view alone passes through.
+  // One view alone passes through, but for the points beside its silhouette (mixed pixels in a
+  // reconstruction), which are trimmed and counted; border_trim_px = 0 keeps every point.
   const FusionResult single = FuseViews({a});
   EXPECT_EQ(single.summary.status, FusionStatus::kNoOverlap);
-  EXPECT_EQ(single.fused.size(), a.cloud.NumValid());
+  EXPECT_GT(single.summary.trimmed, 0);
+  EXPECT_EQ(single.fused.size() + single.summary.trimmed, a.cloud.NumValid());
+  EXPECT_NE(single.summary.message.find("trimmed"), std::string::npos) << single.summary.message;
+  FusionOptions keep_all;
+  keep_all.border_trim_px = 0;
+  EXPECT_EQ(FuseViews({a}, keep_all).fused.size(), a.cloud.NumValid());
 }
 
 }  // namespace

@@ -239,7 +239,7 @@ int main(int argc, char** argv) {
   using namespace fringe;
   CLI::App app("bench_fusion: multi-view fusion of the simulated demo part vs alternatives");
   bool json = false, peers = true, mesh = true;
-  int views_n = 8, poisson_depth = 10;
+  int views_n = 8, poisson_depth = 0;
   double scale = 0.5, noise_dn = 1.5, rot_err_deg = 0.005, trans_err_mm = 0.01;
   uint64_t seed = 1;
   app.add_flag("--json", json, "Print one JSON object");
@@ -251,7 +251,9 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--trans-err-mm", trans_err_mm, "Injected registration translation error")
       ->capture_default_str();
-  app.add_option("--poisson-depth", poisson_depth, "Poisson octree depth")->capture_default_str();
+  app.add_option("--poisson-depth", poisson_depth,
+                 "Poisson octree depth (0: from the point spacing)")
+      ->capture_default_str();
   app.add_option("--seed", seed, "Scene, noise and error seed")->capture_default_str();
   std::string cache;
   app.add_option("--cache", cache,

@@ -30,7 +30,8 @@
 // good to ~0.05-0.1 deg: agreement, not accuracy).
 //
 // Usage: bench_registration [--json] [--views 8] [--scale 1] [--noise 1.5] [--seed 1]
-//                           [--bunny DIR] [--no-bunny] [--cache DIR]
+//                           [--bunny DIR] [--no-bunny] [--cache DIR] [--no-open3d]
+//                           [--icp-points N...] [--icp-degeneracy R] [--no-adjustment]
 // --cache DIR keeps the reconstructed views (organized PLY + markers file per view, and the
 // marker-match counts) and reuses them on the next run with the same arguments: registration
 // experiments then skip the minutes of simulation. The PLY stores float coordinates (~6e-5 mm).
@@ -222,6 +223,16 @@ int Run(int argc, char** argv) {
   app.add_option("--bunny", bunny_dir, "Stanford bunny folder (bun000.ply, bun045.ply, bun.conf)")
       ->capture_default_str();
   app.add_flag("--no-bunny", no_bunny, "Skip the bunny");
+  registration::RegistrationOptions options;
+  bool no_open3d = false, no_adjustment = false;
+  app.add_option("--icp-points", options.icp.points_per_level,
+                 "ICP samples per view, one number per level (experiments)")
+      ->capture_default_str();
+  app.add_option("--icp-degeneracy", options.icp.degeneracy_ratio,
+                 "ICP directions weaker than this x the strongest stay at the marker poses")
+      ->capture_default_str();
+  app.add_flag("--no-adjustment", no_adjustment, "Skip the global marker adjustment");
+  app.add_flag("--no-open3d", no_open3d, "Skip the Open3D comparison");
   app.add_option("--cache", cache_dir,
                  "Keep the reconstructed views here and reuse them (same arguments only)");
   CLI11_PARSE(app, argc, argv);
@@ -297,7 +308,9 @@ int Run(int argc, char** argv) {
   const double sim_s = sim_timer.ElapsedSeconds();
   const std::vector<Rigid3d>& truth = simulator.view_poses();
 
-  const registration::RegistrationResult r = registration::RegisterViews(views);
+  options.adjust_markers = !no_adjustment;
+  options.Check();
+  const registration::RegistrationResult r = registration::RegisterViews(views, options);
   std::vector<bool> placed(views_n);
   std::vector<Rigid3d> markers_est, adjusted_est, final_est;
   for (int v = 0; v < views_n; ++v) {
@@ -337,7 +350,7 @@ int Run(int argc, char** argv) {
   for (int v = 0; v < views_n; ++v) {
     if (r.views[v].path == registration::ViewPath::kWorld) world = v;
   }
-  for (int v = 0; v < views_n; ++v) {
+  for (int v = 0; v < views_n && !no_open3d; ++v) {
     if (!placed[v] || v == world) continue;
     open3d::geometry::PointCloud target;
     for (int u = 0; u < views_n; ++u) {

@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "fringe/cli/cli.h"
+#include "fringe/cli/run_cli_for_test.h"
 #include "fringe/io/calibration_io.h"
 #include "fringe/io/image_io.h"
 #include "fringe/io/ply.h"
@@ -20,18 +20,6 @@
 
 namespace fringe {
 namespace {
-
-int RunCli(std::vector<std::string> args, std::string* out, std::string* err) {
-  args.insert(args.begin(), "fringe");
-  std::vector<char*> argv;
-  for (auto& a : args) argv.push_back(a.data());
-  ::testing::internal::CaptureStdout();
-  ::testing::internal::CaptureStderr();
-  const int rc = cli::Main(static_cast<int>(argv.size()), argv.data());
-  *out = ::testing::internal::GetCapturedStdout();
-  *err = ::testing::internal::GetCapturedStderr();
-  return rc;
-}
 
 void WriteStack(const std::filesystem::path& dir, const phase::PatternScheme& scheme,
                 const std::vector<cv::Mat>& images, bool with_manifest) {
@@ -108,9 +96,9 @@ TEST(CameraProjectorCli, BothDirectionsAndMarkers) {
 
   std::string out, err;
   const std::string ply = (tmp / "cp.ply").string();
-  ASSERT_EQ(RunCli({"reconstruct", view.string(), "--calib", (tmp / "rig.json").string(), "--out",
-                    ply, "--json"},
-                   &out, &err),
+  ASSERT_EQ(cli::RunCli({"reconstruct", view.string(), "--calib", (tmp / "rig.json").string(),
+                         "--out", ply, "--json"},
+                        &out, &err),
             0)
       << out << err;
   const nlohmann::json j = nlohmann::json::parse(out);
@@ -142,9 +130,9 @@ TEST(CameraProjectorCli, BothDirectionsAndMarkers) {
   const auto bad = tmp / "bad";
   WriteStack(bad / "left" / "vertical", vertical, vv.left.images, true);
   WriteStack(bad / "left" / "horizontal", vertical, vv.left.images, true);
-  EXPECT_EQ(RunCli({"reconstruct", bad.string(), "--calib", (tmp / "rig.json").string(), "--out",
-                    (tmp / "bad.ply").string()},
-                   &out, &err),
+  EXPECT_EQ(cli::RunCli({"reconstruct", bad.string(), "--calib", (tmp / "rig.json").string(),
+                         "--out", (tmp / "bad.ply").string()},
+                        &out, &err),
             1);
   EXPECT_NE(err.find("horizontal/manifest.json"), std::string::npos) << err;
   EXPECT_FALSE(std::filesystem::exists(tmp / "bad.ply"));
@@ -170,9 +158,9 @@ TEST(CameraProjectorCli, TrinocularAddsLeftOnlyPoints) {
   std::string out, err;
   auto run = [&](const std::string& mode) {
     const std::string ply = (tmp / (mode + ".ply")).string();
-    EXPECT_EQ(RunCli({"reconstruct", (tmp / "view").string(), "--mode", mode, "--out", ply,
-                      "--json", "--no-markers"},
-                     &out, &err),
+    EXPECT_EQ(cli::RunCli({"reconstruct", (tmp / "view").string(), "--mode", mode, "--out", ply,
+                           "--json", "--no-markers"},
+                          &out, &err),
               0)
         << out << err;
     return nlohmann::json::parse(out);

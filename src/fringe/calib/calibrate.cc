@@ -429,6 +429,19 @@ void Conclude(int num_views_used, int min_views, CalibrationSummary* s) {
   }
 }
 
+// Observation k of a device's view for a joint solve, starting from the single-device
+// calibration's re-measured centre (`centres`, in detection order) when there is one.
+Obs JointObservation(const FeatureObservation& f, int device, int view,
+                     const CalibrationTarget& target, const std::vector<Vec2>& centres, size_t k) {
+  Obs o;
+  o.device = device;
+  o.view = view;
+  o.board_point = target.FeatureCentre(f.row, f.col);
+  o.px = k < centres.size() ? centres[k] : f.centre_px;
+  o.feature = f.outer_edge_px.empty() ? nullptr : &f;
+  return o;
+}
+
 // The transform with the smallest summed distance to the others (a robust medoid of per-view
 // estimates of one rigid transform; 1 rad counts as 100 mm).
 const Rigid3d& MedoidTransform(const std::vector<Rigid3d>& estimates) {
@@ -573,15 +586,8 @@ StereoCalibration CalibrateStereo(const std::vector<TargetDetection>& left,
       if (!pair[v]) continue;
       for (size_t k = 0; k < views[v].features.size(); ++k) {
         obs_index[cam][v][k] = static_cast<int>(b.obs.size());
-        const auto& f = views[v].features[k];
-        Obs o;
-        o.device = cam;
-        o.view = static_cast<int>(v);
-        o.board_point = target.FeatureCentre(f.row, f.col);
-        // Start from the single-camera re-measured centres.
-        o.px = k < centres[v].size() ? centres[v][k] : f.centre_px;
-        o.feature = f.outer_edge_px.empty() ? nullptr : &f;
-        b.obs.push_back(o);
+        b.obs.push_back(JointObservation(views[v].features[k], cam, static_cast<int>(v), target,
+                                         centres[v], k));
       }
     }
   }
@@ -719,15 +725,8 @@ MultiDeviceCalibration CalibrateDevices(const std::vector<std::vector<TargetDete
       if (!used[v] || !seen[d][v]) continue;
       const auto& centres = out.devices[d].centres_px;
       for (size_t k = 0; k < views[d][v].features.size(); ++k) {
-        const auto& f = views[d][v].features[k];
-        Obs o;
-        o.device = static_cast<int>(d);
-        o.view = static_cast<int>(v);
-        o.board_point = target.FeatureCentre(f.row, f.col);
-        // Start from the single-device re-measured centres.
-        o.px = k < centres[v].size() ? centres[v][k] : f.centre_px;
-        o.feature = f.outer_edge_px.empty() ? nullptr : &f;
-        b.obs.push_back(o);
+        b.obs.push_back(JointObservation(views[d][v].features[k], static_cast<int>(d),
+                                         static_cast<int>(v), target, centres[v], k));
       }
     }
   }

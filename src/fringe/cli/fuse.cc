@@ -66,7 +66,8 @@ void AddFuseCommand(CLI::App& app) {
   sub->add_option("--max-triangles", a->meshing.max_triangles,
                   "Decimate the mesh to at most N triangles (quadric error; the deviation it adds "
                   "is reported)");
-  sub->add_option("--poisson-depth", a->meshing.poisson_depth, "Poisson octree depth")
+  sub->add_option("--poisson-depth", a->meshing.poisson_depth,
+                  "Poisson octree depth (0: from the point spacing and the extent)")
       ->capture_default_str();
   sub->add_option("--registration-rms", a->fusion.registration_rms_mm,
                   "Registration residual (mm): widens the overlap radius")

@@ -45,8 +45,10 @@ void AddScanCommand(CLI::App& app) {
   sub->add_option("--noise-sigma", a->options.reconstruction.decode.noise_sigma_dn,
                   "Camera noise in DN (sets the decoder's modulation threshold)")
       ->capture_default_str();
-  sub->add_option("--poisson-depth", a->options.mesh.poisson_depth,
-                  "Poisson octree depth of the mesh (10: ~0.3 mm cells on 300 mm)")
+  sub->add_option(
+         "--poisson-depth", a->options.mesh.poisson_depth,
+         "Poisson octree depth of the mesh (0: from the point spacing; 10: ~0.3 mm cells on "
+         "300 mm)")
       ->capture_default_str();
   sub->add_flag(
       "--no-markers", [a](int64_t) { a->options.registration.use_markers = false; },

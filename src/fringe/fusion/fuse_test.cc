@@ -237,6 +237,44 @@ TEST(Fusion, PartialOverlapKeepsTheRestUnchanged) {
   EXPECT_EQ(r.summary.absorbed + r.summary.trimmed, at_border);
 }
 
+TEST(Fusion, MixedPixelsBesideAHoleDoNotSurviveWhereAnotherViewSawThePlace) {
+  constexpr double kSigmaMm = 0.02;
+  constexpr double kMixedOffsetMm = 0.6;  // along the ray, as a silhouette's mixed pixels
+  constexpr double kMaxHeightMm = 10 * kSigmaMm;
+  const StereoRig rig = TestRig();
+  const sim::Renderer renderer(sim::MakePlaneScene(), rig);
+  const Rigid3d pose0 = Looking(rig, {-25, 0, 0}, 15), pose1 = Looking(rig, {25, 0, 0}, -15);
+  std::vector<FusionView> views = {TruthView(renderer, "a", pose0, pose0, kSigmaMm, 1),
+                                   TruthView(renderer, "b", pose1, pose1, kSigmaMm, 2)};
+  // A 30 x 30 hole in the middle of b's grid (inside the overlap); the ring of points beside it
+  // pushed along their rays with normals tilted by 60 degrees.
+  OrganizedPointCloud& g = views[1].cloud;
+  const int c0 = g.width / 2 - 15, r0 = g.height / 2 - 15;
+  for (int r = r0; r < r0 + 30; ++r) {
+    for (int c = c0; c < c0 + 30; ++c) g.valid[g.index(c, r)] = 0;
+  }
+  const std::vector<uint16_t> border = BorderDistancePx(g, FusionOptions().min_border_hole_px);
+  int mixed = 0;
+  for (size_t i = 0; i < g.valid.size(); ++i) {
+    if (!g.valid[i] || border[i] != 0) continue;
+    Eigen::Vector3d& p = g.cloud.points[i];
+    Eigen::Vector3d& n = g.cloud.normals[i];
+    p *= 1 + kMixedOffsetMm / p.norm();
+    const Eigen::Vector3d t = n.cross(Eigen::Vector3d::UnitX()).normalized();
+    n = (n * std::cos(M_PI / 3) + t * std::sin(M_PI / 3)).normalized();
+    ++mixed;
+  }
+  ASSERT_GT(mixed, 100);
+  const FusionResult r = FuseViews(views);
+  SCOPED_TRACE(r.summary.BriefReport());
+  ASSERT_EQ(r.summary.status, FusionStatus::kOk);
+  double max_height = 0;
+  for (const Eigen::Vector3d& p : r.fused.points)
+    max_height = std::max(max_height, std::abs(p.z()));
+  EXPECT_LT(max_height, kMaxHeightMm);
+  EXPECT_GE(r.summary.absorbed + r.summary.absorbed_clusters + r.summary.unassigned, mixed);
+}
+
 TEST(Fusion, DeterministicAndIndependentOfThreadCount) {
   const StereoRig rig = TestRig();
   const sim::Renderer renderer(sim::MakeSphereScene(30), rig);

@@ -42,8 +42,12 @@ MeshResult Fail(MeshResult r, MeshStatus status, std::string message) {
 
 void MeshOptions::Check() const {
   constexpr const char* kName = "MeshOptions";
-  util::CheckOption(poisson_depth >= 5 && poisson_depth <= 14, kName, "poisson_depth",
-                    poisson_depth, "must be in [5, 14]");
+  util::CheckOption(poisson_depth == 0 || (poisson_depth >= 5 && poisson_depth <= 14), kName,
+                    "poisson_depth", poisson_depth, "must be 0 (from the cloud) or in [5, 14]");
+  util::CheckOption(cell_spacings > 0 && cell_spacings <= 100, kName, "cell_spacings",
+                    cell_spacings, "must be in (0, 100]");
+  util::CheckOption(max_auto_depth >= 5 && max_auto_depth <= 14, kName, "max_auto_depth",
+                    max_auto_depth, "must be in [5, 14]");
   util::CheckOption(trim_density_quantile >= 0 && trim_density_quantile < 1, kName,
                     "trim_density_quantile", trim_density_quantile, "must be in [0, 1)");
   util::CheckOption(trim_distance_factor > 0, kName, "trim_distance_factor", trim_distance_factor,
@@ -69,9 +73,10 @@ const char* ToString(MeshStatus s) {
 
 std::string MeshSummary::BriefReport() const {
   std::string s =
-      util::StrCat("mesh: ", ToString(status), ", ", input_points, " points -> ", poisson_triangles,
-                   " Poisson triangles, ", trimmed_vertices, " vertices trimmed -> ", vertices,
-                   " vertices, ", triangles, " triangles, ", watertight ? "watertight" : "open");
+      util::StrCat("mesh: ", ToString(status), ", ", input_points, " points (spacing ", spacing_mm,
+                   " mm) -> depth ", poisson_depth, ": ", poisson_triangles, " Poisson triangles, ",
+                   trimmed_vertices, " vertices trimmed -> ", vertices, " vertices, ", triangles,
+                   " triangles, ", watertight ? "watertight" : "open");
   if (decimated) {
     s += util::StrCat(", decimation deviation RMS ", decimation_rms_mm, " mm (max ",
                       decimation_max_mm, " mm)");
@@ -86,6 +91,8 @@ nlohmann::json SummaryToJson(const MeshSummary& s) {
           {"message", s.message},
           {"input_points", s.input_points},
           {"poisson_triangles", s.poisson_triangles},
+          {"poisson_depth", s.poisson_depth},
+          {"spacing_mm", s.spacing_mm},
           {"trimmed_vertices", s.trimmed_vertices},
           {"vertices", s.vertices},
           {"triangles", s.triangles},
@@ -119,9 +126,29 @@ MeshResult MeshPoisson(const PointCloud& cloud, const MeshOptions& options) {
                 util::StrCat(pcd.points_.size(), " points with position and normal"));
   }
 
+  // Median point spacing from every 8th point's nearest neighbour (the tree also serves the
+  // trimming below).
+  const open3d::geometry::KDTreeFlann tree(pcd);
+  {
+    std::vector<double> nn((pcd.points_.size() + 7) / 8);
+    tbb::parallel_for(size_t{0}, nn.size(), [&](size_t k) {
+      std::vector<int> idx(2);
+      std::vector<double> d2(2);
+      nn[k] = tree.SearchKNN(pcd.points_[8 * k], 2, idx, d2) == 2 ? std::sqrt(d2[1]) : 0;
+    });
+    s.spacing_mm = Quantile(nn, 0.5);
+  }
+  constexpr double kScale = 1.1;  // Poisson's cube: the bounding box's largest side * 1.1
+  s.poisson_depth = options.poisson_depth;
+  if (s.poisson_depth == 0) {
+    const double extent_mm = kScale * (pcd.GetMaxBound() - pcd.GetMinBound()).maxCoeff();
+    const double cells = extent_mm / std::max(options.cell_spacings * s.spacing_mm, 1e-9);
+    s.poisson_depth = std::clamp(static_cast<int>(std::ceil(std::log2(std::max(cells, 1.0)))), 5,
+                                 options.max_auto_depth);
+  }
   util::Timer timer;
   auto [mesh, densities] = open3d::geometry::TriangleMesh::CreateFromPointCloudPoisson(
-      pcd, static_cast<size_t>(options.poisson_depth), 0.0f, 1.1f, false,
+      pcd, static_cast<size_t>(s.poisson_depth), 0.0f, static_cast<float>(kScale), false,
       options.threads == 0 ? -1 : options.threads);
   s.poisson_s = timer.ElapsedSeconds();
   s.poisson_triangles = static_cast<int64_t>(mesh->triangles_.size());
@@ -131,13 +158,10 @@ MeshResult MeshPoisson(const PointCloud& cloud, const MeshOptions& options) {
 
   if (!options.watertight) {
     // Low support: low Poisson density, or far from every measured point.
-    const std::vector<double> nn = pcd.ComputeNearestNeighborDistance();
-    const double spacing_mm = Quantile(nn, 0.5);
-    const double max_dist_mm = options.trim_distance_factor * spacing_mm;
+    const double max_dist_mm = options.trim_distance_factor * s.spacing_mm;
     const double min_density = options.trim_density_quantile > 0
                                    ? Quantile(densities, options.trim_density_quantile)
                                    : -std::numeric_limits<double>::infinity();
-    const open3d::geometry::KDTreeFlann tree(pcd);
     std::vector<uint8_t> remove(mesh->vertices_.size(), 0);
     tbb::parallel_for(size_t{0}, mesh->vertices_.size(), [&](size_t v) {
       std::vector<int> idx(1);

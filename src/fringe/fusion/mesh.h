@@ -1,8 +1,8 @@
 // A triangle mesh of a fused cloud: screened Poisson surface reconstruction (Kazhdan & Hoppe,
 // "Screened Poisson surface reconstruction", ACM TOG 2013) as implemented in Open3D
 // (open3d::geometry::TriangleMesh::CreateFromPointCloudPoisson, Debian libopen3d-dev 0.16),
-// not hand-written. Open3D was chosen over CGAL's Poisson after measuring both on the same
-// fused cloud (docs/benchmarks.md, "Fusion").
+// not hand-written. CGAL's Poisson (libcgal-dev) has NOT been measured against it yet on the
+// same fused cloud (issue 12 asks for that comparison; docs/benchmarks.md, "Fusion").
 //
 // By default the mesh keeps only the measured surface: Poisson closes the surface everywhere,
 // and vertices the data do not support are trimmed — those with a Poisson sampling density
@@ -29,7 +29,12 @@
 namespace fringe::fusion {
 
 struct MeshOptions {
-  int poisson_depth = 10;               // octree depth, [5, 14]; 10: ~0.3 mm cells on 300 mm
+  // Octree depth, [5, 14]; 0: from the cloud, the shallowest depth whose finest cell is at most
+  // cell_spacings median point spacings across the cloud's extent (Poisson's cost grows ~8x per
+  // level: a fixed depth is either too coarse for a fine scan or too slow for a coarse one).
+  int poisson_depth = 0;
+  double cell_spacings = 2;             // (0, 100]
+  int max_auto_depth = 12;              // [5, 14]
   bool watertight = false;              // true: keep the closed Poisson surface, no trimming
   double trim_density_quantile = 0.02;  // [0, 1)
   double trim_distance_factor = 4;      // times the median point spacing, > 0
@@ -54,6 +59,8 @@ struct MeshSummary {
   std::string message;
   int64_t input_points = 0;
   int64_t poisson_triangles = 0;  // before trimming and decimation
+  int poisson_depth = 0;          // the depth used
+  double spacing_mm = 0;          // median nearest-neighbour distance of the cloud
   int64_t trimmed_vertices = 0;
   int64_t vertices = 0;
   int64_t triangles = 0;

@@ -86,6 +86,32 @@ TEST(Mesh, FusedSphereIsWatertightAndWithinToleranceOfTheSphere) {
   EXPECT_EQ(inward, 0);
 }
 
+TEST(Mesh, AutomaticDepthFollowsThePointSpacingAndExtent) {
+  // The sphere's fused cloud (~0.8 mm spacing, 60 mm across) and every 4th of its points (about
+  // twice the spacing): the coarser cloud gets a shallower octree, and the finest cell of each
+  // is at most cell_spacings spacings.
+  const FusionResult& fused = FusedSphere();
+  PointCloud sparse;
+  for (size_t i = 0; i < fused.fused.size(); i += 4) sparse.PushBackFrom(fused.fused, i);
+  const MeshOptions options;  // poisson_depth 0: automatic
+  const MeshResult fine = MeshPoisson(fused.fused, options);
+  const MeshResult coarse = MeshPoisson(sparse, options);
+  ASSERT_TRUE(fine.summary.ok()) << fine.summary.BriefReport();
+  ASSERT_TRUE(coarse.summary.ok()) << coarse.summary.BriefReport();
+  EXPECT_GT(fine.summary.spacing_mm, 0.5);
+  EXPECT_LT(fine.summary.spacing_mm, 1.2);
+  EXPECT_GT(coarse.summary.spacing_mm, 1.4 * fine.summary.spacing_mm);
+  EXPECT_LT(coarse.summary.poisson_depth, fine.summary.poisson_depth);
+  for (const MeshResult* m : {&fine, &coarse}) {
+    const double extent_mm = 1.1 * 60;  // Poisson's cube around the sphere, about
+    const double cell_mm = extent_mm / std::pow(2.0, m->summary.poisson_depth);
+    EXPECT_LE(cell_mm, 1.05 * options.cell_spacings * m->summary.spacing_mm)
+        << m->summary.BriefReport();
+    EXPECT_GT(cell_mm, 0.5 * 0.95 * options.cell_spacings * m->summary.spacing_mm)
+        << m->summary.BriefReport();
+  }
+}
+
 TEST(Mesh, TrimmingKeepsOnlyTheMeasuredPart) {
   // Half a sphere measured: the closing bubble over the other half must go.
   constexpr double kMaxFromDataMm = 4 * 0.9;  // trim_distance_factor * ~spacing

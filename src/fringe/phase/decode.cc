@@ -1008,6 +1008,38 @@ DecodeResult DecodeExposures(const PatternScheme& scheme,
     sum.exposures.push_back({s.valid, supplied[e], s.min_modulation_dn, s.noise.sigma_dn});
     if (supplied[e] > supplied[main]) main = e;
   }
+  // Gains relative to the main exposure (a linear sensor's exposure ratio), from every 2nd pixel
+  // of every 2nd row valid in both; then the maps of other exposures' pixels on its scale.
+  constexpr size_t kMinGainPixels = 100;
+  std::vector<double> gain(stacks.size(), 0.0);
+  gain[main] = 1.0;
+  for (size_t e = 0; e < stacks.size(); ++e) {
+    if (e == main) continue;
+    std::vector<float> ratios;
+    for (int r = 0; r < size.height; r += 2) {
+      const uint8_t* re = each[e].reason.ptr<uint8_t>(r);
+      const uint8_t* rm = each[main].reason.ptr<uint8_t>(r);
+      const float* ae = each[e].background.ptr<float>(r);
+      const float* am = each[main].background.ptr<float>(r);
+      for (int c = 0; c < size.width; c += 2) {
+        if (re[c] == 0 && rm[c] == 0 && am[c] > 0) ratios.push_back(ae[c] / am[c]);
+      }
+    }
+    if (ratios.size() < kMinGainPixels) continue;
+    std::nth_element(ratios.begin(), ratios.begin() + ratios.size() / 2, ratios.end());
+    gain[e] = ratios[ratios.size() / 2];
+  }
+  for (int r = 0; r < size.height; ++r) {
+    const uint8_t* chosen = out.exposure.ptr<uint8_t>(r);
+    float* bg = out.background.ptr<float>(r);
+    float* mod = out.modulation.ptr<float>(r);
+    for (int c = 0; c < size.width; ++c) {
+      if (chosen[c] == kNone || !(gain[chosen[c]] > 0)) continue;
+      bg[c] = static_cast<float>(bg[c] / gain[chosen[c]]);
+      mod[c] = static_cast<float>(mod[c] / gain[chosen[c]]);
+    }
+  }
+  for (size_t e = 0; e < stacks.size(); ++e) sum.exposures[e].gain = gain[e];
   sum.min_modulation_dn = each[main].summary.min_modulation_dn;
   sum.threshold_bounded = each[main].summary.threshold_bounded;
   sum.full_scale_dn = each[main].summary.full_scale_dn;
@@ -1015,7 +1047,8 @@ DecodeResult DecodeExposures(const PatternScheme& scheme,
   std::string parts;
   for (size_t e = 0; e < stacks.size(); ++e) {
     parts += StrCat(e ? ", " : "", "e", e, " valid ", sum.exposures[e].valid, " chosen ",
-                    sum.exposures[e].chosen);
+                    sum.exposures[e].chosen, " gain ",
+                    gain[e] > 0 ? StrCat(gain[e]) : std::string("unknown"));
   }
   sum.message = StrCat(stacks.size(), " exposures combined (", parts, ")");
   if (sum.valid == 0) {

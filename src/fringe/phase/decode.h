@@ -145,6 +145,9 @@ struct ExposureFigures {
   int64_t chosen = 0;            // pixels the combination took from this exposure
   double min_modulation_dn = 0;  // its threshold
   double noise_sigma_dn = 0;     // its camera noise (given, estimated or assumed)
+  // Its brightness relative to the main exposure (the one supplying most pixels; 1 for that):
+  // median ratio of backgrounds over pixels valid in both; 0 when too few pixels are.
+  double gain = 0;
 };
 
 struct DecodeSummary {
@@ -206,7 +209,10 @@ constexpr int kMaxExposures = 16;
 // highest modulation B among those where the pixel is valid (so unsaturated in every
 // phase-shift image) gives phase, modulation, background and wrapped phase. The camera's noise
 // in DN does not grow with the exposure (read noise), so the highest B is the best phase
-// (sigma_phi ~ sigma / B). One stack: exactly Decode. Throws fringe::Error naming the exposure
+// (sigma_phi ~ sigma / B). The background and modulation maps are put on the main exposure's
+// scale (divided by each exposure's gain, ExposureFigures), so texture and quality do not step
+// where exposures meet; an exposure whose gain is unknown keeps its own DN. One stack: exactly
+// Decode. Throws fringe::Error naming the exposure
 // for a stack of another size or depth, none, or more than kMaxExposures.
 DecodeResult DecodeExposures(const PatternScheme& scheme,
                              const std::vector<std::vector<cv::Mat>>& stacks,

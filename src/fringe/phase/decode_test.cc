@@ -506,6 +506,41 @@ TEST(Decode, TwoExposuresCoverWhatEitherAloneMisses) {
   }
 }
 
+// The exposures' gain is measured where both decode, and the combined background is on the
+// main exposure's scale everywhere (no step at the saturated patch taken from the short one).
+TEST(Decode, ExposureGainPutsTheMapsOnOneScale) {
+  constexpr double kGain = 2;
+  // The fitted background of the synthetic stacks deviates from A by a few DN (8-bit patterns);
+  // without the gain the step at the patch would be 60 DN.
+  constexpr double kBackgroundTolDn = 5;
+  const PatternScheme s = MakeScheme("heterodyne-4x3", 1280, 800);
+  const cv::Mat u = LinearProjectorMap(s, kSize);
+  SyntheticStackOptions dim, bright;
+  dim.background_dn = 60;  // B above the threshold (~35 DN at 2 DN of noise): both decode
+  dim.modulation_dn = 50;
+  bright.background_dn = kGain * 60;  // peaks at 220 DN: unsaturated
+  bright.modulation_dn = kGain * 50;
+  bright.seed = 2;
+  const std::vector<cv::Mat> short_stack = RenderSyntheticStack(s, u, dim);
+  std::vector<cv::Mat> long_stack = RenderSyntheticStack(s, u, bright);
+  const cv::Rect patch(40, 40, 60, 50);
+  for (auto& im : long_stack) im(patch).setTo(255);  // a highlight saturating the long one
+  DecodeOptions o;
+  o.noise_sigma_dn = 2;
+  const DecodeResult both = DecodeExposures(s, {short_stack, long_stack}, o);
+  ASSERT_EQ(both.summary.exposures.size(), 2u);
+  EXPECT_EQ(both.summary.exposures[1].gain, 1.0);  // the long one supplies most pixels
+  EXPECT_NEAR(both.summary.exposures[0].gain, 1 / kGain, 0.01);
+  EXPECT_EQ(both.exposure.at<uint8_t>(60, 60), 0);    // patch: short exposure
+  EXPECT_EQ(both.exposure.at<uint8_t>(200, 250), 1);  // elsewhere: long exposure
+  EXPECT_NEAR(both.background.at<float>(60, 60), kGain * 60, kBackgroundTolDn);
+  EXPECT_NEAR(both.background.at<float>(200, 250), kGain * 60, kBackgroundTolDn);
+  EXPECT_NEAR(both.modulation.at<float>(60, 60), kGain * 50, kBackgroundTolDn);
+  EXPECT_NEAR(both.background.at<float>(60, 60), both.background.at<float>(60, 110),
+              kBackgroundTolDn);  // no step across the patch's edge (x 40..99)
+  EXPECT_EQ(both.summary.valid, both.summary.pixels);
+}
+
 TEST(Gamma, RippleIsMeasurableAndRemovedByCompensation) {
   // 4-step and 3-step decoding under gamma 2.2: uncompensated error well above the gamma-free
   // error; pre-compensated patterns, or the decoder's table, within 10 % of it (issue 4).

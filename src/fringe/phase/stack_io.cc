@@ -109,7 +109,8 @@ nlohmann::json DecodeSummaryToJson(const DecodeSummary& s) {
     exposures.push_back({{"valid", e.valid},
                          {"chosen", e.chosen},
                          {"min_modulation_dn", e.min_modulation_dn},
-                         {"noise_sigma_dn", e.noise_sigma_dn}});
+                         {"noise_sigma_dn", e.noise_sigma_dn},
+                         {"gain", e.gain}});
   }
   nlohmann::json j = {
       {"status", s.status == DecodeStatus::kSuccess ? "success" : "no_valid_pixels"},

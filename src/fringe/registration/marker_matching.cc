@@ -51,6 +51,11 @@ std::string MarkerMatchResult::BriefReport() const {
 
 namespace {
 
+// A three-marker hypothesis is kept when its fit RMS is at most this many times the RMS the
+// markers' uncertainties predict (chi-square with 3 degrees of freedom: a right triple exceeds
+// 2x in ~0.7 % of cases and then falls back to the marker-free path).
+constexpr double kMinimalSetRmsFactor = 2.0;
+
 struct Hypothesis {
   std::vector<std::pair<int, int>> pairs;  // verified
   Rigid3d map_from_view;
@@ -216,6 +221,15 @@ class Matcher {
             if (static_cast<int>(h.pairs.size()) < o_.min_matches) continue;
             if (!Fit(&h.pairs, &h.map_from_view, &h.rms_mm, &h.max_mm)) continue;
             if (static_cast<int>(h.pairs.size()) < o_.min_matches) continue;
+            // Three markers have no redundancy in their distances beyond the fit: any three are
+            // congruent to their mirror image, and a chance triple of an unrelated or mirrored
+            // layout agrees within the distance tolerance. Such a minimal set must fit as well as
+            // the markers' uncertainties say (rms <= kMinimalSetRmsFactor x the expected).
+            if (h.pairs.size() < 4) {
+              double s2 = 0;
+              for (const auto& [k, c] : h.pairs) s2 += Sq(v_[k].sigma_mm) + Sq(m_[c].sigma_mm);
+              if (h.rms_mm > kMinimalSetRmsFactor * std::sqrt(s2 / h.pairs.size())) continue;
+            }
             // Seeds inside this set would grow into the same hypothesis: skip them.
             for (const auto& p : h.pairs) {
               for (const auto& q : h.pairs) {

@@ -12,6 +12,9 @@
 // wins; when a DIFFERENT transform (a symmetric layout) is verified by nearly as many markers,
 // the match is refused (kAmbiguous) rather than risk a confidently wrong one. Normals break the
 // flip symmetry of planar layouts (a mirror image is no rigid motion, a flip turns normals over).
+// A hypothesis of only three markers (always congruent to their mirror image; a chance triple of
+// an unrelated layout agrees within the distance tolerance) must also fit within twice the RMS
+// its markers' uncertainties predict.
 //
 // Frames: view markers in the view's sensor frame, map markers in the world frame; the result
 // is world_from_sensor. Millimetres. Deterministic (no randomness). Thread safety: reentrant.

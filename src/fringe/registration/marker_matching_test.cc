@@ -160,6 +160,27 @@ TEST(MatchMarkers, MirrorSymmetricLayoutDisambiguatedByNormals) {
   EXPECT_EQ(blind.status, MarkerMatchStatus::kAmbiguous) << blind.BriefReport();
 }
 
+// A view whose marker layout is the MIRROR image of the map's (x -> -x; markers on a bumpy
+// part, so the layout is not planar): every pairwise distance agrees, but no rigid motion maps
+// one onto the other (only three-marker subsets, which are always congruent). Never a match.
+TEST(MatchMarkers, MirrorImageOfTheMapIsNotMatched) {
+  for (const unsigned seed : {11u, 12u, 13u, 14u, 15u, 16u, 17u, 18u}) {
+    std::mt19937 rng(seed);
+    const std::vector<MarkerPoint> map = RandomLayout(12, &rng);
+    std::vector<MarkerPoint> mirrored = map;
+    for (MarkerPoint& p : mirrored) {
+      p.centre.x() = -p.centre.x();
+      p.normal.x() = -p.normal.x();
+    }
+    std::vector<int> ids(map.size());
+    for (size_t k = 0; k < ids.size(); ++k) ids[k] = static_cast<int>(k);
+    const MarkerMatchResult r =
+        MatchMarkers(SeeFrom(mirrored, ids, SomePose().Inverse(), &rng), map);
+    EXPECT_FALSE(r.ok()) << "seed " << seed << ": " << r.BriefReport();
+    EXPECT_TRUE(r.pairs.empty()) << "seed " << seed;
+  }
+}
+
 TEST(MatchMarkers, TooFewAndUnrelatedMarkers) {
   std::mt19937 rng(9);
   const std::vector<MarkerPoint> map = RandomLayout(10, &rng);

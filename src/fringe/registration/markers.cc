@@ -149,6 +149,22 @@ double CentreSigmaPx(const calib::FeatureObservation& f) {
   return std::max(f.fit_rms_px, 0.02) * std::sqrt(2.0 / std::max(n, 1.0));
 }
 
+// Stable order (by left image row, then column; ids follow it), counts, status and time.
+void FinishViewMarkers(const char* image, const util::Timer& timer, ViewMarkers* out) {
+  MarkerDetectionSummary& s = out->summary;
+  std::sort(out->markers.begin(), out->markers.end(), [](const ViewMarker& a, const ViewMarker& b) {
+    return a.left_px.y() != b.left_px.y() ? a.left_px.y() < b.left_px.y()
+                                          : a.left_px.x() < b.left_px.x();
+  });
+  for (size_t k = 0; k < out->markers.size(); ++k) out->markers[k].id = static_cast<int>(k);
+  s.markers = static_cast<int>(out->markers.size());
+  s.status = s.markers > 0 ? MarkerDetectionStatus::kOk : MarkerDetectionStatus::kNoMarkers;
+  if (s.markers == 0) {
+    s.message = StrCat("no marker found (", s.rings_left, " rings in the ", image, ")");
+  }
+  s.seconds = timer.ElapsedSeconds();
+}
+
 struct Choice {
   int right = -1;
   Vector3d p = Vector3d::Zero();
@@ -278,17 +294,7 @@ ViewMarkers DetectViewMarkers(const StereoRig& rig, const cv::Mat& texture_left,
     if (choice[i].candidates > 1) ++s.ambiguous_resolved;
     out.markers.push_back(m);
   }
-  // Stable order: by left image row, then column (ids follow it).
-  std::sort(out.markers.begin(), out.markers.end(), [](const ViewMarker& a, const ViewMarker& b) {
-    return a.left_px.y() != b.left_px.y() ? a.left_px.y() < b.left_px.y()
-                                          : a.left_px.x() < b.left_px.x();
-  });
-  for (size_t k = 0; k < out.markers.size(); ++k) out.markers[k].id = static_cast<int>(k);
-  s.markers = static_cast<int>(out.markers.size());
-  s.status = s.markers > 0 ? MarkerDetectionStatus::kOk : MarkerDetectionStatus::kNoMarkers;
-  if (s.markers == 0)
-    s.message = StrCat("no marker found (", s.rings_left, " rings in the left image)");
-  s.seconds = timer.ElapsedSeconds();
+  FinishViewMarkers("left image", timer, &out);
   return out;
 }
 
@@ -382,18 +388,7 @@ ViewMarkers DetectViewMarkersOneCamera(const CameraModel& camera, const cv::Mat&
     m.depth_difference_mm = 0;
     out.markers.push_back(m);
   }
-  // Stable order: by image row, then column (ids follow it).
-  std::sort(out.markers.begin(), out.markers.end(), [](const ViewMarker& a, const ViewMarker& b) {
-    return a.left_px.y() != b.left_px.y() ? a.left_px.y() < b.left_px.y()
-                                          : a.left_px.x() < b.left_px.x();
-  });
-  for (size_t k = 0; k < out.markers.size(); ++k) out.markers[k].id = static_cast<int>(k);
-  s.markers = static_cast<int>(out.markers.size());
-  s.status = s.markers > 0 ? MarkerDetectionStatus::kOk : MarkerDetectionStatus::kNoMarkers;
-  if (s.markers == 0) {
-    s.message = StrCat("no marker found (", s.rings_left, " rings in the camera image)");
-  }
-  s.seconds = timer.ElapsedSeconds();
+  FinishViewMarkers("camera image", timer, &out);
   return out;
 }
 

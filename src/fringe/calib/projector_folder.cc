@@ -201,6 +201,8 @@ ProjectorFolderCalibration CalibrateProjectorFolder(const fs::path& dir,
         projector_size.height, options.calibration, options.features, out.names);
     out.rig = out.camera_projector.rig;
   }
+  out.left_detections = std::move(left);
+  out.right_detections = std::move(right);
   return out;
 }
 

@@ -43,6 +43,9 @@ ProjectorFolderLayout FindProjectorPoseFolders(const std::filesystem::path& dir,
 struct ProjectorFolderCalibration {
   ProjectorFolderLayout layout = ProjectorFolderLayout::kNone;
   std::vector<std::string> names;  // pose folder names
+  // The board detections of each camera per pose (right empty for one camera): what
+  // `fringe calibrate --centres` writes.
+  std::vector<TargetDetection> left_detections, right_detections;
   // The calibrated rig: camera + projector (no right camera: `right` a copy of the left at
   // zero baseline, as a camera + projector rig file reads), or both cameras + projector.
   StereoRig rig;

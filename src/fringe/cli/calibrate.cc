@@ -61,9 +61,9 @@ void CalibrateProjector(const CalibrateArgs& a, const CalibrationTarget& target,
   if (!a.centres.empty()) {
     // The camera's detections (the projector's "centres" are decoded phase, not detections).
     calib::FolderCalibration camera_only;
-    camera_only.names = names;
-    camera_only.left = camera;
-    camera_only.mono = cal.joint.left;
+    camera_only.names = cal.names;
+    camera_only.left = cal.left_detections;
+    camera_only.mono = cal.LeftCamera();
     calib::WriteCentres(outputs.Stage(a.centres), camera_only, target);
   }
   outputs.Commit();

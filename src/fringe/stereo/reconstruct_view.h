@@ -30,6 +30,7 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "fringe/geometry/normals.h"
@@ -119,6 +120,10 @@ std::shared_ptr<const Correspondence> MakeStereoCorrespondence(const StereoRig& 
 // Images of one view: left[i] / right[i] the camera's images of scheme i, in the scheme's
 // order (CV_8U or CV_16U), camera-sized; right empty for one-camera kinds.
 struct ViewStacks {
+  ViewStacks() = default;
+  ViewStacks(std::vector<std::vector<cv::Mat>> left_stacks,
+             std::vector<std::vector<cv::Mat>> right_stacks)
+      : left(std::move(left_stacks)), right(std::move(right_stacks)) {}
   std::vector<std::vector<cv::Mat>> left, right;
   // Further exposures of the same view for a single scheme: more_left_exposures[e] is the left
   // camera's stack at exposure e + 1 (left[0] is exposure 0); phase::DecodeExposures combines

@@ -117,3 +117,20 @@ def test_simulate_scan_equals_fringe_simulate(tmp_path, scan, scheme, stacks):
         np.testing.assert_array_equal(ours, theirs)
     with pytest.raises(fringe.Error, match="scene"):
         fringe.simulate_scan(tmp_path / "bad", rig, scene="no-such-scene", views=1)
+
+
+def test_simulate_equals_fringe_simulate_in_memory(scan, scheme, stacks):
+    from conftest import RIG_SCALE
+    rig = fringe.Rig.reference().scaled(RIG_SCALE)
+    views = fringe.simulate(rig, scene="vdi", views=1, seed=7)
+    assert len(views) == 1
+    view = views[0]
+    # The images `fringe simulate` wrote (the conftest scan), and the truth of the same view.
+    assert len(view.left) == len(view.right) == scheme.num_images
+    for ours, theirs in zip(view.left + view.right, stacks[0] + stacks[1]):
+        np.testing.assert_array_equal(ours, theirs)
+    truth = fringe.Simulator(rig, scene="vdi", views=1, calibration_images=0, seed=7).render_view(0)
+    np.testing.assert_array_equal(view.left_truth["projector"], truth.left_truth["projector"])
+    np.testing.assert_array_equal(view.world_from_sensor, truth.world_from_sensor)
+    with pytest.raises(fringe.Error, match="scene"):
+        fringe.simulate(rig, scene="no-such-scene", views=1)

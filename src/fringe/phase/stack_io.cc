@@ -60,29 +60,6 @@ std::vector<cv::Mat> ReadStack(const std::filesystem::path& dir, const PatternSc
   return images;
 }
 
-nlohmann::json DecodeSummaryToJson(const DecodeSummary& s) {
-  return {{"status", s.status == DecodeStatus::kSuccess ? "success" : "no_valid_pixels"},
-          {"message", s.message},
-          {"pixels", s.pixels},
-          {"valid", s.valid},
-          {"valid_fraction", s.ValidFraction()},
-          {"rejected_saturated", s.rejected_saturated},
-          {"rejected_underexposed", s.rejected_underexposed},
-          {"rejected_low_modulation", s.rejected_low_modulation},
-          {"rejected_shadow", s.rejected_shadow},
-          {"rejected_order_ambiguous", s.rejected_order_ambiguous},
-          {"rejected_spatial", s.rejected_spatial},
-          {"orders_repaired", s.orders_repaired},
-          {"min_modulation_dn", s.min_modulation_dn},
-          {"threshold_bounded", s.threshold_bounded},
-          {"full_scale_dn", s.full_scale_dn},
-          {"noise_sigma_dn", s.noise.sigma_dn},
-          {"noise_source", ToString(s.noise.source)},
-          {"noise_message", s.noise.message},
-          {"message", s.message},
-          {"time_ms", s.time_ms}};
-}
-
 void WriteDecodeFolder(const std::filesystem::path& dir, const DecodeResult& r) {
   util::WriteFolderAtomically(dir, [&](const std::filesystem::path& tmp) {
     Write(tmp / "absolute_phase.tiff", r.absolute_phase);
@@ -101,7 +78,7 @@ void WriteDecodeFolder(const std::filesystem::path& dir, const DecodeResult& r) 
     cv::minMaxLoc(r.modulation, nullptr, &mod_hi);
     r.modulation.convertTo(preview, CV_8U, 255.0 / std::max(mod_hi, 1e-6));
     Write(tmp / "modulation_preview.png", preview);
-    io::WriteJson(tmp / "summary.json", DecodeSummaryToJson(r.summary));
+    io::WriteJson(tmp / "summary.json", SummaryToJson(r.summary));
   });
 }
 

@@ -81,9 +81,8 @@ bool QueryCallback(RTCPointQueryFunctionArguments* args) {
   const Eigen::Vector3d c = ClosestOnTriangle(q->p, m.mesh.vertices[t[0]], m.mesh.vertices[t[1]],
                                               m.mesh.vertices[t[2]], &feature);
   const double d2 = (c - q->p).squaredNorm();
-  // Equally close triangles (a shared vertex or edge) may give different normals, so the sign
-  // would depend on Embree's traversal order, which its multi-threaded BVH build does not fix:
-  // the lowest triangle index wins, whatever the order.
+  // Equally close triangles (a shared vertex or edge) may give different normals: the lowest
+  // triangle index wins, so that the choice does not depend on Embree's traversal order.
   if (d2 > q->best_sq || (d2 == q->best_sq && args->primID >= q->best_prim)) return false;
   q->best_sq = d2;
   q->best_prim = args->primID;

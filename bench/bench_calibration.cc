@@ -189,7 +189,7 @@ void CalibrateOurs(const StereoRig& rig, const CalibrationTarget& target,
   r->calib_ms = calib_timer.ElapsedMs();
   r->calib_cpu_ms = bench::CpuMs() - calib_cpu;
   if (std::getenv("FRINGE_BENCH_VERBOSE")) std::cerr << cal.BriefReport() << "\n";
-  if (!cal.summary.success) return;
+  if (!cal.summary.ok()) return;
   r->rms_px = cal.rms_px;
   for (int cam = 0; cam < 2; ++cam) {
     const auto& cc = cam == 0 ? cal.left : cal.right;

@@ -167,13 +167,13 @@ void EstimateCalibration(Context* ctx) {
   }
   const calib::StereoCalibration cal = calib::CalibrateStereo(
       left, right, target, ctx->rig_true.left.width, ctx->rig_true.left.height);
-  ctx->calib_json = {{"success", cal.summary.success},
+  ctx->calib_json = {{"success", cal.summary.ok()},
                      {"rms_px", cal.rms_px},
                      {"pairs", cal.num_pairs},
                      {"time_s", timer.ElapsedSeconds()},
                      {"baseline_error_mm", cal.rig.BaselineMm() - ctx->rig_true.BaselineMm()},
                      {"fx_left_error_px", cal.rig.left.fx - ctx->rig_true.left.fx}};
-  if (cal.summary.success) ctx->rig_est = cal.rig;
+  if (cal.summary.ok()) ctx->rig_est = cal.rig;
 }
 
 double AngleDeg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {

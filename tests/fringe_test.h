@@ -4,8 +4,10 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <functional>
 #include <string>
 
+#include "fringe/util/error.h"
 #include "fringe/util/test_data.h"
 
 namespace fringe::test {
@@ -21,6 +23,16 @@ class TempDir {
  private:
   std::filesystem::path path_;
 };
+
+// The message of the fringe::Error that f throws, "" when it throws none (other exceptions pass).
+inline std::string ErrorOf(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "";
+}
 
 }  // namespace fringe::test
 

@@ -6,13 +6,17 @@ absolute phase with matplotlib when it is installed (otherwise print the figures
 """
 
 import argparse
+import os
 import pathlib
 
 import numpy as np
 
 import fringe
 
-DEFAULT_DATA = pathlib.Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "slsdk-stereo-phasegray"
+# ../shared/data beside the source tree, or FRINGE_SHARED_DATA (as the tests read it).
+SHARED_DATA = pathlib.Path(os.environ.get("FRINGE_SHARED_DATA",
+                                          pathlib.Path(__file__).resolve().parents[2] / ".." / "shared" / "data"))
+DEFAULT_DATA = SHARED_DATA / "slsdk-stereo-phasegray"
 
 
 def main():

@@ -1,4 +1,6 @@
 // Pattern schemes, pattern images and decoding.
+#include <optional>
+
 #include <pybind11/stl.h>
 #include <pybind11/stl/filesystem.h>
 
@@ -61,16 +63,20 @@ A fringe pattern scheme: what the projector shows and in which order (docs/forma
 
   m.def(
       "patterns",
-      [](const phase::PatternScheme& scheme, double precompensate_gamma) {
+      [](const phase::PatternScheme& scheme, std::optional<double> precompensate_gamma) {
+        // The scheme states what is projected (gamma_precompensation); an explicit gamma is for
+        // a scheme that does not say it yet.
+        const double gamma = precompensate_gamma.value_or(scheme.gamma_precompensation);
         std::vector<cv::Mat> images;
         {
           py::gil_scoped_release release;
-          images = phase::GeneratePatterns(scheme, precompensate_gamma);
+          images = phase::GeneratePatterns(scheme, gamma);
         }
         return ArraysFromMats(images);
       },
-      py::arg("scheme"), py::arg("precompensate_gamma") = 1.0,
-      "The projector images (uint8, projector_height x projector_width) in the scheme's order.");
+      py::arg("scheme"), py::arg("precompensate_gamma") = py::none(),
+      "The projector images (uint8, projector_height x projector_width) in the scheme's order,\n"
+      "pre-compensated for precompensate_gamma (default: the scheme's gamma_precompensation).");
 
   py::class_<phase::DecodeOptions>(m, "DecodeOptions", "Options of fringe.decode (C++ defaults).")
       .def(OptionsInit<phase::DecodeOptions>("DecodeOptions"))
@@ -109,10 +115,9 @@ summary (dict, as `fringe decode` writes summary.json).)doc")
                                // oddly; convert once.
                                return ArrayFromMat(r.mask).attr("astype")("bool");
                              })
-      .def_property_readonly("summary",
-                             [](const phase::DecodeResult& r) {
-                               return FromJson(phase::DecodeSummaryToJson(r.summary));
-                             })
+      .def_property_readonly(
+          "summary",
+          [](const phase::DecodeResult& r) { return FromJson(phase::SummaryToJson(r.summary)); })
       .def("brief_report", [](const phase::DecodeResult& r) { return r.summary.BriefReport(); })
       .def("__repr__", [](const phase::DecodeResult& r) {
         return "fringe.DecodeResult(" + r.summary.BriefReport() + ")";

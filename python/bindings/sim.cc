@@ -137,7 +137,6 @@ void BindSim(py::module_& m) {
       .def_readwrite("views", &sim::ScanOptions::views)
       .def_readwrite("seed", &sim::ScanOptions::seed)
       .def_readwrite("scheme", &sim::ScanOptions::scheme)
-      .def_readwrite("precompensate_gamma", &sim::ScanOptions::precompensate_gamma)
       .def_readwrite("calibration_images", &sim::ScanOptions::calibration_images)
       .def_readwrite("target", &sim::ScanOptions::target)
       .def_readwrite("truth_maps", &sim::ScanOptions::truth_maps)
@@ -232,6 +231,30 @@ The virtual scanner in memory (the same images `fringe simulate` writes): a scen
           py::arg("index"),
           "Renders board pose `index`: (left, right) dicts of image, cam_from_board, centres_px, "
           "visible.");
+
+  m.def(
+      "simulate",
+      [](const py::object& rig, const py::object& options, const py::kwargs& kw) {
+        auto opts = MakeOptions<sim::ScanOptions>(options, kw, "ScanOptions");
+        opts.calibration_images = 0;  // views only: simulate_scan writes board images
+        const StereoRig r = rig.is_none() ? StereoRig::Reference() : rig.cast<StereoRig>();
+        std::vector<std::shared_ptr<sim::ViewImages>> views;
+        {
+          py::gil_scoped_release release;
+          const sim::ScanSimulator simulator(r, opts);
+          for (int v = 0; v < opts.views; ++v) {
+            views.push_back(std::make_shared<sim::ViewImages>(simulator.RenderView(v)));
+          }
+        }
+        return views;
+      },
+      py::arg("rig") = py::none(), py::arg("options") = py::none(),
+      R"doc(Simulates a scene in memory: images and truth of every view.
+
+Returns a list of SimulatedView (both cameras' images in the scheme's order, truth maps,
+world_from_sensor, markers), the same images `fringe simulate` writes for the same rig (default
+the reference rig) and ScanOptions (keyword fields: scene="demo", views=6, seed=1, ...).
+Calibration board images are not rendered (see Simulator.render_board, simulate_scan).)doc");
 
   m.def(
       "simulate_scan",

@@ -157,3 +157,20 @@ def test_calibrate_projector_equals_fringe_calibrate(tmp_path):
     # A folder without fringe stacks is refused with the folder's name.
     with pytest.raises(fringe.Error, match="no board pose folder"):
         fringe.calibrate_projector(tmp_path, target)
+
+
+def test_simulate_equals_fringe_simulate_in_memory(scan, scheme, stacks):
+    from conftest import RIG_SCALE
+    rig = fringe.Rig.reference().scaled(RIG_SCALE)
+    views = fringe.simulate(rig, scene="vdi", views=1, seed=7)
+    assert len(views) == 1
+    view = views[0]
+    # The images `fringe simulate` wrote (the conftest scan), and the truth of the same view.
+    assert len(view.left) == len(view.right) == scheme.num_images
+    for ours, theirs in zip(view.left + view.right, stacks[0] + stacks[1]):
+        np.testing.assert_array_equal(ours, theirs)
+    truth = fringe.Simulator(rig, scene="vdi", views=1, calibration_images=0, seed=7).render_view(0)
+    np.testing.assert_array_equal(view.left_truth["projector"], truth.left_truth["projector"])
+    np.testing.assert_array_equal(view.world_from_sensor, truth.world_from_sensor)
+    with pytest.raises(fringe.Error, match="scene"):
+        fringe.simulate(rig, scene="no-such-scene", views=1)

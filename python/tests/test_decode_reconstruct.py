@@ -60,7 +60,8 @@ def test_decode_options_as_keywords_and_objects(scheme, stacks):
 def test_decode_phase_matches_truth(rig, scheme, stacks):
     sim = fringe.Simulator(rig, scene="vdi", views=1, calibration_images=0, seed=7)
     truth = sim.render_view(0).left_truth
-    result = fringe.decode(stacks[0], scheme, noise_sigma_dn=SENSOR_NOISE_DN)
+    result = fringe.decode(stacks[0], scheme)  # the automatic noise estimate
+    assert result.summary["noise_source"] == "estimated"
     both = result.mask & truth["valid"]
     assert both.sum() > 0.2 * both.size
     error_px = result.absolute_phase[both] - truth["projector"][..., 0][both]
@@ -122,7 +123,7 @@ def test_camera_projector_equals_fringe_reconstruct(tmp_path, scan, rig, scheme,
 def test_reconstruct_against_truth(rig, scheme, stacks):
     sim = fringe.Simulator(rig, scene="vdi", views=1, calibration_images=0, seed=7)
     truth = sim.render_view(0).left_truth["points"]
-    view = fringe.reconstruct(rig, scheme, *stacks, decode={"noise_sigma_dn": SENSOR_NOISE_DN})
+    view = fringe.reconstruct(rig, scheme, *stacks)  # the automatic noise estimate
     both = view.valid & np.isfinite(truth).all(axis=2)
     assert both.sum() > 1000
     error_mm = np.linalg.norm(view.points[both] - truth[both], axis=1)

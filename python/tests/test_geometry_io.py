@@ -76,6 +76,10 @@ def test_patterns_equal_the_cli_pattern_images(tmp_path):
     for a, b in zip(ours, theirs):
         assert a.dtype == np.uint8 and a.shape == (200, 320)
         np.testing.assert_array_equal(a, b)
+    # The scheme states its pre-compensation; patterns() follows it without a second knob.
+    assert scheme.gamma_precompensation == 2.2
+    for a, b in zip(fringe.patterns(scheme), theirs):
+        np.testing.assert_array_equal(a, b)
 
 
 def test_image_round_trip(tmp_path):

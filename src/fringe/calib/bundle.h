@@ -72,6 +72,18 @@ bool ProjectWithIntrinsics(const T* intrinsics, const T* p_in_device, T* pixel) 
   return true;
 }
 
+// Residual (pixels, 2) = projection of a point in the device frame - observed; false behind the
+// device (ProjectWithIntrinsics). The tail of both board costs below.
+template <typename T>
+bool ReprojectionResidual(const T* intrinsics, const T* p_in_device,
+                          const Eigen::Vector2d& observed_px, T* residual) {
+  T pixel[2];
+  if (!ProjectWithIntrinsics(intrinsics, p_in_device, pixel)) return false;
+  residual[0] = pixel[0] - T(observed_px.x());
+  residual[1] = pixel[1] - T(observed_px.y());
+  return true;
+}
+
 // Residual (pixels, 2) = projection of a board point seen by the reference device - observed.
 // Blocks: intrinsics[9], reference_from_board[6].
 struct BoardReprojectionCost {
@@ -81,12 +93,9 @@ struct BoardReprojectionCost {
   template <typename T>
   bool operator()(const T* intrinsics, const T* device_from_board, T* residual) const {
     const T p[3] = {T(p_in_board.x()), T(p_in_board.y()), T(p_in_board.z())};
-    T p_in_device[3], pixel[2];
+    T p_in_device[3];
     TransformPoint(device_from_board, p, p_in_device);
-    if (!ProjectWithIntrinsics(intrinsics, p_in_device, pixel)) return false;
-    residual[0] = pixel[0] - T(observed_px.x());
-    residual[1] = pixel[1] - T(observed_px.y());
-    return true;
+    return ReprojectionResidual(intrinsics, p_in_device, observed_px, residual);
   }
 
   static ceres::CostFunction* Create(const Eigen::Vector3d& p_in_board,
@@ -110,13 +119,10 @@ struct ChainedReprojectionCost {
   bool operator()(const T* intrinsics, const T* device_from_reference,
                   const T* reference_from_board, T* residual) const {
     const T p[3] = {T(p_in_board.x()), T(p_in_board.y()), T(p_in_board.z())};
-    T p_in_reference[3], p_in_device[3], pixel[2];
+    T p_in_reference[3], p_in_device[3];
     TransformPoint(reference_from_board, p, p_in_reference);
     TransformPoint(device_from_reference, p_in_reference, p_in_device);
-    if (!ProjectWithIntrinsics(intrinsics, p_in_device, pixel)) return false;
-    residual[0] = pixel[0] - T(observed_px.x());
-    residual[1] = pixel[1] - T(observed_px.y());
-    return true;
+    return ReprojectionResidual(intrinsics, p_in_device, observed_px, residual);
   }
 
   static ceres::CostFunction* Create(const Eigen::Vector3d& p_in_board,

@@ -26,12 +26,30 @@ void CalibrationOptions::Check() const {
   CheckOption(loss_scale_px > 0, o, "loss_scale_px", loss_scale_px, "must be > 0");
 }
 
+const char* ToString(CalibrationStatus s) {
+  switch (s) {
+    case CalibrationStatus::kSuccess:
+      return "success";
+    case CalibrationStatus::kTooFewViews:
+      return "too_few_views";
+    case CalibrationStatus::kInitialisationFailed:
+      return "initialisation_failed";
+    case CalibrationStatus::kNotConverged:
+      return "not_converged";
+    case CalibrationStatus::kNotFinite:
+      return "not_finite";
+    case CalibrationStatus::kCameraFailed:
+      return "camera_failed";
+  }
+  return "unknown";
+}
+
 std::string CalibrationSummary::BriefReport() const {
   std::ostringstream os;
-  os << (success ? "success" : "FAILED") << ": RMS " << initial_rms_px << " -> " << final_rms_px
-     << " px, " << num_views_used << " views used, " << num_views_rejected << " rejected, "
-     << num_features << " features, " << iterations << " iterations, "
-     << ceres::TerminationTypeToString(solve.termination);
+  os << (ok() ? "success" : util::StrCat("FAILED (", ToString(status), ")")) << ": RMS "
+     << initial_rms_px << " -> " << final_rms_px << " px, " << num_views_used << " views used, "
+     << num_views_rejected << " rejected, " << num_features << " features, " << iterations
+     << " iterations, " << ceres::TerminationTypeToString(solve.termination);
   if (!message.empty()) os << " (" << message << ")";
   return os.str();
 }
@@ -416,16 +434,19 @@ void Configure(const CalibrationOptions& options, Bundle* b) {
 // Success needs enough views and a converged final solve; the message says what failed.
 void Conclude(int num_views_used, int min_views, CalibrationSummary* s) {
   if (num_views_used < min_views) {
+    s->status = CalibrationStatus::kTooFewViews;
     if (s->message.empty()) {
       s->message = util::StrCat("too few views left after rejection (", num_views_used, ", need ",
                                 min_views, ")");
     }
   } else if (!s->solve.converged()) {
+    s->status = CalibrationStatus::kNotConverged;
     s->message = util::StrCat("solver did not converge: ", s->solve.BriefReport());
   } else if (!std::isfinite(s->final_rms_px)) {
+    s->status = CalibrationStatus::kNotFinite;
     s->message = "reprojection RMS not finite";
   } else {
-    s->success = true;
+    s->status = CalibrationStatus::kSuccess;
   }
 }
 
@@ -487,6 +508,7 @@ CameraCalibration CalibrateCamera(const std::vector<TargetDetection>& views,
     }
   }
   if (n_usable < options.min_views) {
+    s.status = CalibrationStatus::kTooFewViews;
     s.message = util::StrCat("only ", n_usable, " usable views (need ", options.min_views, ")");
     return out;
   }
@@ -495,6 +517,7 @@ CameraCalibration CalibrateCamera(const std::vector<TargetDetection>& views,
   b.device_from_reference.assign(1, PoseBlock{});
   if (!Initialise(views, usable, target, width, height, options.estimate_k3,
                   options.estimate_tangential, &b.devices[0], &b.reference_from_board)) {
+    s.status = CalibrationStatus::kInitialisationFailed;
     s.message = "initialisation failed";
     return out;
   }
@@ -542,7 +565,8 @@ StereoCalibration CalibrateStereo(const std::vector<TargetDetection>& left,
                               right_height > 0 ? right_height : height, options, names);
   auto& s = out.summary;
   s.views = out.left.summary.views;
-  if (!out.left.summary.success || !out.right.summary.success) {
+  if (!out.left.summary.ok() || !out.right.summary.ok()) {
+    s.status = CalibrationStatus::kCameraFailed;
     s.message =
         util::StrCat("single-camera calibration failed: left ", out.left.summary.BriefReport(),
                      "; right ", out.right.summary.BriefReport());
@@ -562,6 +586,7 @@ StereoCalibration CalibrateStereo(const std::vector<TargetDetection>& left,
     ++out.num_pairs;
   }
   if (out.num_pairs < 1) {
+    s.status = CalibrationStatus::kTooFewViews;
     s.message = "no view pair usable in both cameras";
     return out;
   }
@@ -601,7 +626,7 @@ StereoCalibration CalibrateStereo(const std::vector<TargetDetection>& left,
   r.summary.views = s.views;
   FillCameraResult(b, 0, left, &l);
   FillCameraResult(b, 1, right, &r);
-  l.summary.success = r.summary.success = true;
+  l.summary.status = r.summary.status = CalibrationStatus::kSuccess;
   out.left = l;
   out.right = r;
   out.rig.left = b.devices[0];

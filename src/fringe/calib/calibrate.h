@@ -73,8 +73,22 @@ struct ViewResidual {
   std::string message;  // why a view was not used
 };
 
+// How a calibration ended: kSuccess needs enough usable views and a converged final solve with a
+// finite RMS; every other value says what stopped it (the message gives the detail).
+enum class CalibrationStatus {
+  kSuccess,
+  kTooFewViews,  // too few usable views (detections, features, pairs, or after rejection)
+  kInitialisationFailed,
+  kNotConverged,  // the final Ceres solve did not converge (summary.solve says how)
+  kNotFinite,     // the reprojection RMS is not finite
+  kCameraFailed,  // stereo: a single-camera calibration failed first
+};
+const char* ToString(CalibrationStatus s);
+
 struct CalibrationSummary {
-  bool success = false;  // enough views and the final solve converged
+  // Until the calibration concludes; every return path sets it.
+  CalibrationStatus status = CalibrationStatus::kTooFewViews;
+  bool ok() const { return status == CalibrationStatus::kSuccess; }
   std::string message;
   int iterations = 0;  // Ceres iterations, all rounds
   SolveReport solve;   // the final Ceres solve: termination type, message, costs

@@ -149,6 +149,8 @@ FolderCalibration CalibrateFolder(const fs::path& dir, const CalibrationTarget& 
 nlohmann::json CalibrationToJson(const FolderCalibration& r) {
   if (r.stereo) {
     return {
+        {"status", ToString(r.pair.summary.status)},
+        {"message", r.pair.summary.message},
         {"rms_px", r.pair.rms_px},
         {"epipolar_rms_px", r.pair.epipolar_rms_px},
         {"epipolar_max_px", r.pair.epipolar_max_px},
@@ -162,7 +164,9 @@ nlohmann::json CalibrationToJson(const FolderCalibration& r) {
             r.pair.extrinsic_std_dev[5]}}}},
         {"views", ViewsJson(r.pair.summary)}};
   }
-  return {{"rms_px", r.mono.summary.final_rms_px},
+  return {{"status", ToString(r.mono.summary.status)},
+          {"message", r.mono.summary.message},
+          {"rms_px", r.mono.summary.final_rms_px},
           {"std_dev", StdJson(r.mono)},
           {"views", ViewsJson(r.mono.summary)}};
 }

@@ -21,7 +21,7 @@ struct FolderCalibration {
   std::vector<TargetDetection> left, right;
   CameraCalibration mono;  // single camera
   StereoCalibration pair;  // stereo
-  bool success() const { return stereo ? pair.summary.success : mono.summary.success; }
+  bool success() const { return stereo ? pair.summary.ok() : mono.summary.ok(); }
   // Readable multi-line summary: RMS, per-view errors, rejected views, coverage.
   std::string Report() const;
 };

@@ -80,7 +80,7 @@ TEST(CalibrateCamera, RingsRoundTrip) {
   EXPECT_GE(detected, 9);
   const auto cal = CalibrateCamera(sv.left, target, 640, 512);
   std::cout << cal.summary.BriefReport() << "\n";
-  ASSERT_TRUE(cal.summary.success) << cal.summary.BriefReport();
+  ASSERT_TRUE(cal.summary.ok()) << cal.summary.BriefReport();
   const CameraModel& c = cal.camera;
   std::cout << "fx " << c.fx << " (" << rig.left.fx << ") fy " << c.fy << " cx " << c.cx << " ("
             << rig.left.cx << ") cy " << c.cy << " (" << rig.left.cy << ") k1 " << c.k1 << " k2 "
@@ -119,7 +119,7 @@ TEST(CalibrateStereo, CirclesRoundTripRemovesBias) {
   const SimViews sv = Simulate(rig, target, 8, true, 11, true);
   const auto cal = CalibrateStereo(sv.left, sv.right, target, 640, 512);
   std::cout << cal.BriefReport() << "\n";
-  ASSERT_TRUE(cal.summary.success) << cal.summary.message;
+  ASSERT_TRUE(cal.summary.ok()) << cal.summary.message;
   EXPECT_GE(cal.num_pairs, 5);
   EXPECT_LT(RelErr(cal.rig.left.fx, rig.left.fx), kMaxFocalErr);
   EXPECT_LT(RelErr(cal.rig.right.fy, rig.right.fy), kMaxFocalErr);
@@ -175,8 +175,8 @@ TEST(CalibrateCamera, RobustLossResistsGrossErrorsAndNonConvergenceFails) {
   const auto robust = CalibrateCamera(sv.left, target, 640, 512, options);
   std::cout << "plain: " << plain.summary.BriefReport()
             << "\nrobust: " << robust.summary.BriefReport() << "\n";
-  ASSERT_TRUE(plain.summary.success) << plain.summary.message;
-  ASSERT_TRUE(robust.summary.success) << robust.summary.message;
+  ASSERT_TRUE(plain.summary.ok()) << plain.summary.message;
+  ASSERT_TRUE(robust.summary.ok()) << robust.summary.message;
   EXPECT_EQ(robust.summary.solve.termination, ceres::CONVERGENCE);
   const double plain_err = RelErr(plain.camera.fx, rig.left.fx);
   const double robust_err = RelErr(robust.camera.fx, rig.left.fx);
@@ -186,7 +186,8 @@ TEST(CalibrateCamera, RobustLossResistsGrossErrorsAndNonConvergenceFails) {
 
   options.max_iterations = 1;
   const auto cut = CalibrateCamera(sv.left, target, 640, 512, options);
-  EXPECT_FALSE(cut.summary.success);
+  EXPECT_FALSE(cut.summary.ok());
+  EXPECT_EQ(cut.summary.status, CalibrationStatus::kNotConverged);
   EXPECT_EQ(cut.summary.solve.termination, ceres::NO_CONVERGENCE);
   EXPECT_NE(cut.summary.message.find("did not converge"), std::string::npos) << cut.summary.message;
 }
@@ -201,7 +202,8 @@ TEST(CalibrateCamera, TooFewViewsIsAStatus) {
   const CalibrationTarget target = CalibrationTarget::Reference();
   std::vector<TargetDetection> views(2);
   const auto cal = CalibrateCamera(views, target, 640, 512);
-  EXPECT_FALSE(cal.summary.success);
+  EXPECT_FALSE(cal.summary.ok());
+  EXPECT_EQ(cal.summary.status, CalibrationStatus::kTooFewViews);
   EXPECT_FALSE(cal.summary.message.empty());
 }
 

@@ -104,7 +104,7 @@ ProjectorCalibration CalibrateCameraProjector(const std::vector<TargetDetection>
   }
   out.joint = CalibrateStereo(camera_views, out.projector_views, target, camera_width,
                               camera_height, options, names, projector_width, projector_height);
-  if (!out.joint.summary.success) return out;
+  if (!out.joint.summary.ok()) return out;
   out.rig.left = out.joint.rig.left;
   out.rig.right = out.joint.rig.left;
   out.rig.projector = out.joint.rig.right;

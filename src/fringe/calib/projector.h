@@ -61,7 +61,7 @@ struct ProjectorCalibration {
   std::vector<TargetDetection> projector_views;  // the mapped features per view
   double projector_rms_px = 0;  // reprojection RMS of the projector's features, joint solution
   double camera_rms_px = 0;
-  bool ok() const { return joint.summary.success; }
+  bool ok() const { return joint.summary.ok(); }
   std::string BriefReport() const;
 };
 

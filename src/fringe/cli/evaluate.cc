@@ -15,6 +15,7 @@
 #include "fringe/io/mesh_io.h"
 #include "fringe/io/ply.h"
 #include "fringe/registration/align_to_mesh.h"
+#include "fringe/registration/registration_io.h"
 #include "fringe/util/error.h"
 #include "fringe/util/files.h"
 
@@ -159,22 +160,7 @@ void AddEvaluateCommand(CLI::App& app) {
         const eval::MeshDistance reference(mesh);  // mesh frame
         const registration::MeshAlignResult r =
             registration::AlignToMesh(cloud, reference, mesh_from_cloud, a->align_options);
-        nlohmann::json levels = nlohmann::json::array();
-        for (const auto& l : r.levels) {
-          levels.push_back({{"points", l.points_per_view},
-                            {"iterations", l.iterations},
-                            {"converged", l.converged},
-                            {"threshold_start_mm", l.threshold_start_mm},
-                            {"threshold_end_mm", l.threshold_end_mm},
-                            {"rms_start_mm", l.rms_start_mm},
-                            {"rms_end_mm", l.rms_end_mm}});
-        }
-        j["align"] = {{"status", registration::ToString(r.status)},
-                      {"message", r.message},
-                      {"mesh_from_cloud", io::RigidToJson(r.mesh_from_cloud)},
-                      {"rms_mm", r.rms_mm},
-                      {"points", r.correspondences},
-                      {"levels", levels}};
+        j["align"] = registration::SummaryToJson(r);
         if (!a->json) std::cout << r.BriefReport() << "\n";
         if (r.status == registration::IcpStatus::kNoOverlap) {
           throw Error(

@@ -7,6 +7,7 @@
 
 #include "fringe/cli/cli.h"
 #include "fringe/io/calibration_io.h"
+#include "fringe/phase/pattern_scheme.h"
 #include "fringe/sim/scan.h"
 #include "fringe/util/error.h"
 #include "fringe/util/files.h"
@@ -20,6 +21,8 @@ void AddSimulateCommand(CLI::App& app) {
     std::string rig;
     double rig_scale = 1.0;
     sim::ScanOptions options;
+    std::string scheme = "heterodyne-4x3";
+    double precompensate_gamma = 1.0;  // applied to the scheme when given
     bool no_noise = false;
   };
   auto a = std::make_shared<Args>();
@@ -38,12 +41,15 @@ void AddSimulateCommand(CLI::App& app) {
                   "Scale the rig's resolution and focal lengths (e.g. 0.5 for a quick scan)")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
-  sub->add_option("--scheme", a->options.scheme, "Pattern scheme preset or manifest file")
+  sub->add_option("--scheme", a->scheme, "Pattern scheme preset or manifest file")
       ->capture_default_str();
-  sub->add_option("--precompensate-gamma", a->options.precompensate_gamma,
-                  "Pre-compensate the patterns for this projector gamma (1 = none)")
-      ->capture_default_str()
-      ->check(CLI::PositiveNumber);
+  // Sets the scheme's gamma_precompensation (the one statement of it, written to scheme.json);
+  // without it a manifest keeps its own value and a preset is not pre-compensated.
+  CLI::Option* gamma_option =
+      sub->add_option("--precompensate-gamma", a->precompensate_gamma,
+                      "Pre-compensate the patterns for this projector gamma (1 = none; default: "
+                      "the manifest's value, none for a preset)")
+          ->check(CLI::Range(1e-3, 10.0));
   sub->add_option("--calibration-images", a->options.calibration_images,
                   "Board poses (one image per camera each)")
       ->capture_default_str()
@@ -66,10 +72,10 @@ void AddSimulateCommand(CLI::App& app) {
   sub->add_flag("--no-noise", a->no_noise, "Noise-free images");
   sub->add_flag("!--no-truth-maps", a->options.truth_maps,
                 "Skip the per-view truth maps (they take ~30 MB per view and camera)");
-  sub->callback([a] {
+  sub->callback([a, gamma_option] {
     util::OutputFolderOptions output;
     output.inputs = {a->rig};
-    if (std::filesystem::exists(a->options.scheme)) output.inputs.push_back(a->options.scheme);
+    if (std::filesystem::exists(a->scheme)) output.inputs.push_back(a->scheme);
     if (a->scene.rfind("mesh:", 0) == 0) output.inputs.push_back(a->scene.substr(5));
     util::CheckOutputFolder(a->out, output);
     StereoRig rig = a->rig.empty() ? StereoRig::Reference() : io::ReadRig(a->rig);
@@ -88,6 +94,11 @@ void AddSimulateCommand(CLI::App& app) {
     }
     sim::ScanOptions options = a->options;
     options.scene = a->scene;
+    if (options.views > 0 && rig.projector) {
+      options.scheme =
+          phase::SchemeFromNameOrFile(a->scheme, rig.projector->width, rig.projector->height);
+      if (gamma_option->count() > 0) options.scheme->gamma_precompensation = a->precompensate_gamma;
+    }
     if (a->no_noise) {
       options.render.sensor.noise = false;
       options.board.sensor.noise = false;

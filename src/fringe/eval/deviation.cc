@@ -58,6 +58,7 @@ struct Query {
   const MeshData* mesh = nullptr;
   Eigen::Vector3d p;
   double best_sq = std::numeric_limits<double>::infinity();
+  unsigned best_prim = 0;  // triangle of best_sq (the lowest index among equally close ones)
   Eigen::Vector3d closest = Eigen::Vector3d::Zero();
   Eigen::Vector3d normal = Eigen::Vector3d::Zero();
 };
@@ -80,8 +81,11 @@ bool QueryCallback(RTCPointQueryFunctionArguments* args) {
   const Eigen::Vector3d c = ClosestOnTriangle(q->p, m.mesh.vertices[t[0]], m.mesh.vertices[t[1]],
                                               m.mesh.vertices[t[2]], &feature);
   const double d2 = (c - q->p).squaredNorm();
-  if (d2 >= q->best_sq) return false;
+  // Equally close triangles (a shared vertex or edge) may give different normals: the lowest
+  // triangle index wins, so that the choice does not depend on Embree's traversal order.
+  if (d2 > q->best_sq || (d2 == q->best_sq && args->primID >= q->best_prim)) return false;
   q->best_sq = d2;
+  q->best_prim = args->primID;
   q->closest = c;
   if (feature == 0) {
     q->normal = m.face_normals[args->primID];

@@ -12,14 +12,7 @@ namespace {
 
 using nlohmann::json;
 
-std::string ErrorOf(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "";
-}
+using test::ErrorOf;
 
 TEST(ParseJson, BoundsNestingDepthWithoutRecursingIntoTheValue) {
   // 40 000 levels in 80 KB: refused while parsing, naming the source.

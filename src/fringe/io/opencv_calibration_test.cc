@@ -28,14 +28,7 @@ fs::path Yaml(const test::TempDir& dir, const std::string& name, const std::stri
   return p;
 }
 
-std::string ErrorOf(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "";
-}
+using test::ErrorOf;
 
 TEST(OpenCvCalibration, ReadsTheUsualKeySpellingsAndSaysWhichItUsed) {
   test::TempDir dir;

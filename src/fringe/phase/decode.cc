@@ -530,6 +530,42 @@ std::string DecodeSummary::BriefReport() const {
                 orders_repaired, "; ", time_ms, " ms", message.empty() ? "" : "; ", message);
 }
 
+nlohmann::json SummaryToJson(const DecodeSummary& s) {
+  nlohmann::json j = {
+      {"status", s.status == DecodeStatus::kSuccess ? "success" : "no_valid_pixels"},
+      {"message", s.message},
+      {"pixels", s.pixels},
+      {"valid", s.valid},
+      {"valid_fraction", s.ValidFraction()},
+      {"rejected_saturated", s.rejected_saturated},
+      {"rejected_underexposed", s.rejected_underexposed},
+      {"rejected_low_modulation", s.rejected_low_modulation},
+      {"rejected_shadow", s.rejected_shadow},
+      {"rejected_order_ambiguous", s.rejected_order_ambiguous},
+      {"rejected_spatial", s.rejected_spatial},
+      {"orders_repaired", s.orders_repaired},
+      {"min_modulation_dn", s.min_modulation_dn},
+      {"threshold_bounded", s.threshold_bounded},
+      {"full_scale_dn", s.full_scale_dn},
+      {"noise_sigma_dn", s.noise.sigma_dn},
+      {"noise_source", ToString(s.noise.source)},
+      {"noise_message", s.noise.message},
+      {"time_ms", s.time_ms}};
+  // Several exposures (DecodeExposures): what each contributed.
+  if (!s.exposures.empty()) {
+    nlohmann::json exposures = nlohmann::json::array();
+    for (const ExposureFigures& e : s.exposures) {
+      exposures.push_back({{"valid", e.valid},
+                           {"chosen", e.chosen},
+                           {"min_modulation_dn", e.min_modulation_dn},
+                           {"noise_sigma_dn", e.noise_sigma_dn},
+                           {"gain", e.gain}});
+    }
+    j["exposures"] = exposures;
+  }
+  return j;
+}
+
 double WrappedPhaseSigma(const PatternScheme& scheme, int set, double sigma_dn, double b_dn) {
   return std::sqrt(PhaseVariancePerUnit(scheme, set)) * sigma_dn / b_dn;
 }

@@ -31,6 +31,7 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 
 #include "fringe/phase/pattern_scheme.h"
@@ -178,6 +179,10 @@ struct DecodeSummary {
   double ValidFraction() const { return pixels ? static_cast<double>(valid) / pixels : 0.0; }
   std::string BriefReport() const;
 };
+
+// The summary as JSON (status, message, counts, noise, time): summary.json of `fringe decode`,
+// the decode part of stereo::SummaryToJson, the Python summary dict.
+nlohmann::json SummaryToJson(const DecodeSummary& summary);
 
 struct DecodeResult {
   cv::Mat absolute_phase;  // CV_32F, projector pixels along the fringe direction; NaN if invalid

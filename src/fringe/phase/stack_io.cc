@@ -103,40 +103,6 @@ std::vector<std::vector<cv::Mat>> ReadExposureStacks(const std::filesystem::path
   return stacks;
 }
 
-nlohmann::json DecodeSummaryToJson(const DecodeSummary& s) {
-  nlohmann::json exposures = nlohmann::json::array();
-  for (const ExposureFigures& e : s.exposures) {
-    exposures.push_back({{"valid", e.valid},
-                         {"chosen", e.chosen},
-                         {"min_modulation_dn", e.min_modulation_dn},
-                         {"noise_sigma_dn", e.noise_sigma_dn},
-                         {"gain", e.gain}});
-  }
-  nlohmann::json j = {
-      {"status", s.status == DecodeStatus::kSuccess ? "success" : "no_valid_pixels"},
-      {"message", s.message},
-      {"pixels", s.pixels},
-      {"valid", s.valid},
-      {"valid_fraction", s.ValidFraction()},
-      {"rejected_saturated", s.rejected_saturated},
-      {"rejected_underexposed", s.rejected_underexposed},
-      {"rejected_low_modulation", s.rejected_low_modulation},
-      {"rejected_shadow", s.rejected_shadow},
-      {"rejected_order_ambiguous", s.rejected_order_ambiguous},
-      {"rejected_spatial", s.rejected_spatial},
-      {"orders_repaired", s.orders_repaired},
-      {"min_modulation_dn", s.min_modulation_dn},
-      {"threshold_bounded", s.threshold_bounded},
-      {"full_scale_dn", s.full_scale_dn},
-      {"noise_sigma_dn", s.noise.sigma_dn},
-      {"noise_source", ToString(s.noise.source)},
-      {"noise_message", s.noise.message},
-      {"message", s.message},
-      {"time_ms", s.time_ms}};
-  if (!s.exposures.empty()) j["exposures"] = exposures;
-  return j;
-}
-
 void WriteDecodeFolder(const std::filesystem::path& dir, const DecodeResult& r) {
   util::WriteFolderAtomically(dir, [&](const std::filesystem::path& tmp) {
     Write(tmp / "absolute_phase.tiff", r.absolute_phase);
@@ -155,7 +121,7 @@ void WriteDecodeFolder(const std::filesystem::path& dir, const DecodeResult& r) 
     cv::minMaxLoc(r.modulation, nullptr, &mod_hi);
     r.modulation.convertTo(preview, CV_8U, 255.0 / std::max(mod_hi, 1e-6));
     Write(tmp / "modulation_preview.png", preview);
-    io::WriteJson(tmp / "summary.json", DecodeSummaryToJson(r.summary));
+    io::WriteJson(tmp / "summary.json", SummaryToJson(r.summary));
   });
 }
 

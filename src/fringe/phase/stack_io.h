@@ -2,7 +2,6 @@
 #pragma once
 
 #include <filesystem>
-#include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 #include <vector>
 
@@ -27,13 +26,11 @@ std::filesystem::path ExposureDir(const std::filesystem::path& dir, int exposure
 // Whether `dir` holds exposure folders (ReadExposureStacks).
 bool HasExposureFolders(const std::filesystem::path& dir);
 
-nlohmann::json DecodeSummaryToJson(const DecodeSummary& summary);
-
 // Writes into `dir`, atomically (the folder appears complete or not at all):
 //   absolute_phase.tiff (CV_32F, projector pixels, NaN invalid), wrapped_phase.tiff,
 //   modulation.tiff, background.tiff (CV_32F), mask.png (255 valid), previews
 //   absolute_phase_preview.png (valid range stretched to 1..255, 0 invalid) and
-//   modulation_preview.png, and summary.json.
+//   modulation_preview.png, and summary.json (SummaryToJson).
 void WriteDecodeFolder(const std::filesystem::path& dir, const DecodeResult& result);
 
 }  // namespace fringe::phase

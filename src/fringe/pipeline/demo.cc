@@ -60,8 +60,6 @@ void DemoOptions::Check() const {
                     "must be in (0.25, 1]: below half size the 5 mm markers are too small");
   util::CheckOption(calibration_images >= 6, "DemoOptions", "calibration_images",
                     calibration_images, "must be >= 6 (Zhang needs several board poses)");
-  util::CheckOption(precompensate_gamma > 0 && precompensate_gamma <= 10, "DemoOptions",
-                    "precompensate_gamma", precompensate_gamma, "must be in (0, 10]");
   phase::MakeScheme(scheme);  // throws for an unknown preset
   scan.Check();
 }
@@ -146,8 +144,9 @@ DemoSummary RunDemo(const DemoOptions& options, const fs::path& out_dir) {
     demo_scan.scene = "demo";
     demo_scan.views = options.views;
     demo_scan.seed = options.seed;
-    demo_scan.scheme = options.scheme;
-    demo_scan.precompensate_gamma = options.precompensate_gamma;
+    demo_scan.scheme =
+        phase::MakeScheme(options.scheme, true_rig.projector->width, true_rig.projector->height);
+    demo_scan.scheme->gamma_precompensation = demo_scan.render.projector.gamma;
     demo_scan.calibration_images = options.calibration_images;
     demo_scan.truth_maps = false;  // the scan compares with the truth mesh and poses
     util::LogInfo(StrCat("simulating ", options.views, " views of the demo part and ",

@@ -29,11 +29,11 @@ struct DemoOptions {
   // Camera and projector resolution relative to the reference rig's 1280 x 1024, (0.25, 1]. The
   // demo's default is half size (README: the time at full size); markers (5 mm) need >= 0.5.
   double rig_scale = 0.5;
-  int calibration_images = 15;            // board poses for calibration, >= 6
-  std::string scheme = "heterodyne-4x3";  // pattern scheme preset
-  // Projector gamma the patterns are pre-compensated for (the simulated projector has 2.2, as
-  // real DLP projectors roughly do); 1 leaves the fringes distorted.
-  double precompensate_gamma = 2.2;
+  int calibration_images = 15;  // board poses for calibration, >= 6
+  // Pattern scheme preset. Its patterns are pre-compensated for the simulated projector's gamma
+  // (sim::ProjectorOptions::gamma, 2.2 as real DLP projectors roughly have), as a user would do
+  // for a measured projector; the scheme written with the scan says so (gamma_precompensation).
+  std::string scheme = "heterodyne-4x3";
   // Measure with the true rig instead of the estimated calibration (shows what calibration
   // costs); the default uses the calibration estimated from the board images.
   bool use_true_calibration = false;

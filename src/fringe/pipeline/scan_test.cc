@@ -65,10 +65,11 @@ class ScanTest : public ::testing::Test {
     o.scene = "demo";
     o.views = 3;
     o.calibration_images = 0;
-    o.precompensate_gamma = 2.2;
     o.render.sensor.supersampling = 1;
     o.truth_maps = false;
     const StereoRig rig = sim::ScaledRig(StereoRig::Reference(), 0.5);
+    o.scheme = phase::MakeScheme("heterodyne-4x3", rig.projector->width, rig.projector->height);
+    o.scheme->gamma_precompensation = o.render.projector.gamma;
     sim::SimulateScan(rig, o, *dir_ / "scan");
     fs::copy_file(*dir_ / "scan" / "truth" / "rig.json", *dir_ / "scan" / "rig.json");
   }

@@ -163,6 +163,35 @@ void WriteMarkerMap(const std::filesystem::path& path, const RegistrationResult&
                        {"views", vlist}});
 }
 
+json ToJson(const IcpLevelReport& l) {
+  return {{"level", l.level},
+          {"points_per_view", l.points_per_view},
+          {"threshold_start_mm", l.threshold_start_mm},
+          {"threshold_end_mm", l.threshold_end_mm},
+          {"iterations", l.iterations},
+          {"converged", l.converged},
+          {"rms_start_mm", l.rms_start_mm},
+          {"rms_end_mm", l.rms_end_mm},
+          {"correspondences", l.correspondences},
+          {"degenerate_directions", l.degenerate_directions},
+          {"residual_p50_mm", l.residual_p50_mm},
+          {"residual_p90_mm", l.residual_p90_mm},
+          {"residual_p99_mm", l.residual_p99_mm},
+          {"residual_histogram", ResidualHistogram(l)}};
+}
+
+json SummaryToJson(const MeshAlignResult& r) {
+  json levels = json::array();
+  for (const IcpLevelReport& l : r.levels) levels.push_back(ToJson(l));
+  return {{"status", ToString(r.status)},
+          {"message", r.message},
+          {"mesh_from_cloud", io::RigidToJson(r.mesh_from_cloud)},
+          {"rms_mm", r.rms_mm},
+          {"points", r.correspondences},
+          {"seconds", r.seconds},
+          {"levels", levels}};
+}
+
 json SummaryToJson(const RegistrationResult& r) {
   json views = json::array();
   for (const ViewRegistration& v : r.views) {
@@ -176,22 +205,7 @@ json SummaryToJson(const RegistrationResult& r) {
                      {"overlap_fraction", v.overlap_fraction}});
   }
   json levels = json::array();
-  for (const IcpLevelReport& l : r.summary.icp.levels) {
-    levels.push_back({{"level", l.level},
-                      {"points_per_view", l.points_per_view},
-                      {"threshold_start_mm", l.threshold_start_mm},
-                      {"threshold_end_mm", l.threshold_end_mm},
-                      {"iterations", l.iterations},
-                      {"converged", l.converged},
-                      {"rms_start_mm", l.rms_start_mm},
-                      {"rms_end_mm", l.rms_end_mm},
-                      {"correspondences", l.correspondences},
-                      {"degenerate_directions", l.degenerate_directions},
-                      {"residual_p50_mm", l.residual_p50_mm},
-                      {"residual_p90_mm", l.residual_p90_mm},
-                      {"residual_p99_mm", l.residual_p99_mm},
-                      {"residual_histogram", ResidualHistogram(l)}});
-  }
+  for (const IcpLevelReport& l : r.summary.icp.levels) levels.push_back(ToJson(l));
   const AdjustmentSummary& a = r.summary.adjustment;
   return {{"status", ToString(r.summary.status)},
           {"message", r.summary.message},

@@ -119,8 +119,12 @@ void ScanOptions::Check() const {
   CheckOption(views >= 0 && views <= 1000, "ScanOptions", "views", views, "must be in [0, 1000]");
   CheckOption(calibration_images >= 0 && calibration_images <= 1000, "ScanOptions",
               "calibration_images", calibration_images, "must be in [0, 1000]");
-  CheckOption(precompensate_gamma > 0 && precompensate_gamma <= 10, "ScanOptions",
-              "precompensate_gamma", precompensate_gamma, "must be in (0, 10]");
+  if (scheme) {
+    scheme->Check();
+    CheckOption(scheme->gamma_precompensation > 0 && scheme->gamma_precompensation <= 10,
+                "ScanOptions", "scheme.gamma_precompensation", scheme->gamma_precompensation,
+                "must be in (0, 10]");
+  }
   target.Check();
   render.Check();
   board.Check();
@@ -208,17 +212,17 @@ ScanSimulator::ScanSimulator(const StereoRig& rig, const ScanOptions& options)
   m.scene = MakeSceneByName(options.scene, options.seed);
   if (options.views > 0) {
     if (!rig.projector) throw Error("simulate: the rig has no projector (projector_from_left)");
-    m.scheme =
-        phase::SchemeFromNameOrFile(options.scheme, rig.projector->width, rig.projector->height);
+    m.scheme = options.scheme ? *options.scheme
+                              : phase::MakeScheme("heterodyne-4x3", rig.projector->width,
+                                                  rig.projector->height);
     if (m.scheme.projector_width != rig.projector->width ||
         m.scheme.projector_height != rig.projector->height) {
-      throw Error(util::StrCat("simulate: scheme '", options.scheme, "' is for a ",
+      throw Error(util::StrCat("simulate: scheme '", m.scheme.name, "' is for a ",
                                m.scheme.projector_width, "x", m.scheme.projector_height,
                                " projector, the rig's is ", rig.projector->width, "x",
                                rig.projector->height));
     }
-    m.patterns = phase::GeneratePatterns(m.scheme, options.precompensate_gamma);
-    m.scheme.gamma_precompensation = options.precompensate_gamma;
+    m.patterns = phase::GeneratePatterns(m.scheme, m.scheme.gamma_precompensation);
     RenderOptions ro = options.render;
     ro.sensor.seed = options.seed;
     ro.truth = options.truth_maps;  // markers are observed without the maps

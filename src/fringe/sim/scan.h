@@ -13,6 +13,7 @@
 #include <filesystem>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -39,18 +40,21 @@ Scene MakeSceneByName(const std::string& name, uint64_t seed = 1);
 Scene MakeBoardScene(const CalibrationTarget& target = CalibrationTarget::Reference());
 
 struct ScanOptions {
-  std::string scene = "demo";             // a scene name (MakeSceneByName)
-  int views = 6;                          // fringe views, >= 0
-  uint64_t seed = 1;                      // scene markers, poses, board poses, noise
-  std::string scheme = "heterodyne-4x3";  // pattern scheme preset or manifest path
-  double precompensate_gamma = 1.0;       // gamma the patterns are pre-compensated for, (0, 10]
-  int calibration_images = 15;            // board poses (one image per camera each), >= 0
-  CalibrationTarget target;               // the calibration board
-  bool truth_maps = true;                 // per-view per-camera truth maps (large)
-  RenderOptions render;                   // image formation (noise seed = seed)
-  BoardRenderOptions board;               // board images (noise seed = seed)
-  OrbitOptions orbit;                     // view poses (views and seed are overridden)
-  BoardPoseOptions board_poses;           // board poses (count and seed are overridden)
+  std::string scene = "demo";  // a scene name (MakeSceneByName)
+  int views = 6;               // fringe views, >= 0
+  uint64_t seed = 1;           // scene markers, poses, board poses, noise
+  // What the projector shows, and the one statement of the gamma its 8-bit patterns are
+  // pre-compensated for (PatternScheme::gamma_precompensation; the simulated projector's own
+  // gamma is a device property, render.projector.gamma). Its projector size must be the rig's.
+  // Unset: the heterodyne-4x3 preset for the rig's projector, not pre-compensated.
+  std::optional<phase::PatternScheme> scheme;
+  int calibration_images = 15;   // board poses (one image per camera each), >= 0
+  CalibrationTarget target;      // the calibration board
+  bool truth_maps = true;        // per-view per-camera truth maps (large)
+  RenderOptions render;          // image formation (noise seed = seed)
+  BoardRenderOptions board;      // board images (noise seed = seed)
+  OrbitOptions orbit;            // view poses (views and seed are overridden)
+  BoardPoseOptions board_poses;  // board poses (count and seed are overridden)
 
   void Check() const;
 };

@@ -2,7 +2,7 @@
 
 #include <limits>
 
-#include "fringe/phase/stack_io.h"
+#include "fringe/phase/decode.h"
 #include "fringe/util/error.h"
 #include "fringe/util/timer.h"
 
@@ -87,8 +87,8 @@ nlohmann::json SummaryToJson(const ReconstructionSummary& s) {
   return {{"status", ToString(s.status)},
           {"message", s.message},
           {"points", s.points},
-          {"decode_left", phase::DecodeSummaryToJson(s.decode_left)},
-          {"decode_right", phase::DecodeSummaryToJson(s.decode_right)},
+          {"decode_left", phase::SummaryToJson(s.decode_left)},
+          {"decode_right", phase::SummaryToJson(s.decode_right)},
           {"matching",
            {{"status", ToString(m.status)},
             {"message", m.message},

@@ -24,6 +24,7 @@
 #include <iostream>
 #include <nlohmann/json.hpp>
 
+#include "fringe/phase/scheme_presets.h"
 #include "fringe/pipeline/scan.h"
 #include "fringe/sim/scan.h"
 #include "fringe/util/log.h"
@@ -58,7 +59,9 @@ int main(int argc, char** argv) {
     sim::ScanOptions so;
     so.scene = "demo";
     so.views = views;
-    so.precompensate_gamma = 2.2;
+    // The demo's patterns: heterodyne-4x3 pre-compensated for the simulated projector's gamma.
+    so.scheme = phase::MakeScheme("heterodyne-4x3", rig.projector->width, rig.projector->height);
+    so.scheme->gamma_precompensation = so.render.projector.gamma;
     so.calibration_images = 15;
     so.truth_maps = false;  // the scan compares with the truth mesh and poses
     util::Timer timer;

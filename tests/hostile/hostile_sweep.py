@@ -229,7 +229,8 @@ def json_mutations(doc):
                 continue
             same_type = (isinstance(orig, str) and isinstance(val, str)) or \
                         (isinstance(orig, bool) and isinstance(val, bool)) or \
-                        (isinstance(orig, float) and val == 4.5) or val is None
+                        (isinstance(orig, float) and val == 4.5) or \
+                        (isinstance(orig, list) and isinstance(val, list)) or val is None
             muts.append((f"'{key}' = {label}", lambda j, key=key, val=val: {**j, key: val},
                          same_type))
     return muts
@@ -442,9 +443,10 @@ def build_cases(s):
                ["poses.json"], may_succeed=ok,
                prepare=chain(s.copy("000.ply", "000.ply"), s.copy("001.ply", "001.ply"),
                              s.copy("scan/truth/poses.json", "poses.json"), edit_json("poses.json", fn)))
+        # Registration may place one view only (exit 3, a partial result) whatever the poses.
         s.case("6 poses", f"register --initial: {name}",
                ["register", "000.ply", "001.ply", "--initial", "poses.json", "--out", "{out}/r"],
-               ["poses.json"], may_succeed=ok,
+               ["poses.json"], may_succeed=ok, expect_codes=(1, 2, 3) if ok else (1, 2),
                prepare=chain(s.copy("000.ply", "000.ply"), s.copy("001.ply", "001.ply"),
                              s.copy("scan/truth/poses.json", "poses.json"), edit_json("poses.json", fn)))
     markers = json.loads((v / "000.markers.json").read_text())
@@ -457,7 +459,7 @@ def build_cases(s):
             ("200000 markers", lambda j: {**j, "markers": j["markers"][:1] * 200000}, False)]:
         s.case("6 markers file", f"000.markers.json: {name}",
                ["register", "000.ply", "001.ply", "--out", "{out}/r"], ["000.markers.json"],
-               may_succeed=ok,
+               may_succeed=ok, expect_codes=(1, 2, 3) if ok else (1, 2),
                prepare=chain(s.copy("000.ply", "000.ply"), s.copy("001.ply", "001.ply"),
                              s.copy("000.markers.json", "000.markers.json"),
                              s.copy("001.markers.json", "001.markers.json"),
@@ -498,7 +500,11 @@ def build_cases(s):
         for cmd in (["info", "c.ply"], ["evaluate", "c.ply", "--artefact", "sphere"],
                     ["register", "c.ply", "001.ply", "--out", "{out}/r"],
                     ["fuse", "c.ply", "001.ply", "--poses", "poses.json", "--out", "{out}/f.ply"]):
-            s.case("PLY", f"{name}: {cmd[0]}", cmd, ["c.ply"],
+            # A garbage or NaN body is still a well-formed PLY (PCL writes NaN points for the
+            # empty cells of organized clouds): `info` may describe it; the readers that use the
+            # points must still fail or succeed cleanly.
+            describable = cmd[0] == "info" and name in ("garbage body", "NaN coordinates")
+            s.case("PLY", f"{name}: {cmd[0]}", cmd, ["c.ply"], may_succeed=describable,
                    prepare=chain(s.copy("000.ply", "c.ply"), s.copy("001.ply", "001.ply"),
                                  write("poses.json", poses_for(poses, ["c", "001"])), edit_bytes("c.ply", fn)))
 
@@ -541,7 +547,7 @@ def build_cases(s):
         ("fx nan", OPENCV_STEREO.replace("1000., 0., 320.,", ".nan, 0., 320.,", 1)),
         ("R all zero", OPENCV_STEREO.replace("data: [ 1., 0., 0., 0., 1., 0., 0., 0., 1. ]", "data: [ 0., 0., 0., 0., 0., 0., 0., 0., 0. ]", 1)),
         ("R scaled by 2", OPENCV_STEREO.replace("data: [ 1., 0., 0., 0., 1., 0., 0., 0., 1. ]", "data: [ 2., 0., 0., 0., 2., 0., 0., 0., 2. ]", 1)),
-        ("14 distortion coefficients", OPENCV_STEREO.replace("rows: 1\n   cols: 5\n   dt: d\n   data: [ 0., 0., 0., 0., 0. ]", "rows: 1\n   cols: 14\n   dt: d\n   data: [ 0., 0., 0., 0., 0., 0., 0., 0., 0., 0., 0., 0., 0., 0. ]", 1)),
+        ("14 distortion coefficients", OPENCV_STEREO.replace("rows: 1\n   cols: 5\n   dt: d\n   data: [ 0., 0., 0., 0., 0. ]", "rows: 1\n   cols: 14\n   dt: d\n   data: [ 0., 0., 0., 0., 0., 0.01, 0.02, 0., 0., 0., 0., 0., 0.003, 0. ]", 1)),
         ("dt: u (unsigned char)", OPENCV_STEREO.replace("dt: d", "dt: u", 1)),
         ("key present twice", OPENCV_STEREO + "M1: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n   data: [ 1., 0., 0., 0., 1., 0., 0., 0., 1. ]\n"),
         ("empty nested key", "%YAML:1.0\n---\na:\n  :\n"),

@@ -706,7 +706,7 @@ MultiDeviceCalibration CalibrateDevices(const std::vector<std::vector<TargetDete
   }
   s.views = out.devices[0].summary.views;
   for (size_t d = 0; d < num_devices; ++d) {
-    if (!out.devices[d].summary.success) {
+    if (!out.devices[d].summary.ok()) {
       s.message =
           util::StrCat("device ", d, " alone failed: ", out.devices[d].summary.BriefReport());
       return out;
@@ -765,7 +765,7 @@ MultiDeviceCalibration CalibrateDevices(const std::vector<std::vector<TargetDete
     CameraCalibration& c = out.devices[d];
     c.summary.views = s.views;
     FillCameraResult(b, static_cast<int>(d), views[d], &c);
-    c.summary.success = true;
+    c.summary.status = s.status;  // each device shares the joint solve's outcome
     out.device_from_reference.push_back(
         d == 0 ? Rigid3d() : RigidFromPoseBlock(b.device_from_reference[d].data()));
     if (d < b.std_device_from_reference.size()) {

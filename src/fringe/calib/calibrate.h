@@ -154,7 +154,7 @@ struct MultiDeviceCalibration {
   std::vector<double> device_rms_px;          // per device, joint solution
   double rms_px = 0;                          // all devices
   CalibrationSummary summary;
-  bool ok() const { return summary.success; }
+  bool ok() const { return summary.ok(); }
 };
 MultiDeviceCalibration CalibrateDevices(const std::vector<std::vector<TargetDetection>>& views,
                                         const CalibrationTarget& target,

@@ -170,7 +170,7 @@ TEST(ProjectorCalibration, TwoCamerasAndProjectorRecoverTheTrueRig) {
   // same detections; the projector's observations must not pull them off).
   const StereoCalibration stereo_only =
       CalibrateStereo(left, right, target, rig.left.width, rig.left.height);
-  ASSERT_TRUE(stereo_only.summary.success);
+  ASSERT_TRUE(stereo_only.summary.ok());
   const auto ds_only = Difference(stereo_only.rig.right_from_left, rig.right_from_left);
   std::cout << "right camera without the projector: rotation " << ds_only.angle_rad * 180 / M_PI
             << " deg, translation " << ds_only.translation_mm << " mm\n";

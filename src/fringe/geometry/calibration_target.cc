@@ -33,7 +33,10 @@ void CalibrationTarget::Check() const {
   using util::CheckOption;
   CheckOption(rows >= 2, "CalibrationTarget", "rows", rows, "must be >= 2");
   CheckOption(cols >= 2, "CalibrationTarget", "cols", cols, "must be >= 2");
-  CheckOption(spacing_mm > 0, "CalibrationTarget", "spacing_mm", spacing_mm, "must be > 0");
+  // Printed boards are millimetres to metres across: 10 m bounds a unit mistake or a hostile file.
+  constexpr double kMaxLengthMm = 10000;
+  CheckOption(spacing_mm > 0 && spacing_mm <= kMaxLengthMm, "CalibrationTarget", "spacing_mm",
+              spacing_mm, "must be in (0, 10000]");
   if (type != TargetType::kChessboard) {
     CheckOption(outer_radius_mm > 0 && 2 * outer_radius_mm < spacing_mm, "CalibrationTarget",
                 "outer_radius_mm", outer_radius_mm, "must be > 0 and < spacing_mm / 2");
@@ -48,7 +51,8 @@ void CalibrationTarget::Check() const {
                   "distinct_features", util::StrCat("(", r, ", ", c, ")"), "outside the grid");
     }
   }
-  CheckOption(margin_mm >= 0, "CalibrationTarget", "margin_mm", margin_mm, "must be >= 0");
+  CheckOption(margin_mm >= 0 && margin_mm <= kMaxLengthMm, "CalibrationTarget", "margin_mm",
+              margin_mm, "must be in [0, 10000]");
 }
 
 Eigen::Vector3d CalibrationTarget::FeatureCentre(int row, int col) const {

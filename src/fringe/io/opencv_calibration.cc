@@ -4,9 +4,12 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <map>
 #include <memory>
 #include <opencv2/core.hpp>
 #include <sstream>
+#include <string>
+#include <string_view>
 
 #include "fringe/io/calibration_io.h"
 #include "fringe/util/error.h"
@@ -317,6 +320,27 @@ void CheckOpenCvFileBounds(const fs::path& path) {
   const auto fail = [&](int line, const std::string& what) {
     throw Error(StrCat(path.string(), ": line ", line, ": ", what));
   };
+  // A top-level YAML key given twice: OpenCV silently keeps one of them, so a file edited by hand
+  // (or hostile) would calibrate with values the user did not mean. Refused, naming both lines.
+  if (text.find_first_not_of(" \t\r\n") != std::string::npos &&
+      text[text.find_first_not_of(" \t\r\n")] != '<') {
+    std::map<std::string, int> first_line;
+    int n = 0;
+    for (size_t pos = 0; pos < text.size();) {
+      const size_t end = std::min(text.find('\n', pos), text.size());
+      ++n;
+      const std::string_view l(text.data() + pos, end - pos);
+      const size_t colon = l.find(':');
+      if (!l.empty() && std::isalpha(static_cast<unsigned char>(l[0])) &&
+          colon != std::string_view::npos) {
+        const std::string key(l.substr(0, colon));
+        const auto [it, fresh] = first_line.emplace(key, n);
+        if (!fresh)
+          fail(n, StrCat("key '", key, "' appears twice (first on line ", it->second, ")"));
+      }
+      pos = end + 1;
+    }
+  }
   int line = 1, flow = 0, xml = 0;
   bool line_start = true, in_quote = false;
   int indent = 0, dashes = 0;

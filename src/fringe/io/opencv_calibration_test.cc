@@ -189,6 +189,16 @@ TEST(OpenCvCalibration, EmptyNestedKeyIsAnErrorNotAnAbort) {
             std::string::npos);
 }
 
+TEST(OpenCvCalibration, KeyGivenTwiceIsAnError) {
+  test::TempDir dir;
+  const fs::path f =
+      Yaml(dir, "twice.yml",
+           "M1: !!opencv-matrix\n   rows: 1\n   cols: 1\n   dt: d\n   data: [ 1. ]\n"
+           "M1: !!opencv-matrix\n   rows: 1\n   cols: 1\n   dt: d\n   data: [ 2. ]\n");
+  EXPECT_NE(ErrorOf([&] { ReadOpenCvCalibration({f}); }).find("key 'M1' appears twice"),
+            std::string::npos);
+}
+
 TEST(OpenCvCalibration, ControlBytesAreAnErrorNotASegfault) {
   // fuzz_opencv: an XML document with NUL bytes in a tag made cv::FileStorage dereference null
   // (reproducer fuzz/known/opencv-xml-control-bytes-segv.xml).

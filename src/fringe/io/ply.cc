@@ -81,6 +81,10 @@ PlyHeader ParseHeader(const std::string& data, const std::string& file, size_t* 
           h.format != "binary_big_endian") {
         throw Error(StrCat(file, ": header line ", line_no, ": unknown format '", h.format, "'"));
       }
+      if (version != "1.0") {
+        throw Error(StrCat(file, ": header line ", line_no, ": PLY version '", version,
+                           "' (only 1.0 exists)"));
+      }
     } else if (key == "comment" || key == "obj_info") {
       std::string rest;
       std::getline(ls, rest);

@@ -442,6 +442,8 @@ std::vector<ViewMarker> ViewMarkersFromJson(const json& j, const std::string& ct
     throw Error(ctx + ".format: expected \"fringe-view-markers\"");
   }
   io::OptionalInteger(j, "version", 1, 1, 1, ctx);
+  io::CheckKnownKeys(j, {"format", "version", "frame", "markers"}, ctx);
+  io::OptionalString(j, "frame", "", ctx);  // descriptive, but a string
   if (!j.contains("markers") || !j["markers"].is_array()) {
     throw Error(ctx + ".markers: expected an array");
   }

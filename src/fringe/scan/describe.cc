@@ -40,6 +40,12 @@ std::string DescribePly(const fs::path& path) {
        << hi.transpose() << "], size " << (hi - lo).transpose() << "\n";
   }
   if (d.header.grid_width > 0) {
+    // More points than grid cells: the grid comment does not describe this cloud.
+    if (double(d.header.grid_width) * d.header.grid_height < double(d.cloud.size())) {
+      throw Error(StrCat(path.string(), ": the fringe_grid comment says ", d.header.grid_width,
+                         " x ", d.header.grid_height, " but the file holds ", d.cloud.size(),
+                         " points"));
+    }
     os << "  organized grid: " << d.header.grid_width << " x " << d.header.grid_height << ", "
        << d.cloud.size() << " valid (" << std::setprecision(1)
        << 100.0 * d.cloud.size() / (double(d.header.grid_width) * d.header.grid_height) << " %)\n";
@@ -156,7 +162,15 @@ std::string DescribePath(const fs::path& path) {
   if (ext == ".json") return DescribeJson(path);
   if (ext == ".yml" || ext == ".yaml" || ext == ".xml") {
     const io::OpenCvCalibration cv = io::ReadOpenCvCalibration({path}, -1, -1);
-    return StrCat(path.string(), ": OpenCV calibration\n", cv.Describe());
+    const std::string text = StrCat(path.string(), ": OpenCV calibration\n", cv.Describe());
+    // What reconstruct and convert-calib would refuse (distortion longer than fringe's model, a
+    // bad rotation) is an error here too, not a description of something unusable.
+    if (cv.right && cv.right_from_left) {
+      (void)cv.ToRig(path.string());
+    } else if (cv.projector) {
+      (void)cv.ToCameraProjectorRig(path.string());
+    }
+    return text;
   }
   throw Error(StrCat(path.string(),
                      ": unknown kind of file (expected .ply, .json, .yml/.yaml/.xml or a folder)"));

@@ -1,5 +1,6 @@
 #include "fringe/scan/truth.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <set>
@@ -50,6 +51,16 @@ const json& Array(const json& j, const char* field) {
 
 std::string ViewName(const json& j, std::set<std::string>* seen, const char* list) {
   const std::string view = j.at("view").get<std::string>();
+  // A view name is a file stem (`fringe fuse REGDIR` opens registered/NAME.ply): never a path.
+  const bool plain = !view.empty() && view != "." && view != ".." &&
+                     std::none_of(view.begin(), view.end(), [](char c) {
+                       return c == '/' || c == '\\' || static_cast<unsigned char>(c) < 0x20;
+                     });
+  if (!plain) {
+    throw Error(
+        StrCat(list, ": view name ", json(view).dump(-1, ' ', true, json::error_handler_t::replace),
+               " is not a plain name (no path separators, '.', '..' or control characters)"));
+  }
   if (!seen->insert(view).second) throw Error(StrCat(list, ": view '", view, "' listed twice"));
   return view;
 }
@@ -102,7 +113,9 @@ TruthPoses PosesFromJson(const json& j, const std::string& context) {
       throw Error("'format' must be \"fringe-poses\"");
     }
     io::OptionalInteger(j, "version", 1, 1, 1, context);
-    out.turntable = j.value("turntable", false);
+    io::CheckKnownKeys(j, {"format", "version", "frame", "turntable", "views"}, context);
+    io::OptionalString(j, "frame", "", context);  // descriptive, but a string
+    out.turntable = io::OptionalBool(j, "turntable", false, context);
     std::set<std::string> seen;
     for (const json& v : Array(j, "views")) {
       ViewPose p;

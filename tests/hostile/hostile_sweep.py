@@ -634,21 +634,22 @@ T: !!opencv-matrix
 """
 
 
-def png_bytes(w, h, value):
+def png_of(w, h, raw):
+    """An 8-bit grey PNG declaring w x h whose image data is `raw` (filter bytes included)."""
     import struct, zlib
-    raw = b"".join(b"\0" + bytes([value]) * w for _ in range(h))
     def chunk(t, d):
         return struct.pack(">I", len(d)) + t + d + struct.pack(">I", zlib.crc32(t + d) & 0xffffffff)
     return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 0, 0, 0, 0)) +
             chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b""))
 
 
+def png_bytes(w, h, value):
+    return png_of(w, h, b"".join(b"\0" + bytes([value]) * w for _ in range(h)))
+
+
 def png_header_only(w, h):
-    import struct, zlib
-    def chunk(t, d):
-        return struct.pack(">I", len(d)) + t + d + struct.pack(">I", zlib.crc32(t + d) & 0xffffffff)
-    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 0, 0, 0, 0)) +
-            chunk(b"IDAT", zlib.compress(b"\0" * 100)) + chunk(b"IEND", b""))
+    """Declares w x h but holds only 100 bytes of data (a decompression bomb's header)."""
+    return png_of(w, h, b"\0" * 100)
 
 
 def replace_count(b, new):

@@ -374,13 +374,38 @@ void CheckOpenCvFileBounds(const fs::path& path) {
   int indent = 0, dashes = 0;
   char quote = 0;
   size_t next_close = 0;
+  // YAML line structure: outside brackets every line of a calibration file is a key ("key:"), a
+  // sequence item ("- "), a directive, document marker or comment. A bare value on a line of its
+  // own below an indented mapping sends OpenCV's YAML parser into an endless loop (timeout found
+  // by fuzz_opencv: " r: 1", "n0", "-"); OpenCV never writes such lines, so they are refused.
+  const bool yaml = first == std::string::npos || text[first] != '<';
+  int line_flow = 0;      // bracket depth at the start of the line
+  size_t line_begin = 0;  // first byte of the line's content
+  bool line_key = false;  // a ':' outside quotes ending the key
+  const auto end_line = [&](size_t end) {
+    if (!yaml || line_flow > 0 || line_key || dashes > 0) return;
+    const std::string_view l = std::string_view(text).substr(line_begin, end - line_begin);
+    const size_t b = l.find_first_not_of(" \t\r");
+    if (b == std::string_view::npos) return;
+    const std::string_view content = l.substr(b);
+    const char c0 = content[0];
+    if (c0 == '#' || c0 == '%' || content.rfind("---", 0) == 0 || content.rfind("...", 0) == 0 ||
+        c0 == '[' || c0 == '{' || c0 == ']' || c0 == '}' || content == "-") {
+      return;
+    }
+    fail(line, "a value on a line of its own, outside a key, a '- ' item or brackets");
+  };
   for (size_t i = 0; i < text.size(); ++i) {
     const char c = text[i];
     if (c == '\n') {
+      end_line(i);
       ++line;
       line_start = true;
       indent = dashes = 0;
       in_quote = false;
+      line_flow = flow;
+      line_begin = i + 1;
+      line_key = false;
       continue;
     }
     // Calibration files are text: a NUL or other control byte means a binary or corrupt file,
@@ -408,6 +433,11 @@ void CheckOpenCvFileBounds(const fs::path& path) {
       if (++dashes > util::kMaxNestingDepth) fail(line, "YAML sequences nested too deeply");
       continue;
     }
+    if (c == ':' && flow == 0 &&
+        (i + 1 == text.size() || text[i + 1] == ' ' || text[i + 1] == '\t' || text[i + 1] == '\r' ||
+         text[i + 1] == '\n')) {
+      line_key = true;
+    }
     if (c == '"' || c == '\'') {
       in_quote = true;
       quote = c;
@@ -429,6 +459,7 @@ void CheckOpenCvFileBounds(const fs::path& path) {
       }
     }
   }
+  end_line(text.size());
   // Declared matrix sizes: OpenCV allocates rows x cols before reading the data, so a few bytes
   // could ask for gigabytes. Every element takes at least one byte of the file.
   for (const char* key : {"rows", "cols"}) {

@@ -198,6 +198,24 @@ TEST(OpenCvCalibration, UnclosedXmlTagIsAnErrorNotASegfault) {
             std::string::npos);
 }
 
+TEST(OpenCvCalibration, BareValueLineIsAnErrorNotAnEndlessLoop) {
+  // fuzz_opencv: an indented mapping, then a bare value on a line of its own, then "-" sent
+  // OpenCV's YAML parser into an endless loop (reproducer
+  // fuzz/known/opencv-yaml-bare-line-timeout.yml).
+  test::TempDir dir;
+  const fs::path f = dir / "loop.yml";
+  std::ofstream(f) << "%YAML:1.0\n r: 1\nn0\n-";
+  const std::string error = ErrorOf([&] { ReadOpenCvCalibration({f}); });
+  EXPECT_NE(error.find("loop.yml: line 3: a value on a line of its own"), std::string::npos)
+      << error;
+  // A value continuing a flow sequence on the next lines stays valid, as OpenCV writes it.
+  const fs::path ok =
+      Yaml(dir, "flow.yml",
+           "M1: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n   data: [ 500., 0., 320.,\n"
+           "       0., 500., 240.,\n       0., 0., 1. ]\n");
+  EXPECT_EQ(ErrorOf([&] { ReadOpenCvCalibration({ok}, 640, 480); }), "");
+}
+
 TEST(OpenCvCalibration, KeyGivenTwiceIsAnError) {
   test::TempDir dir;
   const fs::path f =

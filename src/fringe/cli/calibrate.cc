@@ -114,10 +114,32 @@ void AddCalibrateCommand(CLI::App& app) {
     }
     const auto result = calib::CalibrateFolder(a->dir, target, options);
     if (!result.success()) {
-      // No report of figures that were never estimated: only the reason.
-      throw Error(
-          util::StrCat(a->dir, ": calibration failed: ",
-                       result.stereo ? result.pair.summary.message : result.mono.summary.message));
+      // No report of figures that were never estimated: only the reason, and, when the board
+      // was not found in most images, the first detection failure and the target file, since a
+      // target that does not describe the board (rows, features) is the usual cause.
+      std::string detection;
+      int found = 0, total = 0;
+      for (const auto* cam : {&result.left, &result.right}) {
+        const std::string folder = !result.stereo ? "" : cam == &result.left ? "left/" : "right/";
+        for (size_t i = 0; i < cam->size(); ++i) {
+          ++total;
+          if ((*cam)[i].ok()) {
+            ++found;
+          } else if (detection.empty()) {
+            detection = util::StrCat(folder, i < result.names.size() ? result.names[i] : "", ": ",
+                                     (*cam)[i].message);
+          }
+        }
+      }
+      std::string hint;
+      if (total > 0 && 2 * found < total) {
+        hint = util::StrCat("; the board was found in ", found, " of ", total,
+                            " images (first failure: ", detection, "); check that ", a->target,
+                            " describes the board");
+      }
+      throw Error(util::StrCat(
+          a->dir, ": calibration failed: ",
+          result.stereo ? result.pair.summary.message : result.mono.summary.message, hint));
     }
     std::cout << result.Report();
     // Both outputs are committed together or not at all.

@@ -105,10 +105,21 @@ struct Found {
 // ~2^34) could ask for tens of gigabytes. Calibration matrices are small: rows and cols are
 // integers in [1, kMaxSide] and `data` must hold exactly rows x cols numbers. Returns an empty
 // matrix when the node is not such a matrix.
-cv::Mat ReadMatrixNode(const cv::FileNode& n) {
+cv::Mat ReadMatrixNode(const cv::FileNode& n, std::string* why = nullptr) {
   constexpr int kMaxSide = 64;
   const cv::FileNode rows = n["rows"], cols = n["cols"], data = n["data"];
   if (!rows.isInt() || !cols.isInt() || !data.isSeq()) return {};
+  // The element type says how every other reader of the file sees the values: with 8- or 16-bit
+  // integers ('u', 'c', 'w', 's') cv::FileStorage saturates a focal length of 2400 to 255, so
+  // taking the written values would give a calibration other tools do not see.
+  const cv::FileNode dt = n["dt"];
+  if (dt.isString()) {
+    const std::string t = static_cast<std::string>(dt);
+    if (t != "d" && t != "f" && t != "i") {
+      if (why) *why = StrCat("element type dt: ", t, " (expected d or f, floating point)");
+      return {};
+    }
+  }
   const int r = static_cast<int>(rows), c = static_cast<int>(cols);
   if (r < 1 || c < 1 || r > kMaxSide || c > kMaxSide) return {};
   if (data.size() != static_cast<size_t>(r) * static_cast<size_t>(c)) return {};
@@ -165,6 +176,7 @@ class Files {
                              "; keep one (fringe will not guess)"));
         }
         cv::Mat m;
+        std::string why;
         try {
           if (!node.isMap() && !node.isSeq()) throw cv::Exception();
           if (node.isSeq()) {
@@ -172,14 +184,15 @@ class Files {
             node >> v;
             m = cv::Mat(v, true);
           } else {
-            m = ReadMatrixNode(node);
+            m = ReadMatrixNode(node, &why);
           }
         } catch (const cv::Exception&) {
           m = cv::Mat();
         }
         if (m.empty()) {
-          throw Error(StrCat(path.string(), ": ", key, " (", what,
-                             "): not a matrix (expected !!opencv-matrix or a list of numbers)"));
+          throw Error(StrCat(
+              path.string(), ": ", key, " (", what, "): ",
+              why.empty() ? "not a matrix (expected !!opencv-matrix or a list of numbers)" : why));
         }
         m.convertTo(m, CV_64F);
         m = m.reshape(1, 1).clone();
@@ -388,9 +401,14 @@ void CheckOpenCvFileBounds(const fs::path& path) {
     const size_t b = l.find_first_not_of(" \t\r");
     if (b == std::string_view::npos) return;
     const std::string_view content = l.substr(b);
-    const char c0 = content[0];
-    if (c0 == '#' || c0 == '%' || content.rfind("---", 0) == 0 || content.rfind("...", 0) == 0 ||
-        c0 == '[' || c0 == '{' || c0 == ']' || c0 == '}' || content == "-") {
+    const auto is = [&](std::string_view marker) {
+      return content.rfind(marker, 0) == 0 &&
+             content.find_first_not_of(" \t\r", marker.size()) == std::string_view::npos;
+    };
+    // Directives only at the top, document markers alone on their line (a "---- ." or a closing
+    // bracket without its opening one sent OpenCV's parser into an endless loop too).
+    if (content[0] == '#' || (content.rfind("%YAML", 0) == 0 && line == 1) || is("---") ||
+        is("...") || is("-") || content[0] == '[' || content[0] == '{') {
       return;
     }
     fail(line, "a value on a line of its own, outside a key, a '- ' item or brackets");
@@ -444,6 +462,7 @@ void CheckOpenCvFileBounds(const fs::path& path) {
     } else if (c == '[' || c == '{') {
       if (++flow > util::kMaxNestingDepth) fail(line, "YAML brackets nested too deeply");
     } else if (c == ']' || c == '}') {
+      if (yaml && flow == 0) fail(line, StrCat("'", std::string(1, c), "' closes no bracket"));
       flow = std::max(0, flow - 1);
     } else if (c == '<' && i + 1 < text.size()) {
       const char n = text[i + 1];

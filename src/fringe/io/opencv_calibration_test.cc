@@ -208,12 +208,30 @@ TEST(OpenCvCalibration, BareValueLineIsAnErrorNotAnEndlessLoop) {
   const std::string error = ErrorOf([&] { ReadOpenCvCalibration({f}); });
   EXPECT_NE(error.find("loop.yml: line 3: a value on a line of its own"), std::string::npos)
       << error;
+  // Same endless loop from a malformed document marker and an unopened bracket.
+  std::ofstream(f) << "%YAML:1.\n---- .\n]\n";
+  EXPECT_NE(ErrorOf([&] { ReadOpenCvCalibration({f}); }).find("loop.yml: line 2:"),
+            std::string::npos);
+  std::ofstream(f) << "%YAML:1.0\na: 1 ]\n";
+  EXPECT_NE(ErrorOf([&] { ReadOpenCvCalibration({f}); }).find("line 2: ']' closes no bracket"),
+            std::string::npos);
   // A value continuing a flow sequence on the next lines stays valid, as OpenCV writes it.
   const fs::path ok =
       Yaml(dir, "flow.yml",
            "M1: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n   data: [ 500., 0., 320.,\n"
            "       0., 500., 240.,\n       0., 0., 1. ]\n");
   EXPECT_EQ(ErrorOf([&] { ReadOpenCvCalibration({ok}, 640, 480); }), "");
+}
+
+TEST(OpenCvCalibration, IntegerElementTypeThatSaturatesIsAnError) {
+  // dt: u stores 8-bit values: OpenCV itself would read a focal length of 500 as 255.
+  test::TempDir dir;
+  const fs::path f = Yaml(dir, "u8.yml",
+                          "M1: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: u\n"
+                          "   data: [ 500., 0., 320., 0., 500., 240., 0., 0., 1. ]\n");
+  const std::string error = ErrorOf([&] { ReadOpenCvCalibration({f}, 640, 480); });
+  EXPECT_NE(error.find("u8.yml: M1 (left camera matrix): element type dt: u"), std::string::npos)
+      << error;
 }
 
 TEST(OpenCvCalibration, KeyGivenTwiceIsAnError) {

@@ -149,6 +149,17 @@ PlyHeader ParseHeader(const std::string& data, const std::string& file, size_t* 
   }
   if (!ended) throw Error(StrCat(file, ": truncated header (no end_header)"));
   if (h.format.empty()) throw Error(StrCat(file, ": header has no format line"));
+  // An organized cloud holds at most one vertex per grid cell: more means the grid comment does
+  // not describe this file, and every reader (organized or not) refuses it rather than guess.
+  if (h.grid_width > 0) {
+    for (const PlyElement& e : h.elements) {
+      if (e.name != "vertex") continue;
+      if (static_cast<double>(h.grid_width) * h.grid_height < static_cast<double>(e.count)) {
+        throw Error(StrCat(file, ": the fringe_grid comment says ", h.grid_width, " x ",
+                           h.grid_height, " but the file declares ", e.count, " vertices"));
+      }
+    }
+  }
   *body_offset = pos;
   return h;
 }

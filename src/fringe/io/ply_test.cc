@@ -180,6 +180,20 @@ TEST(Ply, StanfordBunnyVertexCount) {
 }
 
 // Found by fuzz_ply: an ASCII face index of 6e49 reached an integer cast (undefined behaviour).
+TEST(Ply, GridCommentSmallerThanTheVerticesIsAnError) {
+  // More vertices than grid cells: the comment does not describe the file; plain readers (evaluate,
+  // register) used to take the points and ignore it while organized readers refused the file.
+  test::TempDir dir;
+  const auto path = dir / "grid.ply";
+  std::ofstream(path) << "ply\nformat ascii 1.0\ncomment fringe_grid 2 1\nelement vertex 3\n"
+                         "property float x\nproperty float y\nproperty float z\nend_header\n"
+                         "0 0 1\n1 0 1\n0 1 1\n";
+  const std::string error = test::ErrorOf([&] { ReadPly(path); });
+  EXPECT_NE(error.find("grid.ply: the fringe_grid comment says 2 x 1 but the file declares 3"),
+            std::string::npos)
+      << error;
+}
+
 TEST(Ply, HugeAsciiFaceIndexIsAnError) {
   test::TempDir dir;
   const auto path = dir / "huge.ply";

@@ -40,12 +40,6 @@ std::string DescribePly(const fs::path& path) {
        << hi.transpose() << "], size " << (hi - lo).transpose() << "\n";
   }
   if (d.header.grid_width > 0) {
-    // More points than grid cells: the grid comment does not describe this cloud.
-    if (double(d.header.grid_width) * d.header.grid_height < double(d.cloud.size())) {
-      throw Error(StrCat(path.string(), ": the fringe_grid comment says ", d.header.grid_width,
-                         " x ", d.header.grid_height, " but the file holds ", d.cloud.size(),
-                         " points"));
-    }
     os << "  organized grid: " << d.header.grid_width << " x " << d.header.grid_height << ", "
        << d.cloud.size() << " valid (" << std::setprecision(1)
        << 100.0 * d.cloud.size() / (double(d.header.grid_width) * d.header.grid_height) << " %)\n";

@@ -419,6 +419,32 @@ TEST(CliBadInput, EveryJsonReaderNamesAnUnknownKeyAndTheNearestOne) {
   EXPECT_NO_THROW(io::ReadRig(dir / "calibrated.json"));
 }
 
+// Issue 10: a scheme whose phase offset does not match the capture shifts the order decisions;
+// the many repaired orders are warned about, naming the scheme. The real capture decodes
+// without the warning with its own offset and with it when the offset is 0.
+TEST(Cli, DecodeWarnsWhenThePhaseOffsetDoesNotMatchTheCapture) {
+  FRINGE_SHARED_DATA_OR_SKIP(data, "slsdk-stereo-phasegray");
+  test::TempDir dir;
+  const std::string stack = (data / "L").string();
+  std::string out, err;
+  ASSERT_EQ(RunCli({"decode", stack, "--scheme", "slsdk-phasegray", "--out",
+                    (dir / "right_offset").string()},
+                   &out, &err),
+            0)
+      << err;
+  EXPECT_EQ(err.find("probably does not match"), std::string::npos) << err;
+  ASSERT_EQ(RunCli({"decode", stack, "--scheme", "slsdk-phasegray", "--phase-offset", "0", "--out",
+                    (dir / "wrong_offset").string()},
+                   &out, &err),
+            0)
+      << err;
+  EXPECT_NE(err.find("the phase offset or Gray-code convention of the scheme 'slsdk-phasegray' "
+                     "probably does not match the capture"),
+            std::string::npos)
+      << err;
+  EXPECT_NE(err.find(stack), std::string::npos) << err;
+}
+
 // Issue 10: a view folder holding another tool's manifest.json or rig.json: the error names the
 // file that was picked up and the flag that gives the right one.
 TEST(CliBadInput, ForeignManifestOrRigInAViewFolderIsNamed) {

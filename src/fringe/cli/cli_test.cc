@@ -419,6 +419,29 @@ TEST(CliBadInput, EveryJsonReaderNamesAnUnknownKeyAndTheNearestOne) {
   EXPECT_NO_THROW(io::ReadRig(dir / "calibrated.json"));
 }
 
+// Issue 10: a failed calibration prints no figures that look like a result (it used to print
+// "fx 2500.000 +- 0.000"), only the reason, and writes nothing.
+TEST(CliBadInput, FailedCalibrationPrintsOnlyTheReason) {
+  test::TempDir dir;
+  fs::create_directories(dir / "boards");
+  for (int i = 0; i < 3; ++i) {  // grey images: no board anywhere
+    cv::imwrite((dir / "boards" / ("0" + std::to_string(i) + ".png")).string(),
+                cv::Mat(256, 320, CV_8UC1, cv::Scalar(128)));
+  }
+  io::WriteJson(dir / "target.json", io::TargetToJson(CalibrationTarget::Reference()));
+  std::string out, err;
+  EXPECT_EQ(RunCli({"calibrate", (dir / "boards").string(), "--target",
+                    (dir / "target.json").string(), "--out", (dir / "rig.json").string()},
+                   &out, &err),
+            1);
+  EXPECT_NE(err.find("boards: calibration failed: only 0 usable views"), std::string::npos) << err;
+  for (const char* figure : {"fx", "RMS", "rms", "+-", "±"}) {
+    EXPECT_EQ(out.find(figure), std::string::npos) << figure << " in: " << out;
+    EXPECT_EQ(err.find(figure), std::string::npos) << figure << " in: " << err;
+  }
+  EXPECT_FALSE(fs::exists(dir / "rig.json"));
+}
+
 // Issue 10: a scheme whose phase offset does not match the capture shifts the order decisions;
 // the many repaired orders are warned about, naming the scheme. The real capture decodes
 // without the warning with its own offset and with it when the offset is 0.

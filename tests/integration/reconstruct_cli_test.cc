@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
 #include <string>
 #include <vector>
 
@@ -202,6 +203,65 @@ TEST(ReconstructCli, TwelveBitViewWithBitDepthAndMinModulation) {
   EXPECT_LT(strict["summary"]["points"].get<double>(), n8);
   EXPECT_GT(strict["summary"]["decode_left"]["rejected_low_modulation"].get<int64_t>(),
             j8["summary"]["decode_left"]["rejected_low_modulation"].get<int64_t>());
+}
+
+// Issue 10: a calibration written by another tool is read as it is: one OpenCV YAML holding
+// both cameras and their extrinsics (cameraMatrix1/distCoeffs1/cameraMatrix2/distCoeffs2/R/T)
+// reconstructs the view like fringe's rig file does, and reconstruct and info say which keys
+// they used.
+TEST(ReconstructCli, OneOpenCvFileWorksLikeTheRigFile) {
+  constexpr double kRadiusMm = 15;
+  constexpr double kMaxPointCountDifference = 0.001;
+  const QuarterRigSphere sphere(kRadiusMm);
+  const StereoRig& rig = sphere.rig;
+  sim::RenderOptions options;
+  options.sensor.supersampling = 2;
+  const test::TempDir tmp;
+  const auto dir = tmp / "view";
+  sphere.WriteView(dir,
+                   sim::SensorPoseLookingAt(rig, Eigen::Vector3d(0, 0, kRadiusMm),
+                                            Eigen::Vector3d(-0.2, -0.4, 1).normalized()),
+                   options);
+  const std::string yml = (tmp / "stereo.yml").string();
+  {
+    cv::FileStorage fs(yml, cv::FileStorage::WRITE);
+    const auto write_camera = [&](const std::string& suffix, const CameraModel& c) {
+      fs << "cameraMatrix" + suffix
+         << (cv::Mat_<double>(3, 3) << c.fx, 0, c.cx, 0, c.fy, c.cy, 0, 0, 1);
+      const auto d = c.Distortion();
+      fs << "distCoeffs" + suffix << (cv::Mat_<double>(1, 5) << d[0], d[1], d[2], d[3], d[4]);
+    };
+    fs << "image_width" << rig.left.width << "image_height" << rig.left.height;
+    write_camera("1", rig.left);
+    write_camera("2", rig.right);
+    const Eigen::Matrix3d r = rig.right_from_left.rotation_matrix();
+    const Eigen::Vector3d t = rig.right_from_left.translation();
+    cv::Mat_<double> rm(3, 3);
+    for (int i = 0; i < 3; ++i) {
+      for (int j = 0; j < 3; ++j) rm(i, j) = r(i, j);
+    }
+    fs << "R" << rm << "T" << (cv::Mat_<double>(3, 1) << t.x(), t.y(), t.z());
+  }
+  std::string out, err;
+  ASSERT_EQ(RunCli({"reconstruct", dir.string(), "--json", "--out", (tmp / "rig.ply").string()},
+                   &out, &err),
+            0)
+      << err;
+  const double with_rig = nlohmann::json::parse(out)["summary"]["points"].get<double>();
+  ASSERT_EQ(RunCli({"reconstruct", dir.string(), "--opencv", yml, "--json", "--out",
+                    (tmp / "opencv.ply").string()},
+                   &out, &err),
+            0)
+      << err;
+  const double with_opencv = nlohmann::json::parse(out)["summary"]["points"].get<double>();
+  ASSERT_GT(with_rig, 10000);
+  EXPECT_NEAR(with_opencv / with_rig, 1.0, kMaxPointCountDifference);
+  for (const char* key : {"cameraMatrix1 -> ", "distCoeffs2 -> ", "R -> ", "T -> "}) {
+    EXPECT_NE(err.find(key), std::string::npos) << key << " in: " << err;
+  }
+  ASSERT_EQ(RunCli({"info", yml}, &out, &err), 0) << err;
+  EXPECT_NE(out.find("OpenCV calibration"), std::string::npos) << out;
+  EXPECT_NE(out.find("cameraMatrix2 -> "), std::string::npos) << out;
 }
 
 }  // namespace

@@ -395,7 +395,7 @@ TEST(CliBadInput, EveryJsonReaderNamesAnUnknownKeyAndTheNearestOne) {
               std::string::npos)
         << err;
   };
-  // (The "radius_mm" is refused too; its nearest key is dot_radius_mm.)
+  // (The "radius_mm" names the three radii it could mean: io/json_test.cc.)
   refused("target.json", io::TargetToJson(CalibrationTarget::Reference()), "outer_radius",
           "outer_radius_mm", [](const fs::path& p) { io::ReadTarget(p); });
   const phase::PatternScheme scheme = phase::MakeScheme("heterodyne-4x3");

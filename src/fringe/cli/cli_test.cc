@@ -15,8 +15,10 @@
 #include "fringe/io/calibration_io.h"
 #include "fringe/io/mesh_io.h"
 #include "fringe/io/ply.h"
+#include "fringe/phase/pattern_scheme.h"
 #include "fringe/registration/markers.h"
 #include "fringe/registration/registration_io.h"
+#include "fringe/scan/scan_folder.h"
 #include "fringe/scan/truth.h"
 #include "fringe/sim/demo_part.h"
 #include "fringe/sim/scan.h"
@@ -370,6 +372,137 @@ TEST(CliBadInput, FailuresWithoutAResultExit1) {
                    nullptr, &err),
             1);
   EXPECT_NE(err.find("nope.json: scheme manifest: no such file"), std::string::npos) << err;
+}
+
+// Issue 10: every JSON reader (target, scheme, rig, scan folder) refuses an unknown key, naming
+// the file, the key and the nearest valid key; the keys a rig deliberately carries (the
+// calibration's residuals and standard deviations) are known.
+TEST(CliBadInput, EveryJsonReaderNamesAnUnknownKeyAndTheNearestOne) {
+  test::TempDir dir;
+  const auto refused = [&](const std::string& name, nlohmann::json j, const std::string& typo,
+                           const std::string& nearest, const auto& read) {
+    j[typo] = j.contains(nearest) ? j[nearest] : nlohmann::json(1);
+    j.erase(nearest);
+    WriteText(dir / name, j.dump());
+    std::string err;
+    try {
+      read(dir / name);
+    } catch (const Error& e) {
+      err = e.what();
+    }
+    EXPECT_NE(err.find(name), std::string::npos) << err;
+    EXPECT_NE(err.find("unknown key \"" + typo + "\" (did you mean '" + nearest + "'?)"),
+              std::string::npos)
+        << err;
+  };
+  // (The issue's "radius_mm" names the three radii it could mean: io/json_test.cc.)
+  refused("target.json", io::TargetToJson(CalibrationTarget::Reference()), "outer_radius",
+          "outer_radius_mm", [](const fs::path& p) { io::ReadTarget(p); });
+  const phase::PatternScheme scheme = phase::MakeScheme("heterodyne-4x3");
+  refused("scheme.json", phase::SchemeToJson(scheme), "phase_set", "phase_sets",
+          [](const fs::path& p) { phase::ReadScheme(p); });
+  refused("rig.json", io::RigToJson(StereoRig::Reference()), "right_from_lft", "right_from_left",
+          [](const fs::path& p) { io::ReadRig(p); });
+  scan::ScanManifest manifest;
+  manifest.views = 1;
+  manifest.image_width = 64;
+  manifest.image_height = 48;
+  manifest.scheme = "scheme.json";
+  refused("scan.json", scan::ManifestToJson(manifest), "bitdepth", "bit_depth",
+          [](const fs::path& p) { scan::ManifestFromJson(io::ReadJson(p), p.string()); });
+  // A rig written by `fringe calibrate` carries "calibration" (residuals, standard deviations).
+  calib::FolderCalibration cal;
+  cal.stereo = true;
+  cal.pair.rig = StereoRig::Reference();
+  calib::WriteFolderCalibration(dir / "calibrated.json", cal);
+  ASSERT_TRUE(io::ReadJson(dir / "calibrated.json").contains("calibration"));
+  EXPECT_NO_THROW(io::ReadRig(dir / "calibrated.json"));
+}
+
+// Issue 10: a failed calibration prints no figures that look like a result (it used to print
+// "fx 2500.000 +- 0.000"), only the reason, and writes nothing.
+TEST(CliBadInput, FailedCalibrationPrintsOnlyTheReason) {
+  test::TempDir dir;
+  fs::create_directories(dir / "boards");
+  for (int i = 0; i < 3; ++i) {  // grey images: no board anywhere
+    cv::imwrite((dir / "boards" / ("0" + std::to_string(i) + ".png")).string(),
+                cv::Mat(256, 320, CV_8UC1, cv::Scalar(128)));
+  }
+  io::WriteJson(dir / "target.json", io::TargetToJson(CalibrationTarget::Reference()));
+  std::string out, err;
+  EXPECT_EQ(RunCli({"calibrate", (dir / "boards").string(), "--target",
+                    (dir / "target.json").string(), "--out", (dir / "rig.json").string()},
+                   &out, &err),
+            1);
+  EXPECT_NE(err.find("boards: calibration failed: only 0 usable views"), std::string::npos) << err;
+  for (const char* figure : {"fx", "RMS", "rms", "+-", "±"}) {
+    EXPECT_EQ(out.find(figure), std::string::npos) << figure << " in: " << out;
+    EXPECT_EQ(err.find(figure), std::string::npos) << figure << " in: " << err;
+  }
+  EXPECT_FALSE(fs::exists(dir / "rig.json"));
+}
+
+// Issue 10: a scheme whose phase offset does not match the capture shifts the order decisions;
+// the many repaired orders are warned about, naming the scheme. The real capture decodes
+// without the warning with its own offset and with it when the offset is 0.
+TEST(Cli, DecodeWarnsWhenThePhaseOffsetDoesNotMatchTheCapture) {
+  FRINGE_SHARED_DATA_OR_SKIP(data, "slsdk-stereo-phasegray");
+  test::TempDir dir;
+  const std::string stack = (data / "L").string();
+  std::string out, err;
+  ASSERT_EQ(RunCli({"decode", stack, "--scheme", "slsdk-phasegray", "--out",
+                    (dir / "right_offset").string()},
+                   &out, &err),
+            0)
+      << err;
+  EXPECT_EQ(err.find("probably does not match"), std::string::npos) << err;
+  ASSERT_EQ(RunCli({"decode", stack, "--scheme", "slsdk-phasegray", "--phase-offset", "0", "--out",
+                    (dir / "wrong_offset").string()},
+                   &out, &err),
+            0)
+      << err;
+  EXPECT_NE(err.find("the phase offset or Gray-code convention of the scheme 'slsdk-phasegray' "
+                     "probably does not match the capture"),
+            std::string::npos)
+      << err;
+  EXPECT_NE(err.find(stack), std::string::npos) << err;
+}
+
+// Issue 10: a view folder holding another tool's manifest.json or rig.json: the error names the
+// file that was picked up and the flag that gives the right one.
+TEST(CliBadInput, ForeignManifestOrRigInAViewFolderIsNamed) {
+  test::TempDir dir;
+  const fs::path stack = SmallStack(dir);
+  const fs::path view = dir / "view";
+  for (const char* camera : {"left", "right"}) {
+    fs::create_directories(view / camera);
+    for (const auto& e : fs::directory_iterator(stack)) {
+      if (e.path().extension() == ".png")
+        fs::copy_file(e.path(), view / camera / e.path().filename());
+    }
+  }
+  // Another tool's capture settings as manifest.json.
+  WriteText(view / "manifest.json", R"({"exposure_us": 8000, "pattern": "sinus", "steps": 4})");
+  io::WriteRig(view / "rig.json", StereoRig::Reference());
+  std::string err;
+  EXPECT_EQ(
+      RunCli({"reconstruct", view.string(), "--out", (dir / "a.ply").string()}, nullptr, &err), 1);
+  EXPECT_NE(err.find((view / "manifest.json").string() + ": not a fringe pattern manifest"),
+            std::string::npos)
+      << err;
+  EXPECT_NE(err.find("--scheme"), std::string::npos) << err;
+  // With the scheme given, another tool's rig.json is named the same way.
+  WriteText(view / "rig.json", R"({"camera_matrix": [1, 0, 0, 0, 1, 0, 0, 0, 1]})");
+  EXPECT_EQ(RunCli({"reconstruct", view.string(), "--scheme", (stack / "manifest.json").string(),
+                    "--out", (dir / "b.ply").string()},
+                   nullptr, &err),
+            1);
+  EXPECT_NE(err.find((view / "rig.json").string() + ": not a fringe rig file"), std::string::npos)
+      << err;
+  EXPECT_NE(err.find("--calib"), std::string::npos) << err;
+  EXPECT_NE(err.find("--opencv"), std::string::npos) << err;
+  EXPECT_FALSE(fs::exists(dir / "a.ply"));
+  EXPECT_FALSE(fs::exists(dir / "b.ply"));
 }
 
 // What `fringe calibrate` writes for one camera is a rig file the readers and `fringe info`

@@ -85,6 +85,32 @@ TEST(CalibrationIo, ErrorsNameFileAndField) {
   EXPECT_THROW(ReadRig(dir / "junk.json"), Error);
 }
 
+// Issue 10: the target's geometry is required, never filled from the reference board (a
+// misspelt radius once silently used 8 mm instead of 5 mm): removing any geometry field of a
+// ring target is an error naming the file and the field.
+TEST(CalibrationIo, TargetGeometryIsRequired) {
+  test::TempDir dir;
+  const nlohmann::json ring = TargetToJson(CalibrationTarget::Reference());
+  ASSERT_FALSE(ring.at("distinct_features").empty());  // so dot_radius_mm is required too
+  for (const char* field : {"type", "rows", "cols", "spacing_mm", "outer_radius_mm",
+                            "inner_radius_mm", "distinct_features", "dot_radius_mm"}) {
+    nlohmann::json j = ring;
+    ASSERT_TRUE(j.contains(field)) << field;
+    j.erase(field);
+    WriteJson(dir / "t.json", j);
+    try {
+      ReadTarget(dir / "t.json");
+      ADD_FAILURE() << "no error without " << field;
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("t.json"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find(util::StrCat("missing field '", field, "'")),
+                std::string::npos)
+          << e.what();
+    }
+  }
+  EXPECT_NO_THROW(TargetFromJson(ring, "ring"));
+}
+
 TEST(CalibrationIo, TargetRoundTripAndErrors) {
   test::TempDir dir;
   CalibrationTarget t;

@@ -88,9 +88,19 @@ std::string Brief(const json& j, size_t max_chars) {
   return s;
 }
 
-std::string NearestKey(const std::string& key, const std::vector<std::string>& known) {
+std::vector<std::string> NearestKeys(const std::string& key,
+                                     const std::vector<std::string>& known) {
   const std::string k = Lower(key);
-  std::string best;
+  // A shortened key ("radius_mm") is as likely to mean any key that contains it
+  // (outer_radius_mm, inner_radius_mm, dot_radius_mm): name them all, in the format's order.
+  std::vector<std::string> containing;
+  for (const std::string& candidate : known) {
+    if (k.size() >= 3 && Lower(candidate).find(k) != std::string::npos) {
+      containing.push_back(candidate);
+    }
+  }
+  if (containing.size() > 1) return containing;
+  std::vector<std::string> best;
   size_t best_score = std::numeric_limits<size_t>::max();
   for (const std::string& candidate : known) {
     const std::string c = Lower(candidate);
@@ -101,7 +111,9 @@ std::string NearestKey(const std::string& key, const std::vector<std::string>& k
     if (related) d = std::min(d, std::max(k.size(), c.size()) - std::min(k.size(), c.size()));
     if (d < best_score) {
       best_score = d;
-      best = candidate;
+      best = {candidate};
+    } else if (d == best_score) {
+      best.push_back(candidate);
     }
   }
   return best;
@@ -112,11 +124,17 @@ void CheckKnownKeys(const json& j, const std::vector<std::string>& known,
   RequireObject(j, context);
   for (auto it = j.begin(); it != j.end(); ++it) {
     if (std::find(known.begin(), known.end(), it.key()) != known.end()) continue;
-    const std::string nearest = NearestKey(it.key(), known);
-    std::string list;
+    const std::vector<std::string> nearest = NearestKeys(it.key(), known);
+    std::string list, suggestion;
     for (const auto& k : known) list += (list.empty() ? "" : ", ") + k;
+    for (size_t i = 0; i < nearest.size(); ++i) {
+      suggestion += StrCat(i == 0                    ? ""
+                           : i + 1 == nearest.size() ? " or "
+                                                     : ", ",
+                           "'", nearest[i], "'");
+    }
     throw Error(StrCat(context, ": unknown key ", Brief(json(it.key())),
-                       nearest.empty() ? "" : StrCat(" (did you mean '", nearest, "'?)"),
+                       nearest.empty() ? "" : StrCat(" (did you mean ", suggestion, "?)"),
                        "; known keys: ", list));
   }
 }

@@ -37,9 +37,10 @@ void CheckKnownKeys(const nlohmann::json& j, std::initializer_list<const char*> 
                     const std::string& context);
 void CheckKnownKeys(const nlohmann::json& j, const std::vector<std::string>& known,
                     const std::string& context);
-// The entry of `known` nearest to `key` by edit distance (case insensitive), or "" when none is
-// plausibly a misspelling of it.
-std::string NearestKey(const std::string& key, const std::vector<std::string>& known);
+// The entries of `known` that `key` plausibly misspells (case insensitive): every entry that
+// contains `key` when several do (a shortened key), else those nearest by edit distance; empty
+// when none is plausible.
+std::vector<std::string> NearestKeys(const std::string& key, const std::vector<std::string>& known);
 
 // Throws "<context>: expected a JSON object" unless j is an object.
 void RequireObject(const nlohmann::json& j, const std::string& context);

@@ -36,13 +36,20 @@ TEST(ReadJson, RefusesFilesOverTheSizeLimit) {
 }
 
 TEST(CheckKnownKeys, NamesUnknownKeyAndNearestKnownOne) {
+  // Issue 10's typo: "radius_mm" on a ring target shortens three keys; all three are named (by
+  // edit distance alone dot_radius_mm would be the only suggestion).
   const json j = {{"rows", 7}, {"radius_mm", 5.0}};
   const std::string msg = ErrorOf([&] {
-    CheckKnownKeys(j, {"rows", "outer_radius_mm", "inner_radius_mm"}, "t.json");
+    CheckKnownKeys(j, {"rows", "outer_radius_mm", "inner_radius_mm", "dot_radius_mm"}, "t.json");
   });
-  EXPECT_NE(msg.find("t.json: unknown key \"radius_mm\" (did you mean 'outer_radius_mm'?)"),
+  EXPECT_NE(msg.find("t.json: unknown key \"radius_mm\" (did you mean 'outer_radius_mm', "
+                     "'inner_radius_mm' or 'dot_radius_mm'?)"),
             std::string::npos)
       << msg;
+  const std::string one = ErrorOf([] {
+    CheckKnownKeys(json{{"outer_radius", 1}}, {"outer_radius_mm", "inner_radius_mm"}, "t");
+  });
+  EXPECT_NE(one.find("(did you mean 'outer_radius_mm'?)"), std::string::npos) << one;
   const std::string typo = ErrorOf([] {
     CheckKnownKeys(json{{"spacng_mm", 1}}, {"spacing_mm"}, "t");
   });

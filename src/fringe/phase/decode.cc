@@ -557,6 +557,7 @@ nlohmann::json SummaryToJson(const DecodeSummary& s) {
     for (const ExposureFigures& e : s.exposures) {
       exposures.push_back({{"valid", e.valid},
                            {"chosen", e.chosen},
+                           {"orders_repaired", e.orders_repaired},
                            {"min_modulation_dn", e.min_modulation_dn},
                            {"noise_sigma_dn", e.noise_sigma_dn},
                            {"gain", e.gain}});
@@ -746,6 +747,38 @@ double JumpFraction(const cv::Mat& absolute_phase, const cv::Mat& mask, double p
   return counted ? static_cast<double>(jumps) / counted : 0.0;
 }
 
+namespace {
+
+// Why pixels were rejected, in words, when it is not the usual shadow and background: from the
+// summary's counts, threshold and noise (one decode, or the combination of several exposures).
+std::string RejectionNotes(const DecodeSummary& sum, bool threshold_given) {
+  std::vector<std::string> notes;
+  if (sum.valid == 0) notes.push_back("no pixel passed the quality mask");
+  if (sum.threshold_bounded) {
+    notes.push_back(StrCat("the automatic modulation threshold was bounded to ",
+                           sum.min_modulation_dn, " DN (", kMaxModulationThresholdFraction,
+                           " of full scale): the scheme's unwrapping margin is too small for "
+                           "the noise"));
+  }
+  const int64_t rejected = sum.pixels - sum.valid;
+  if (rejected > 0 && sum.rejected_low_modulation > rejected / 2) {
+    notes.push_back(StrCat("most rejected pixels have a fringe modulation below ",
+                           sum.min_modulation_dn, " DN (",
+                           threshold_given ? "given" : sum.noise.message, ")"));
+  }
+  if (rejected > 0 && sum.rejected_saturated > rejected / 2) {
+    notes.push_back(
+        StrCat("most rejected pixels are saturated in a phase-shift image",
+               sum.exposures.empty() ? "" : " in every exposure", ": lower the exposure or add ",
+               sum.exposures.empty() ? "one" : "a shorter one"));
+  }
+  std::string message;
+  for (const auto& n : notes) message += (message.empty() ? "" : "; ") + n;
+  return message;
+}
+
+}  // namespace
+
 void Decode(const PatternScheme& scheme, const std::vector<cv::Mat>& images,
             const DecodeOptions& options, DecodeResult* result) {
   util::Timer timer;
@@ -819,6 +852,7 @@ void Decode(const PatternScheme& scheme, const std::vector<cv::Mat>& images,
   result->mask.create(size, CV_8U);
   result->reason.create(size, CV_8U);
   result->exposure.release();
+  result->repaired_px.clear();
   std::vector<std::array<int64_t, 6>> row_counts(size.height);
 
   std::array<float, kMaxSets> periods{}, stack_weight{};
@@ -910,33 +944,13 @@ void Decode(const PatternScheme& scheme, const std::vector<cv::Mat>& images,
           --sum.valid;
         } else {
           ++sum.orders_repaired;
+          result->repaired_px.emplace_back(c, r);
         }
       }
     }
   }
-  // Why pixels were rejected, in words, when it is not the usual shadow and background.
-  std::vector<std::string> notes;
-  if (bounded) {
-    notes.push_back(StrCat("the automatic modulation threshold was bounded to ", b_min, " DN (",
-                           kMaxModulationThresholdFraction,
-                           " of full scale): the scheme's unwrapping margin is too small for "
-                           "the noise"));
-  }
-  const int64_t rejected = sum.pixels - sum.valid;
-  if (rejected > 0 && sum.rejected_low_modulation > rejected / 2) {
-    notes.push_back(StrCat("most rejected pixels have a fringe modulation below ", b_min, " DN (",
-                           options.min_modulation_dn > 0 ? "given" : noise.message, ")"));
-  }
-  if (rejected > 0 && sum.rejected_saturated > rejected / 2) {
-    notes.push_back(
-        "most rejected pixels are saturated in a phase-shift image: lower the "
-        "exposure or add one");
-  }
-  if (sum.valid == 0) {
-    sum.status = DecodeStatus::kNoValidPixels;
-    notes.insert(notes.begin(), "no pixel passed the quality mask");
-  }
-  for (const auto& n : notes) sum.message += (sum.message.empty() ? "" : "; ") + n;
+  if (sum.valid == 0) sum.status = DecodeStatus::kNoValidPixels;
+  sum.message = RejectionNotes(sum, options.min_modulation_dn > 0);
   sum.time_ms = timer.ElapsedMs();
 }
 
@@ -1040,10 +1054,22 @@ DecodeResult DecodeExposures(const PatternScheme& scheme,
   size_t main = 0;
   for (size_t e = 0; e < stacks.size(); ++e) {
     const DecodeSummary& s = each[e].summary;
-    sum.orders_repaired += s.orders_repaired;
-    sum.exposures.push_back({s.valid, supplied[e], s.min_modulation_dn, s.noise.sigma_dn});
+    sum.exposures.push_back(
+        {s.valid, supplied[e], s.orders_repaired, s.min_modulation_dn, s.noise.sigma_dn});
     if (supplied[e] > supplied[main]) main = e;
   }
+  // Repaired orders of the combination: a pixel counts when the exposure that supplied it
+  // repaired it (not when another exposure did, and once however many did), so that the
+  // scheme-mismatch warning compares like with like (repairs over the combination's pixels).
+  for (size_t e = 0; e < stacks.size(); ++e) {
+    for (const cv::Point& p : each[e].repaired_px) {
+      if (out.exposure.at<uint8_t>(p) == static_cast<uint8_t>(e)) out.repaired_px.push_back(p);
+    }
+  }
+  std::sort(
+      out.repaired_px.begin(), out.repaired_px.end(),
+      [](const cv::Point& a, const cv::Point& b) { return a.y != b.y ? a.y < b.y : a.x < b.x; });
+  sum.orders_repaired = static_cast<int64_t>(out.repaired_px.size());
   // Gains relative to the main exposure (a linear sensor's exposure ratio), from every 2nd pixel
   // of every 2nd row valid in both; then the maps of other exposures' pixels on its scale.
   constexpr size_t kMinGainPixels = 100;
@@ -1086,11 +1112,12 @@ DecodeResult DecodeExposures(const PatternScheme& scheme,
                     sum.exposures[e].chosen, " gain ",
                     gain[e] > 0 ? StrCat(gain[e]) : std::string("unknown"));
   }
-  sum.message = StrCat(stacks.size(), " exposures combined (", parts, ")");
-  if (sum.valid == 0) {
-    sum.status = DecodeStatus::kNoValidPixels;
-    sum.message = "no pixel passed the quality mask in any exposure; " + sum.message;
-  }
+  if (sum.valid == 0) sum.status = DecodeStatus::kNoValidPixels;
+  // The notes on the combination's counts (e.g. saturated in every exposure), then what each
+  // exposure gave.
+  const std::string notes = RejectionNotes(sum, options.min_modulation_dn > 0);
+  sum.message = StrCat(notes, notes.empty() ? "" : "; ", stacks.size(), " exposures combined (",
+                       parts, ")");
   sum.time_ms = timer.ElapsedMs();
   return out;
 }

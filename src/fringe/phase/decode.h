@@ -144,6 +144,7 @@ enum class PixelReason : uint8_t {
 struct ExposureFigures {
   int64_t valid = 0;             // pixels valid in this exposure's own decode
   int64_t chosen = 0;            // pixels the combination took from this exposure
+  int64_t orders_repaired = 0;   // fringe orders its own decode repaired (of every pixel)
   double min_modulation_dn = 0;  // its threshold
   double noise_sigma_dn = 0;     // its camera noise (given, estimated or assumed)
   // Its brightness relative to the main exposure (the one supplying most pixels; 1 for that):
@@ -170,10 +171,11 @@ struct DecodeSummary {
   NoiseEstimate noise;             // camera noise behind the automatic threshold
   double time_ms = 0;
   // Several exposures (DecodeExposures): one entry per exposure, in input order; empty for a
-  // single stack. The figures above then describe the combination: valid and the rejections
-  // per pixel (a pixel valid in no exposure counts under its reason in the unsaturated exposure
-  // of highest modulation, or as saturated), orders_repaired summed over the exposures'
-  // decodes, threshold / noise / full scale those of the exposure that supplied most pixels.
+  // single stack. The figures above then describe the combination, pixel by pixel: valid and
+  // the rejections (a pixel valid in no exposure counts under its reason in the unsaturated
+  // exposure of highest modulation, or as saturated), orders_repaired the pixels of the
+  // combination whose order the exposure they came from repaired (each pixel once); threshold /
+  // noise / full scale those of the exposure that supplied most pixels.
   std::vector<ExposureFigures> exposures;
 
   double ValidFraction() const { return pixels ? static_cast<double>(valid) / pixels : 0.0; }
@@ -193,6 +195,9 @@ struct DecodeResult {
   cv::Mat reason;          // CV_8U, PixelReason per pixel
   cv::Mat exposure;        // CV_8U, index of the exposure a pixel came from (DecodeExposures;
                            // empty for a single stack; 255 where invalid)
+  // Pixels (x = column, y = row) whose fringe order the spatial check repaired, in row-major
+  // order: summary.orders_repaired of them.
+  std::vector<cv::Point> repaired_px;
   DecodeSummary summary;
 };
 

@@ -541,6 +541,65 @@ TEST(Decode, ExposureGainPutsTheMapsOnOneScale) {
   EXPECT_EQ(both.summary.valid, both.summary.pixels);
 }
 
+// Repaired fringe orders of a combination count the combination's pixels, each once: the
+// scheme-mismatch warning compares them with the combination's valid pixels.
+TEST(Decode, ExposuresCountRepairedOrdersOfTheCombinedPixelsOnce) {
+  // Plain Gray code (no complementary bit) leaves order errors at period edges that the spatial
+  // check repairs, in every exposure.
+  PatternScheme s = MakeScheme("gray+4", 1280, 800);
+  s.gray_complementary = false;
+  const cv::Mat u = LinearProjectorMap(s, kSize);
+  SyntheticStackOptions dim, bright;
+  dim.modulation_dn = 50;
+  bright.modulation_dn = 80;  // higher B everywhere: the combination takes every pixel from it
+  dim.noise_sigma_dn = bright.noise_sigma_dn = 2;
+  bright.seed = 2;
+  const std::vector<cv::Mat> dim_stack = RenderSyntheticStack(s, u, dim);
+  const std::vector<cv::Mat> bright_stack = RenderSyntheticStack(s, u, bright);
+  const DecodeResult dim_only = Decode(s, dim_stack);
+  const DecodeResult bright_only = Decode(s, bright_stack);
+  ASSERT_GT(dim_only.summary.orders_repaired, 0);
+  ASSERT_GT(bright_only.summary.orders_repaired, 0);
+  EXPECT_EQ(static_cast<int64_t>(dim_only.repaired_px.size()), dim_only.summary.orders_repaired);
+
+  const DecodeResult both = DecodeExposures(s, {dim_stack, bright_stack});
+  SCOPED_TRACE(both.summary.BriefReport());
+  ASSERT_EQ(both.summary.exposures.size(), 2u);
+  EXPECT_EQ(both.summary.exposures[1].chosen, both.summary.valid);
+  // The bright exposure's repairs, not the sum of both exposures'.
+  EXPECT_EQ(both.summary.orders_repaired, bright_only.summary.orders_repaired);
+  EXPECT_EQ(both.summary.exposures[0].orders_repaired, dim_only.summary.orders_repaired);
+  EXPECT_EQ(both.summary.exposures[1].orders_repaired, bright_only.summary.orders_repaired);
+  EXPECT_EQ(Compare(s, both, u).wrong_orders, 0);
+  const nlohmann::json j = SummaryToJson(both.summary);
+  EXPECT_EQ(j.at("exposures").at(0).at("orders_repaired").get<int64_t>(),
+            dim_only.summary.orders_repaired);
+
+  // The same stack given twice is one decode: each repaired pixel counts once.
+  const DecodeResult twice = DecodeExposures(s, {dim_stack, dim_stack});
+  EXPECT_EQ(twice.summary.orders_repaired, dim_only.summary.orders_repaired);
+  EXPECT_EQ(twice.repaired_px, dim_only.repaired_px);
+}
+
+// Pixels saturated in every exposure are named as such in the combination's message.
+TEST(Decode, ExposuresSaturatedEverywhereAreExplained) {
+  const PatternScheme s = MakeScheme("heterodyne-4x3", 1280, 800);
+  const cv::Mat u = LinearProjectorMap(s, kSize);
+  SyntheticStackOptions so;
+  std::vector<cv::Mat> a = RenderSyntheticStack(s, u, so);
+  so.seed = 2;
+  std::vector<cv::Mat> b = RenderSyntheticStack(s, u, so);
+  const cv::Rect sat(0, 0, kSize.width, kSize.height * 3 / 4);
+  for (auto& im : a) im(sat).setTo(255);
+  for (auto& im : b) im(sat).setTo(255);
+  const DecodeResult both = DecodeExposures(s, {a, b});
+  EXPECT_EQ(both.summary.rejected_saturated, sat.area());
+  EXPECT_NE(both.summary.message.find("saturated in a phase-shift image in every exposure"),
+            std::string::npos)
+      << both.summary.message;
+  EXPECT_NE(both.summary.message.find("2 exposures combined"), std::string::npos);
+}
+
 TEST(Gamma, RippleIsMeasurableAndRemovedByCompensation) {
   // 4-step and 3-step decoding under gamma 2.2: uncompensated error well above the gamma-free
   // error; pre-compensated patterns, or the decoder's table, within 10 % of it (issue 4).

@@ -7,9 +7,7 @@
 #include <cmath>
 #include <cstring>
 
-#include "fringe/phase/decode.h"
-#include "fringe/phase/pattern_scheme.h"
-#include "fringe/phase/synthetic.h"
+#include "fringe/stereo/test_low_gradient.h"
 #include "fringe/stereo/test_scene.h"
 #include "fringe/util/error.h"
 
@@ -205,88 +203,9 @@ TEST(PhaseMatching, WrongImageSizeThrows) {
   EXPECT_THROW(MatchPhase(rig, Ph(small), Ph(small)), Error);
 }
 
-// The reference rig's cameras at 1/4 resolution and its projector at 1/10: on the plane below
-// the cameras sample the projector at 0.2-0.35 projector pixels per pixel (a finer camera or a
-// coarser projector than the reference rig), the situation of real captures where the phase
-// advances by less than its noise between some neighbouring pixels.
-StereoRig LowGradientRig() {
-  StereoRig rig = testing::ScaledReferenceRig(kRigScale);
-  rig.projector = testing::ScaleCamera(*StereoRig::Reference().projector, 0.1);
-  return rig;
-}
-
-// Renders the gray+4 fringe stack a camera sees for the projector columns `u` (NaN: unlit,
-// which gets a flat grey without fringes) with camera noise sigma_dn and decodes it.
-PhaseImage DecodedView(const phase::PatternScheme& scheme, const cv::Mat& u, double modulation_dn,
-                       double sigma_dn, uint64_t seed) {
-  cv::Mat lit = u == u;  // not NaN
-  cv::Mat u_filled = u.clone();
-  u_filled.setTo(0, ~lit);
-  phase::SyntheticStackOptions so;
-  so.modulation_dn = modulation_dn;
-  so.noise_sigma_dn = sigma_dn;
-  so.seed = seed;
-  auto images = phase::RenderSyntheticStack(scheme, u_filled, so);
-  for (auto& im : images) im.setTo(so.background_dn, ~lit);
-  phase::DecodeOptions opt;
-  opt.noise_sigma_dn = sigma_dn;
-  const phase::DecodeResult d = phase::Decode(scheme, images, opt);
-  PhaseImage p;
-  p.phase = d.absolute_phase;
-  p.mask = d.mask;
-  p.modulation = d.modulation;
-  return p;
-}
-
-// Fringe modulation of the low-gradient view: with sigma 1.5 DN and the gray+4 period of 32
-// projector px the phase noise is 0.07 projector px, a quarter of the phase step per pixel.
-constexpr double kLowGradientModulationDn = 80;
-
-struct LowGradientCase {
-  StereoRig rig;
-  phase::PatternScheme scheme;
-  testing::TrueView left_truth;
-  PhaseImage left, right;
-};
-
-LowGradientCase MakeLowGradientCase(double modulation_dn, double sigma_dn) {
-  LowGradientCase c;
-  c.rig = LowGradientRig();
-  c.scheme = phase::MakeScheme("gray+4", c.rig.projector->width, c.rig.projector->height);
-  Scene scene;
-  scene.planes.push_back({Eigen::Vector3d(0.25, -0.1, -1).normalized(), -480});
-  c.left_truth = testing::TraceView(c.rig, scene, false);
-  const auto right_truth = testing::TraceView(c.rig, scene, true);
-  c.left = DecodedView(c.scheme, c.left_truth.phase, modulation_dn, sigma_dn, 101);
-  c.right = DecodedView(c.scheme, right_truth.phase, modulation_dn, sigma_dn, 202);
-  return c;
-}
-
-// Valid left pixels whose true surface point the right camera sees (2 px inside its image) as
-// a valid pixel: the pixels a matcher should match. *matched: how many of them have a point.
-int EligiblePixels(const LowGradientCase& c, const MatchResult& m, int* matched) {
-  int n = 0;
-  *matched = 0;
-  for (int r = 0; r < c.rig.left.height; ++r) {
-    for (int col = 0; col < c.rig.left.width; ++col) {
-      if (!c.left.mask.at<uint8_t>(r, col)) continue;
-      const Eigen::Vector3d& p = c.left_truth.p_in_left[c.left_truth.phase.cols * r + col];
-      if (!p.allFinite()) continue;
-      const Eigen::Vector2d q = c.rig.right.Project(c.rig.right_from_left * p);
-      if (q.x() < 2 || q.y() < 2 || q.x() > c.rig.right.width - 3 ||
-          q.y() > c.rig.right.height - 3) {
-        continue;
-      }
-      if (!c.right.mask.at<uint8_t>(static_cast<int>(std::lround(q.y())),
-                                    static_cast<int>(std::lround(q.x())))) {
-        continue;
-      }
-      ++n;
-      *matched += m.cloud.valid[m.cloud.index(col, r)];
-    }
-  }
-  return n;
-}
+// The low-gradient view (test_low_gradient.h) on the quarter-size rig: 320x256 cameras, a
+// 128x80 projector.
+constexpr double kLowGradientCameraScale = 0.25;
 
 TEST(PhaseMatching, LowPhaseGradientKeepsCoverage) {
   // Issue 10: with 0.2-0.35 projector px per camera pixel and sigma 1.5 DN, runs whose first
@@ -299,25 +218,18 @@ TEST(PhaseMatching, LowPhaseGradientKeepsCoverage) {
   // A wrong crossing would be many pixels off.
   constexpr double kMaxRmsPointErrorMm = 1.5;
   constexpr double kMaxPointErrorMm = 8.0;
-  const LowGradientCase c = MakeLowGradientCase(kLowGradientModulationDn, 1.5);
+  const testing::LowGradientCase c =
+      testing::MakeLowGradientCase(kLowGradientCameraScale, testing::kLowGradientModulationDn, 1.5);
   // The premise: the phase advances by 0.2-0.35 projector px per left pixel.
-  std::vector<float> gradient;
-  for (int r = 0; r < c.rig.left.height; r += 8) {
-    for (int col = 0; col + 1 < c.rig.left.width; col += 8) {
-      const float a = c.left_truth.phase.at<float>(r, col),
-                  b = c.left_truth.phase.at<float>(r, col + 1);
-      if (std::isfinite(a) && std::isfinite(b)) gradient.push_back(b - a);
-    }
-  }
+  const std::vector<float> gradient = testing::TruePhaseSteps(c);
   ASSERT_GT(gradient.size(), 100u);
-  std::sort(gradient.begin(), gradient.end());
   EXPECT_GT(gradient[gradient.size() / 20], 0.2f);
   EXPECT_LT(gradient[gradient.size() * 19 / 20], 0.35f);
 
   const MatchResult m = MatchPhase(c.rig, c.left, c.right);
   SCOPED_TRACE(m.summary.BriefReport());
   int matched = 0;
-  const int eligible = EligiblePixels(c, m, &matched);
+  const int eligible = testing::EligiblePixels(c, m, &matched);
   ASSERT_GT(eligible, c.rig.left.width * c.rig.left.height / 2);
   EXPECT_GE(static_cast<double>(matched) / eligible, kMinCoverage);
   EXPECT_LT(static_cast<double>(m.summary.lr_inconsistent) / m.summary.left_valid,
@@ -331,7 +243,8 @@ TEST(PhaseMatching, LowPhaseGradientKeepsCoverage) {
 TEST(PhaseMatching, MatchesDoNotDependOnThePhaseScale) {
   // Doubling every phase (as if the projector had twice the pixels) must give the same matches;
   // the projector check reads phase as a projector column, so it is off here.
-  const LowGradientCase c = MakeLowGradientCase(kLowGradientModulationDn, 1.5);
+  const testing::LowGradientCase c =
+      testing::MakeLowGradientCase(kLowGradientCameraScale, testing::kLowGradientModulationDn, 1.5);
   MatchingOptions options;
   options.max_projector_error_px = 0;
   const MatchResult m1 = MatchPhase(c.rig, c.left, c.right, options);

@@ -109,6 +109,8 @@ struct MapMarker {
   Eigen::Vector3d normal_in_world = Eigen::Vector3d::UnitZ();
   double outer_radius_mm = 0;
   double sigma_mm = 0;
+  // The centre's covariance (world frame, mm^2): the sightings' information summed, inverted.
+  Eigen::Matrix3d covariance_in_world = Eigen::Matrix3d::Zero();
   struct Sighting {
     int view = 0;         // index into RegistrationResult::views
     int view_marker = 0;  // index into that view's markers

@@ -68,6 +68,7 @@ RegistrationView ReadRegistrationView(const std::filesystem::path& ply, double s
           m.centre_in_sensor *= scale_to_mm;
           m.outer_radius_mm *= scale_to_mm;
           m.sigma_mm *= scale_to_mm;
+          m.covariance_mm2 *= scale_to_mm * scale_to_mm;
         }
       }
     }

@@ -32,7 +32,8 @@
 // Usage: bench_registration [--json] [--views 8] [--scale 1] [--noise 1.5] [--seed 1]
 //                           [--bunny DIR] [--no-bunny] [--cache DIR] [--no-open3d]
 //                           [--icp-points N...] [--icp-degeneracy R] [--no-adjustment]
-//                           [--no-icp]
+//                           [--no-icp] [--icp-shrink-within-level 0|1]
+//                           [--icp-normal-space 0|1] [--icp-step-sigmas S]
 // --cache DIR keeps the reconstructed views (organized PLY + markers file per view, and the
 // marker-match counts) and reuses them on the next run with the same arguments: registration
 // experiments then skip the minutes of simulation. The PLY stores float coordinates (~6e-5 mm).
@@ -257,6 +258,15 @@ int Run(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--icp-degeneracy", options.icp.degeneracy_ratio,
                  "ICP directions weaker than this x the strongest stay at the marker poses")
+      ->capture_default_str();
+  app.add_option("--icp-shrink-within-level", options.icp.shrink_within_level,
+                 "ICP threshold shrinks after every iteration (1) or once per level (0)")
+      ->capture_default_str();
+  app.add_option("--icp-normal-space", options.icp.normal_space_sampling,
+                 "ICP samples in normal-space order (1) or uniformly (0)")
+      ->capture_default_str();
+  app.add_option("--icp-step-sigmas", options.icp.convergence_step_sigmas,
+                 "ICP level converged when a step is below this many sigmas of the estimate")
       ->capture_default_str();
   app.add_flag("--no-adjustment", no_adjustment, "Skip the global marker adjustment");
   bool no_icp = false;

@@ -502,6 +502,11 @@ std::vector<ViewMarker> ViewMarkersFromJson(const json& j, const std::string& ct
     if (m.sigma_mm < 0) throw Error(c + ".sigma_mm: must be >= 0");
     if (e.contains("covariance_mm2")) {
       const std::vector<double> v = io::GetNumbers(e, "covariance_mm2", 6, c);
+      // Bounded before any arithmetic: a centre uncertain by a metre is no marker, and larger
+      // entries would overflow the eigen-decomposition below.
+      for (double x : v) {
+        if (std::abs(x) > 1e6) throw Error(c + ".covariance_mm2: entry beyond 1e6 mm^2");
+      }
       m.covariance_mm2 << v[0], v[1], v[2], v[1], v[3], v[4], v[2], v[4], v[5];
       const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(m.covariance_mm2);
       // Rounding in the written digits may leave a tiny negative eigenvalue; more is no

@@ -276,6 +276,11 @@ TEST(ViewMarkersFile, MalformedFilesNameTheProblem) {
       "0, -1], \"left_px\": [1, 2], \"right_px\": [1, 2], \"outer_radius_mm\": 2.5, "
       "\"sigma_mm\": 0.1, \"covariance_mm2\": [1, 0, 0, -1, 0, 1]}]}",
       "covariance_mm2");
+  expect_error(
+      "{\"markers\": [{\"id\": 0, \"centre_in_sensor\": [0, 0, 500], \"normal_in_sensor\": [0, "
+      "0, -1], \"left_px\": [1, 2], \"right_px\": [1, 2], \"outer_radius_mm\": 2.5, "
+      "\"sigma_mm\": 0.1, \"covariance_mm2\": [1e300, 0, 0, 1e300, 0, 1e300]}]}",
+      "covariance_mm2");
   expect_error("{\"markers\": [", "invalid JSON");
   std::filesystem::remove(path);
 }

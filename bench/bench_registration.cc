@@ -32,6 +32,8 @@
 // Usage: bench_registration [--json] [--views 8] [--scale 1] [--noise 1.5] [--seed 1]
 //                           [--bunny DIR] [--no-bunny] [--cache DIR] [--no-open3d]
 //                           [--icp-points N...] [--icp-degeneracy R] [--no-adjustment]
+//                           [--no-icp] [--icp-shrink-within-level 0|1]
+//                           [--icp-normal-space 0|1] [--icp-step-sigmas S]
 // --cache DIR keeps the reconstructed views (organized PLY + markers file per view, and the
 // marker-match counts) and reuses them on the next run with the same arguments: registration
 // experiments then skip the minutes of simulation. The PLY stores float coordinates (~6e-5 mm).
@@ -48,6 +50,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <random>
 #include <sstream>
@@ -131,6 +134,31 @@ PoseStats Errors(const std::vector<Rigid3d>& est, const std::vector<Rigid3d>& tr
   s.rms_trans_mm = std::sqrt(s.rms_trans_mm / std::max(1, n));
   return s;
 }
+
+// Detected marker centres against the truth, split along the left camera's viewing ray (the
+// triangulation's depth direction) and across it; sigma_ratio = RMS error / RMS predicted sigma.
+struct MarkerCentreErrors {
+  double ss = 0, ss_depth = 0, sum_depth = 0, ss_lateral = 0, ss_sigma = 0;
+  int n = 0;
+  void Add(const Vector3d& error, const Vector3d& true_centre, double sigma_mm) {
+    const Vector3d ray = true_centre.normalized();
+    const double depth = error.dot(ray);
+    ss += error.squaredNorm();
+    ss_depth += depth * depth;
+    sum_depth += depth;
+    ss_lateral += (error - depth * ray).squaredNorm();
+    ss_sigma += sigma_mm * sigma_mm;
+    ++n;
+  }
+  nlohmann::json ToJson() const {
+    const double k = 1.0 / std::max(1, n);
+    return {{"marker_centre_rms_mm", std::sqrt(ss * k)},
+            {"marker_depth_rms_mm", std::sqrt(ss_depth * k)},
+            {"marker_depth_bias_mm", sum_depth * k},
+            {"marker_lateral_rms_mm", std::sqrt(ss_lateral * k)},
+            {"marker_sigma_ratio", std::sqrt(ss / std::max(1e-30, ss_sigma))}};
+  }
+};
 
 std::shared_ptr<open3d::geometry::PointCloud> ToOpen3d(const PointCloud& c, const Rigid3d& pose) {
   auto o = std::make_shared<open3d::geometry::PointCloud>();
@@ -231,7 +259,18 @@ int Run(int argc, char** argv) {
   app.add_option("--icp-degeneracy", options.icp.degeneracy_ratio,
                  "ICP directions weaker than this x the strongest stay at the marker poses")
       ->capture_default_str();
+  app.add_option("--icp-shrink-within-level", options.icp.shrink_within_level,
+                 "ICP threshold shrinks after every iteration (1) or once per level (0)")
+      ->capture_default_str();
+  app.add_option("--icp-normal-space", options.icp.normal_space_sampling,
+                 "ICP samples in normal-space order (1) or uniformly (0)")
+      ->capture_default_str();
+  app.add_option("--icp-step-sigmas", options.icp.convergence_step_sigmas,
+                 "ICP level converged when a step is below this many sigmas of the estimate")
+      ->capture_default_str();
   app.add_flag("--no-adjustment", no_adjustment, "Skip the global marker adjustment");
+  bool no_icp = false;
+  app.add_flag("--no-icp", no_icp, "Skip the ICP (marker stages only; icp_* = adjusted)");
   app.add_flag("--no-open3d", no_open3d, "Skip the Open3D comparison");
   app.add_option("--cache", cache_dir,
                  "Keep the reconstructed views here and reuse them (same arguments only)");
@@ -308,7 +347,34 @@ int Run(int argc, char** argv) {
   const double sim_s = sim_timer.ElapsedSeconds();
   const std::vector<Rigid3d>& truth = simulator.view_poses();
 
+  // Every detected marker's true identity: the scene marker whose centre (moved into the view's
+  // sensor frame by the true pose) lies within 1 mm, else -1 (a wrong stereo match or a blob
+  // that is no marker). From the scene, so cached views are checked the same way.
+  const std::vector<sim::Marker>& scene_markers = simulator.scene().markers();
+  std::vector<std::vector<int>> truth_id(views_n);
+  MarkerCentreErrors centre_errors;
+  for (int v = 0; v < views_n; ++v) {
+    const Rigid3d sensor_from_world = truth[v].Inverse();
+    for (const registration::ViewMarker& m : views[v].markers) {
+      int id = -1;
+      double best = 1.0;
+      Vector3d true_centre = Vector3d::Zero();
+      for (const sim::Marker& t : scene_markers) {
+        const Vector3d c = sensor_from_world * t.centre_in_world;
+        const double d = (c - m.centre_in_sensor).norm();
+        if (d < best) {
+          best = d;
+          id = t.id;
+          true_centre = c;
+        }
+      }
+      truth_id[v].push_back(id);
+      if (id >= 0) centre_errors.Add(m.centre_in_sensor - true_centre, true_centre, m.sigma_mm);
+    }
+  }
+
   options.adjust_markers = !no_adjustment;
+  options.refine_icp = !no_icp;
   options.Check();
   const registration::RegistrationResult r = registration::RegisterViews(views, options);
   std::vector<bool> placed(views_n);
@@ -364,6 +430,23 @@ int Run(int argc, char** argv) {
     o3d_ms_s += t2.ElapsedSeconds();
   }
   const PoseStats eo = Errors(o3d_est, truth, clouds, placed);
+
+  // Distance-invariance matching against the truth: every sighting after a map marker's first
+  // is a correspondence the matcher made (view marker -> map marker); it is correct when both
+  // carry the same true identity. "missed": two map markers of one true marker (a shared
+  // marker the matcher left out; not wrong, but it weakens the map).
+  int di_pairs = 0, di_correct = 0, di_missed = 0;
+  std::map<int, int> map_markers_of_truth;
+  for (const registration::MapMarker& m : r.map) {
+    if (m.sightings.empty()) continue;
+    const int first = truth_id[m.sightings[0].view][m.sightings[0].view_marker];
+    if (first >= 0 && ++map_markers_of_truth[first] > 1) ++di_missed;
+    for (size_t k = 1; k < m.sightings.size(); ++k) {
+      ++di_pairs;
+      di_correct +=
+          first >= 0 && truth_id[m.sightings[k].view][m.sightings[k].view_marker] == first;
+    }
+  }
   const PoseStats eom = Errors(o3d_ms_est, truth, clouds, placed);
 
   nlohmann::json j = {
@@ -376,6 +459,10 @@ int Run(int argc, char** argv) {
       {"paths", nlohmann::json::array()},
       {"markers_detected", detected},
       {"marker_match_rate", detected > 0 ? static_cast<double>(correct) / detected : 0.0},
+      {"distance_invariance_pairs", di_pairs},
+      {"distance_invariance_match_rate",
+       di_pairs > 0 ? static_cast<double>(di_correct) / di_pairs : 0.0},
+      {"distance_invariance_missed", di_missed},
       {"marker_rot_err_deg", em.max_rot_deg},
       {"marker_trans_err_mm", em.max_trans_mm},
       {"marker_rms_rot_err_deg", em.rms_rot_deg},
@@ -400,6 +487,7 @@ int Run(int argc, char** argv) {
       {"register_s", r.summary.seconds},
       {"simulate_reconstruct_s", sim_s},
       {"icp", r.summary.icp.BriefReport()}};
+  j.update(centre_errors.ToJson());
   for (const auto& v : r.views) {
     j["paths"].push_back(registration::ToString(v.path));
     j["view_messages"].push_back(v.message);

@@ -3,6 +3,7 @@
 #include <ceres/ceres.h>
 #include <ceres/rotation.h>
 
+#include <Eigen/Dense>
 #include <Eigen/Geometry>
 #include <cmath>
 
@@ -44,18 +45,36 @@ std::string AdjustmentSummary::BriefReport() const {
 namespace {
 
 struct SightingCost {
-  SightingCost(const Eigen::Vector3d& x, double sigma) : x_(x), inv_sigma_(1.0 / sigma) {}
+  // sqrt_info: L^T with L L^T = C^-1 (so that |L^T e|^2 = e^T C^-1 e).
+  SightingCost(const Eigen::Vector3d& x, const Eigen::Matrix3d& sqrt_info)
+      : x_(x), sqrt_info_(sqrt_info) {}
   template <typename T>
   bool operator()(const T* aa, const T* t, const T* marker, T* residual) const {
-    const T x[3] = {T(x_.x()), T(x_.y()), T(x_.z())};
-    T p[3];
-    ceres::AngleAxisRotatePoint(aa, x, p);
-    for (int i = 0; i < 3; ++i) residual[i] = (p[i] + t[i] - marker[i]) * T(inv_sigma_);
+    // e_sensor = x - R^T (X - t): the sighting's error in its own sensor frame.
+    const T d[3] = {marker[0] - t[0], marker[1] - t[1], marker[2] - t[2]};
+    const T minus_aa[3] = {-aa[0], -aa[1], -aa[2]};
+    T back[3];
+    ceres::AngleAxisRotatePoint(minus_aa, d, back);
+    T e[3];
+    for (int i = 0; i < 3; ++i) e[i] = T(x_[i]) - back[i];
+    for (int i = 0; i < 3; ++i) {
+      residual[i] =
+          T(sqrt_info_(i, 0)) * e[0] + T(sqrt_info_(i, 1)) * e[1] + T(sqrt_info_(i, 2)) * e[2];
+    }
     return true;
   }
   Eigen::Vector3d x_;
-  double inv_sigma_;
+  Eigen::Matrix3d sqrt_info_;
 };
+
+Eigen::Matrix3d SqrtInformation(const MarkerSighting& o) {
+  const Eigen::Matrix3d c =
+      o.covariance_in_sensor.isZero(0)
+          ? Eigen::Matrix3d(Eigen::Matrix3d::Identity() * o.sigma_mm * o.sigma_mm / 3)
+          : o.covariance_in_sensor;
+  const Eigen::LLT<Eigen::Matrix3d> llt(c.inverse());
+  return llt.matrixL().transpose();
+}
 
 void Residuals(const std::vector<Rigid3d>& poses, const std::vector<Eigen::Vector3d>& markers,
                const std::vector<MarkerSighting>& s, double* rms, double* max) {
@@ -84,8 +103,12 @@ AdjustmentResult AdjustMarkers(const std::vector<Rigid3d>& world_from_sensor,
     throw Error("AdjustMarkers: view_fixed needs one flag per view");
   }
   for (const MarkerSighting& o : sightings) {
+    const bool cov_ok =
+        o.covariance_in_sensor.isZero(0) ||
+        (o.covariance_in_sensor.allFinite() &&
+         Eigen::LLT<Eigen::Matrix3d>(o.covariance_in_sensor).info() == Eigen::Success);
     if (o.view < 0 || o.view >= nv || o.marker < 0 || o.marker >= nm || !(o.sigma_mm > 0) ||
-        !o.centre_in_sensor.allFinite()) {
+        !o.centre_in_sensor.allFinite() || !cov_ok) {
       throw Error(StrCat("AdjustMarkers: bad sighting (view ", o.view, ", marker ", o.marker,
                          ", sigma ", o.sigma_mm, ")"));
     }
@@ -118,7 +141,7 @@ AdjustmentResult AdjustMarkers(const std::vector<Rigid3d>& world_from_sensor,
   ceres::Problem problem;
   for (const MarkerSighting& o : sightings) {
     auto* cost = new ceres::AutoDiffCostFunction<SightingCost, 3, 3, 3, 3>(
-        new SightingCost(o.centre_in_sensor, o.sigma_mm));
+        new SightingCost(o.centre_in_sensor, SqrtInformation(o)));
     problem.AddResidualBlock(cost, new ceres::HuberLoss(options.huber_sigmas), aa[o.view].data(),
                              t[o.view].data(), X[o.marker].data());
   }

@@ -3,7 +3,9 @@
 //
 // Unknowns: world_from_sensor of each view (angle-axis + translation) and the world position of
 // each marker. Residual per observation (view v saw marker k at x in its sensor frame with
-// 1-sigma uncertainty s): (world_from_sensor_v * x - X_k) / s, three components. Solved with
+// covariance C): L^T R_v^T (world_from_sensor_v * x - X_k) with L L^T = C^-1, three components
+// (whitened in the sensor frame, where C is known: a triangulated centre is several times less
+// certain along its viewing ray than across it). Solved with
 // Ceres (sparse normal Cholesky when available, else dense QR), with a Huber loss at
 // huber_sigmas so that a wrong or disturbed observation cannot pull the map. Fixed views (the
 // world view) hold the gauge.
@@ -25,6 +27,9 @@ struct MarkerSighting {
   int marker = 0;  // index into the map
   Eigen::Vector3d centre_in_sensor = Eigen::Vector3d::Zero();
   double sigma_mm = 0.05;  // > 0
+  // Full covariance of centre_in_sensor (mm^2, positive definite), or zero: sigma_mm^2 / 3 in
+  // every direction.
+  Eigen::Matrix3d covariance_in_sensor = Eigen::Matrix3d::Zero();
 };
 
 struct AdjustmentOptions {

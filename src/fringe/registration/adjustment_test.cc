@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <iostream>
 #include <random>
 
 #include "fringe/util/error.h"
@@ -83,6 +84,54 @@ TEST(AdjustMarkers, ClosesALoopWithInjectedDrift) {
               kClosedLoopRotTolDeg)
         << "view " << v;
   }
+}
+
+// Sightings far less certain along the sensor's viewing ray than across it, seen by views from
+// different directions: with the covariances the adjustment takes each coordinate from the
+// view that sees it across its ray; with scalar sigmas it averages the poor ones in.
+TEST(AdjustMarkers, FullCovariancesBeatScalarSigmasForRayElongatedNoise) {
+  constexpr double kAlongRayMm = 0.05, kAcrossRayMm = 0.005;
+  std::mt19937 rng(5);
+  std::normal_distribution<double> across(0, kAcrossRayMm), along(0, kAlongRayMm);
+  std::uniform_real_distribution<double> u(-60, 60);
+  std::vector<Eigen::Vector3d> markers;
+  for (int k = 0; k < 20; ++k) markers.emplace_back(u(rng), u(rng), 0.3 * u(rng));
+  std::vector<Rigid3d> truth;  // four views 60 deg apart around the part, 400 mm away
+  for (int v = 0; v < 4; ++v) {
+    const Rigid3d look = Rigid3d::FromAxisAngle(Eigen::Vector3d::UnitY(), (v - 1.5) * M_PI / 3);
+    truth.push_back(look * Rigid3d(Eigen::Quaterniond::Identity(), Eigen::Vector3d(0, 0, -400)));
+  }
+  std::vector<MarkerSighting> full;
+  for (int v = 0; v < 4; ++v) {
+    for (int k = 0; k < 20; ++k) {
+      MarkerSighting s;
+      s.view = v;
+      s.marker = k;
+      const Eigen::Vector3d c = truth[v].Inverse() * markers[k];
+      const Eigen::Vector3d ray = c.normalized(), a = ray.unitOrthogonal(), b = ray.cross(a);
+      s.centre_in_sensor = c + along(rng) * ray + across(rng) * a + across(rng) * b;
+      s.covariance_in_sensor =
+          kAlongRayMm * kAlongRayMm * ray * ray.transpose() +
+          kAcrossRayMm * kAcrossRayMm * (a * a.transpose() + b * b.transpose());
+      s.sigma_mm = std::sqrt(s.covariance_in_sensor.trace());
+      full.push_back(s);
+    }
+  }
+  std::vector<MarkerSighting> scalar = full;
+  for (MarkerSighting& s : scalar) s.covariance_in_sensor.setZero();
+  std::vector<bool> fixed = {true, false, false, false};
+  const AdjustmentResult rf = AdjustMarkers(truth, markers, full, fixed);
+  const AdjustmentResult rs = AdjustMarkers(truth, markers, scalar, fixed);
+  ASSERT_TRUE(rf.summary.ok()) << rf.summary.BriefReport();
+  ASSERT_TRUE(rs.summary.ok()) << rs.summary.BriefReport();
+  double ss_full = 0, ss_scalar = 0;
+  for (int k = 0; k < 20; ++k) {
+    ss_full += (rf.markers_in_world[k] - markers[k]).squaredNorm();
+    ss_scalar += (rs.markers_in_world[k] - markers[k]).squaredNorm();
+  }
+  std::cout << "marker RMS error " << std::sqrt(ss_full / 20) << " mm with covariances, "
+            << std::sqrt(ss_scalar / 20) << " mm with scalar sigmas\n";
+  EXPECT_LT(ss_full, 0.25 * ss_scalar);
 }
 
 TEST(AdjustMarkers, BadSightingThrows) {

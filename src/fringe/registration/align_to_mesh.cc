@@ -18,28 +18,9 @@ using util::StrCat;
 
 void MeshAlignOptions::Check() const {
   const char* o = "MeshAlignOptions";
-  util::CheckOption(!points_per_level.empty(), o, "points_per_level", points_per_level.size(),
-                    "needs at least one level");
-  for (int n : points_per_level) {
-    util::CheckOption(n >= 10, o, "points_per_level", n, "every level needs >= 10 points");
-  }
-  util::CheckOption(max_iterations_per_level >= 1, o, "max_iterations_per_level",
-                    max_iterations_per_level, "must be >= 1");
-  util::CheckOption(initial_threshold_mm > 0, o, "initial_threshold_mm", initial_threshold_mm,
-                    "must be > 0");
-  util::CheckOption(min_threshold_mm > 0 && min_threshold_mm <= initial_threshold_mm, o,
-                    "min_threshold_mm", min_threshold_mm, "must be in (0, initial_threshold_mm]");
-  util::CheckOption(shrink_factor > 0, o, "shrink_factor", shrink_factor, "must be > 0");
-  util::CheckOption(shrink_percentile > 0 && shrink_percentile <= 1, o, "shrink_percentile",
-                    shrink_percentile, "must be in (0, 1]");
+  IcpSchedule::Check(o);
   util::CheckOption(trim_fraction > 0 && trim_fraction <= 1, o, "trim_fraction", trim_fraction,
                     "must be in (0, 1]");
-  util::CheckOption(degeneracy_ratio >= 0 && degeneracy_ratio < 1, o, "degeneracy_ratio",
-                    degeneracy_ratio, "must be in [0, 1)");
-  util::CheckOption(convergence_rotation_deg > 0, o, "convergence_rotation_deg",
-                    convergence_rotation_deg, "must be > 0");
-  util::CheckOption(convergence_translation_mm > 0, o, "convergence_translation_mm",
-                    convergence_translation_mm, "must be > 0");
 }
 
 std::string MeshAlignResult::BriefReport() const {
@@ -96,136 +77,100 @@ MeshAlignResult AlignToMesh(const PointCloud& cloud, const eval::MeshDistance& m
     std::shuffle(order.begin(), order.end(), rng);
   }
   Rigid3d& pose = result.mesh_from_cloud;
-  double threshold = options.initial_threshold_mm;
-  bool all_converged = true;
-  for (size_t level = 0; level < options.points_per_level.size(); ++level) {
-    IcpLevelReport rep;
-    rep.level = static_cast<int>(level);
-    rep.points_per_view = std::min<int>(options.points_per_level[level], order.size());
-    rep.threshold_start_mm = threshold;
-    rep.overlapping_pairs = 1;
-    std::vector<double> last;
-    for (int it = 0; it < options.max_iterations_per_level; ++it) {
-      std::vector<Sample> s(rep.points_per_view);
-      tbb::parallel_for(0, rep.points_per_view, [&](int k) {
-        Sample& x = s[k];
-        x.p = pose * cloud.points[order[k]];
-        Vector3d q;
-        const double d = mesh.SignedDistance(x.p, threshold, &q);
-        if (!std::isfinite(d)) return;
-        const Vector3d e = x.p - q;
-        x.r = e.norm();
-        if (x.r > threshold) return;
-        // A point on the surface (to rounding) is matched with no residual and no direction.
-        if (x.r >= 1e-12) x.n = e / x.r;
-        x.ok = true;
-      });
-      std::vector<double> d;
-      for (const Sample& x : s) {
-        if (x.ok) d.push_back(x.r);
-      }
-      if (d.size() < 6) {
-        result.status = IcpStatus::kNoOverlap;
-        result.message = StrCat("only ", d.size(), " of ", s.size(), " samples lie within ",
-                                threshold, " mm of the mesh");
-        result.levels.push_back(rep);
-        result.seconds = timer.ElapsedSeconds();
-        return result;
-      }
-      const size_t keep = std::max<size_t>(6, std::floor(options.trim_fraction * d.size()));
-      double cut = threshold;
-      if (keep < d.size()) {
-        std::vector<double> sorted = d;
-        std::nth_element(sorted.begin(), sorted.begin() + (keep - 1), sorted.end());
-        cut = sorted[keep - 1];
-      }
-      Vector3d centroid = Vector3d::Zero();
-      int n = 0;
-      for (const Sample& x : s) {
-        if (x.ok && x.r <= cut) {
-          centroid += x.p;
-          ++n;
-        }
-      }
-      centroid /= n;
-      Eigen::Matrix<double, 6, 6> H = Eigen::Matrix<double, 6, 6>::Zero();
-      Eigen::Matrix<double, 6, 1> g = Eigen::Matrix<double, 6, 1>::Zero();
-      double ss = 0;
-      std::vector<double> kept;
-      for (const Sample& x : s) {
-        if (!x.ok || x.r > cut) continue;
-        kept.push_back(x.r);
-        if (x.n.isZero()) continue;  // on the surface: residual 0, no gradient
-        Eigen::Matrix<double, 6, 1> j;
-        j << (x.p - centroid).cross(x.n), x.n;
-        H += j * j.transpose();
-        g += j * x.r;
-        ss += x.r * x.r;
-      }
-      const double rms = std::sqrt(ss / n);
-      if (it == 0) rep.rms_start_mm = rms;
-      rep.rms_end_mm = rms;
-      rep.correspondences = n;
-      result.rms_mm = rms;
-      result.correspondences = n;
-      last.swap(kept);
-      if (ss == 0) {  // every kept sample lies on the surface: nothing left to move
-        rep.iterations = it + 1;
-        rep.converged = true;
-        break;
-      }
-      // Directions the kept points do not constrain (all on planes and cylinders sharing a
-      // direction) are not moved: eigen-decomposition of the normal matrix with the rotations
-      // scaled by the points' RMS lever, as in icp.cc.
-      double lever_sq = 0;
-      for (const Sample& x : s) {
-        if (x.ok && x.r <= cut) lever_sq += (x.p - centroid).squaredNorm();
-      }
-      const double lever = std::max(1.0, std::sqrt(lever_sq / n));
-      Eigen::Matrix<double, 6, 1> scale = Eigen::Matrix<double, 6, 1>::Ones();
-      scale.head<3>().setConstant(1.0 / lever);
-      const Eigen::Matrix<double, 6, 6> Hs = scale.asDiagonal() * H * scale.asDiagonal();
-      const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>> eig(Hs);
-      const double lmax = eig.eigenvalues().maxCoeff();
-      Eigen::Matrix<double, 6, 1> ds = Eigen::Matrix<double, 6, 1>::Zero();
-      int degenerate = 0;
-      for (int k = 0; k < 6; ++k) {
-        const double l = eig.eigenvalues()[k];
-        if (!(l > options.degeneracy_ratio * lmax)) {
-          ++degenerate;
-          continue;
-        }
-        ds -=
-            eig.eigenvectors().col(k) * (eig.eigenvectors().col(k).dot(scale.cwiseProduct(g)) / l);
-      }
-      rep.degenerate_directions = degenerate;
-      const Eigen::Matrix<double, 6, 1> delta = scale.cwiseProduct(ds);
-      const Vector3d w = delta.head<3>();
-      const double angle = w.norm();
-      const Rigid3d rot = angle > 0 ? Rigid3d::FromAxisAngle(w / angle, angle) : Rigid3d();
-      const Rigid3d step(rot.rotation(),
-                         centroid + delta.tail<3>() - rot.RotateDirection(centroid));
-      pose = step * pose;
-      rep.iterations = it + 1;
-      if (angle * 180 / M_PI < options.convergence_rotation_deg &&
-          delta.tail<3>().norm() < options.convergence_translation_mm) {
-        rep.converged = true;
-        break;
+  std::string no_overlap;
+  const auto iterate = [&](int points, double threshold, IcpLevelReport* rep) {
+    IcpIteration out;
+    const int ns = std::min<int>(points, order.size());
+    rep->points_per_view = ns;
+    rep->overlapping_pairs = 1;
+    std::vector<Sample> s(ns);
+    tbb::parallel_for(0, ns, [&](int k) {
+      Sample& x = s[k];
+      x.p = pose * cloud.points[order[k]];
+      Vector3d q;
+      const double d = mesh.SignedDistance(x.p, threshold, &q);
+      if (!std::isfinite(d)) return;
+      const Vector3d e = x.p - q;
+      x.r = e.norm();
+      if (x.r > threshold) return;
+      // A point on the surface (to rounding) is matched with no residual and no direction.
+      if (x.r >= 1e-12) x.n = e / x.r;
+      x.ok = true;
+    });
+    std::vector<double> d;
+    for (const Sample& x : s) {
+      if (x.ok) d.push_back(x.r);
+    }
+    if (d.size() < 6) {
+      no_overlap = StrCat("only ", d.size(), " of ", s.size(), " samples lie within ", threshold,
+                          " mm of the mesh");
+      return out;
+    }
+    out.overlap = true;
+    const size_t keep = std::max<size_t>(6, std::floor(options.trim_fraction * d.size()));
+    double cut = threshold;
+    if (keep < d.size()) {
+      std::vector<double> sorted = d;
+      std::nth_element(sorted.begin(), sorted.begin() + (keep - 1), sorted.end());
+      cut = sorted[keep - 1];
+    }
+    Vector3d centroid = Vector3d::Zero();
+    int n = 0;
+    for (const Sample& x : s) {
+      if (x.ok && x.r <= cut) {
+        centroid += x.p;
+        ++n;
       }
     }
-    if (!last.empty()) {
-      const size_t q =
-          std::min(last.size() - 1, static_cast<size_t>(options.shrink_percentile * last.size()));
-      std::nth_element(last.begin(), last.begin() + q, last.end());
-      threshold =
-          std::max(options.min_threshold_mm, std::min(threshold, options.shrink_factor * last[q]));
+    centroid /= n;
+    Eigen::MatrixXd H = Eigen::MatrixXd::Zero(6, 6);
+    Eigen::VectorXd g = Eigen::VectorXd::Zero(6);
+    double ss = 0, lever_sq = 0;
+    for (const Sample& x : s) {
+      if (!x.ok || x.r > cut) continue;
+      out.residuals_mm.push_back(x.r);
+      lever_sq += (x.p - centroid).squaredNorm();
+      if (x.n.isZero()) continue;  // on the surface: residual 0, no gradient
+      Eigen::Matrix<double, 6, 1> j;
+      j << (x.p - centroid).cross(x.n), x.n;
+      H += j * j.transpose();
+      g += j * x.r;
+      ss += x.r * x.r;
     }
-    rep.threshold_end_mm = threshold;
-    all_converged &= rep.converged;
-    result.levels.push_back(rep);
+    out.rms_mm = std::sqrt(ss / n);
+    rep->correspondences = n;
+    result.rms_mm = out.rms_mm;
+    result.correspondences = n;
+    if (ss == 0) return out;  // every kept sample lies on the surface: nothing left to move
+    // Directions the kept points do not constrain (all on planes and cylinders sharing a
+    // direction) are not moved.
+    const double lever = std::max(1.0, std::sqrt(lever_sq / n));
+    const IcpStep step = DegeneracyAwareStep(H, g, lever, options.degeneracy_ratio, out.rms_mm);
+    rep->degenerate_directions = step.degenerate;
+    out.step_sigmas = step.step_sigmas;
+    const Vector3d w = step.delta.head<3>();
+    const double angle = w.norm();
+    const Rigid3d rot = angle > 0 ? Rigid3d::FromAxisAngle(w / angle, angle) : Rigid3d();
+    pose =
+        Rigid3d(rot.rotation(), centroid + step.delta.tail<3>() - rot.RotateDirection(centroid)) *
+        pose;
+    out.step_rotation_deg = angle * 180 / M_PI;
+    out.step_translation_mm = step.delta.tail<3>().norm();
+    return out;
+  };
+  switch (RunIcpSchedule(options, iterate, &result.levels)) {
+    case IcpScheduleOutcome::kConverged:
+      result.status = IcpStatus::kOk;
+      break;
+    case IcpScheduleOutcome::kNotConverged:
+      result.status = IcpStatus::kNotConverged;
+      result.message = "a level stopped at its iteration limit";
+      break;
+    case IcpScheduleOutcome::kNoOverlap:
+      result.status = IcpStatus::kNoOverlap;
+      result.message = no_overlap;
+      break;
   }
-  result.status = all_converged ? IcpStatus::kOk : IcpStatus::kNotConverged;
-  if (!all_converged) result.message = "a level stopped at its iteration limit";
   result.seconds = timer.ElapsedSeconds();
   return result;
 }

@@ -8,9 +8,8 @@
 // (the gradient of the distance to the surface: the face normal inside a face, the right one
 // at edges and corners too, and no normals are needed on the cloud). Correspondences farther
 // than the threshold are rejected, then the worst (1 - trim_fraction); one Gauss-Newton step of
-// the 6 pose unknowns about the samples' centroid follows. Levels and threshold as in icp.h:
-// more samples per level, the threshold fixed within a level and min(previous, shrink_factor x
-// shrink_percentile of the residuals) after it, never below min_threshold_mm.
+// the 6 pose unknowns about the samples' centroid follows. Levels, threshold, step and
+// convergence: icp_schedule.h, the same schedule as the view-to-view ICP.
 //
 // Frames: cloud in its own frame, mesh in the reference frame; the result is mesh_from_cloud.
 // Millimetres. Deterministic for a seed, independent of the thread count (parallel search,
@@ -25,25 +24,25 @@
 #include "fringe/geometry/point_cloud.h"
 #include "fringe/geometry/rigid3.h"
 #include "fringe/registration/icp.h"
+#include "fringe/registration/icp_schedule.h"
 
 namespace fringe::registration {
 
-struct MeshAlignOptions {
-  std::vector<int> points_per_level = {2000, 8000, 30000};  // samples, coarse to fine, >= 10
-  int max_iterations_per_level = 30;                        // >= 1
-  double initial_threshold_mm = 5.0;                        // > 0
-  double min_threshold_mm = 0.02;                           // (0, initial_threshold_mm]
-  double shrink_factor = 5.0;                               // > 0
-  double shrink_percentile = 0.8;                           // (0, 1]
+// The schedule is icp_schedule.h's, the one every ICP of the project runs; the defaults differ
+// where the reference differs: a mesh is exact, so the threshold may shrink further, the
+// convergence limits are tighter and more iterations are allowed.
+struct MeshAlignOptions : IcpSchedule {
+  MeshAlignOptions() {
+    max_iterations_per_level = 30;
+    min_threshold_mm = 0.02;
+    degeneracy_ratio = 1e-6;
+    convergence_rotation_deg = 1e-5;
+    convergence_translation_mm = 1e-5;
+  }
   // Kept fraction after the threshold, (0, 1]. 1: the reference is exact, and trimming the
   // largest residuals of a plane-dominated part removes the few wall points that hold its
   // sliding directions while they still carry the slide.
   double trim_fraction = 1.0;
-  // Directions of the normal matrix below this fraction of the strongest are not moved (the
-  // kept points do not constrain them), [0, 1).
-  double degeneracy_ratio = 1e-6;
-  double convergence_rotation_deg = 1e-5;    // > 0
-  double convergence_translation_mm = 1e-5;  // > 0
   uint64_t seed = 1;
   void Check() const;
 };

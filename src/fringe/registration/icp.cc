@@ -21,32 +21,13 @@ using util::StrCat;
 
 void IcpOptions::Check() const {
   const char* o = "IcpOptions";
-  util::CheckOption(!points_per_level.empty(), o, "points_per_level", points_per_level.size(),
-                    "needs at least one level");
-  for (int n : points_per_level) {
-    util::CheckOption(n >= 10, o, "points_per_level", n, "every level needs >= 10 points");
-  }
-  util::CheckOption(max_iterations_per_level >= 1, o, "max_iterations_per_level",
-                    max_iterations_per_level, "must be >= 1");
-  util::CheckOption(initial_threshold_mm > 0, o, "initial_threshold_mm", initial_threshold_mm,
-                    "must be > 0");
-  util::CheckOption(min_threshold_mm > 0 && min_threshold_mm <= initial_threshold_mm, o,
-                    "min_threshold_mm", min_threshold_mm, "must be in (0, initial_threshold_mm]");
-  util::CheckOption(shrink_factor > 0, o, "shrink_factor", shrink_factor, "must be > 0");
-  util::CheckOption(shrink_percentile > 0 && shrink_percentile <= 1, o, "shrink_percentile",
-                    shrink_percentile, "must be in (0, 1]");
+  IcpSchedule::Check(o);
   util::CheckOption(trim_fraction > 0 && trim_fraction <= 1, o, "trim_fraction", trim_fraction,
                     "must be in (0, 1]");
   util::CheckOption(max_normal_angle_deg > 0 && max_normal_angle_deg <= 180, o,
                     "max_normal_angle_deg", max_normal_angle_deg, "must be in (0, 180]");
   util::CheckOption(min_overlap_fraction >= 0 && min_overlap_fraction < 1, o,
                     "min_overlap_fraction", min_overlap_fraction, "must be in [0, 1)");
-  util::CheckOption(degeneracy_ratio >= 0 && degeneracy_ratio < 1, o, "degeneracy_ratio",
-                    degeneracy_ratio, "must be in [0, 1)");
-  util::CheckOption(convergence_rotation_deg > 0, o, "convergence_rotation_deg",
-                    convergence_rotation_deg, "must be > 0");
-  util::CheckOption(convergence_translation_mm > 0, o, "convergence_translation_mm",
-                    convergence_translation_mm, "must be > 0");
 }
 
 const char* ToString(IcpStatus s) {
@@ -68,7 +49,9 @@ std::string IcpSummary::BriefReport() const {
                 l.converged ? "" : " (not converged)", ", threshold ", l.threshold_start_mm, " -> ",
                 l.threshold_end_mm, " mm, rms ", l.rms_start_mm, " -> ", l.rms_end_mm, " mm, ",
                 l.correspondences, " pairs of points over ", l.overlapping_pairs, " view pairs, ",
-                l.degenerate_directions, " degenerate directions");
+                l.degenerate_directions, " degenerate directions, last step ",
+                l.last_step_rotation_deg, " deg / ", l.last_step_translation_mm, " mm (",
+                l.last_step_sigmas, " sigma)");
   }
   if (!message.empty()) s += ": " + message;
   return s;
@@ -121,8 +104,7 @@ struct PreparedView {
 struct Corr {
   int v = -1, u = -1;  // source view, target view
   Vector3d p_world = Vector3d::Zero(), q_world = Vector3d::Zero(), n_world = Vector3d::Zero();
-  double dist = 0;  // Euclidean distance
-  double r = 0;     // point-to-plane residual
+  double r = 0;  // point-to-plane residual
 };
 
 // Normal-space sampling (Rusinkiewicz & Levoy, "Efficient variants of the ICP algorithm",
@@ -233,215 +215,142 @@ IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& o
   }
   std::vector<Rigid3d>& pose = result.world_from_sensor;
   const double cos_max = std::cos(options.max_normal_angle_deg * M_PI / 180);
-  double threshold = options.initial_threshold_mm;
-  bool all_converged = true;
-
-  for (size_t level = 0; level < options.points_per_level.size(); ++level) {
-    IcpLevelReport rep;
-    rep.level = static_cast<int>(level);
-    rep.points_per_view = options.points_per_level[level];
-    rep.threshold_start_mm = threshold;
-    std::vector<double> last_dists;
-    std::vector<float> last_signed;
-    for (int it = 0; it < options.max_iterations_per_level; ++it) {
-      // Samples of every view in the world frame at the current poses.
-      std::vector<Corr> corr;
-      std::vector<double> dists;
-      int pairs_used = 0;
-      std::vector<std::vector<double>> overlap(nv, std::vector<double>(nv, 0.0));
-      for (int v = 0; v < nv; ++v) {
-        const PreparedView& sv = prep[v];
-        const int ns = std::min<int>(rep.points_per_view, static_cast<int>(sv.order.size()));
-        for (int u = 0; u < nv; ++u) {
-          if (u == v || (block[v] < 0 && block[u] < 0)) continue;
-          const Rigid3d u_from_v = pose[u].Inverse() * pose[v];
-          // Neighbours are searched within the larger of the threshold and the first one: the
-          // threshold bounds the point-to-plane distance, which falls below the sampling
-          // spacing long before the Euclidean neighbour distance does.
-          const double search = std::max(threshold, options.initial_threshold_mm);
-          const double search_sq = search * search;
-          const PreparedView& tv = prep[u];
-          std::vector<Corr> found(ns);
-          tbb::parallel_for(0, ns, [&](int s) {
-            const uint32_t k = sv.order[s];
-            const Vector3d q = u_from_v * sv.data.pts[k];
-            NearestWithin rs(search_sq);
-            tv.tree->findNeighbors(rs, q.data(), nanoflann::SearchParams());
-            Corr& c = found[s];
-            if (!rs.found) return;
-            const uint32_t idx = rs.index;
-            const double d2 = rs.d2;
-            const Vector3d& nt = tv.normals[idx];
-            if (u_from_v.RotateDirection(sv.normals[k]).dot(nt) < cos_max) return;
-            c.v = v;
-            c.u = u;
-            c.p_world = pose[v] * sv.data.pts[k];
-            c.q_world = pose[u] * tv.data.pts[idx];
-            c.n_world = pose[u].RotateDirection(nt);
-            c.dist = std::sqrt(d2);
-            c.r = c.n_world.dot(c.p_world - c.q_world);
-            if (std::abs(c.r) > threshold) c.v = -1;
-          });
-          std::vector<Corr> kept;
-          for (Corr& c : found) {
-            if (c.v >= 0) kept.push_back(c);
-          }
-          if (kept.size() < std::max<size_t>(3, options.min_overlap_fraction * ns)) continue;
-          // Trim the worst distances of this pair.
-          std::vector<double> d;
-          for (const Corr& c : kept) d.push_back(std::abs(c.r));
-          const size_t keep_n = std::max<size_t>(3, std::floor(options.trim_fraction * d.size()));
-          if (keep_n < d.size()) {
-            std::nth_element(d.begin(), d.begin() + (keep_n - 1), d.end());
-            const double cut = d[keep_n - 1];
-            std::vector<Corr> trimmed;
-            for (const Corr& c : kept) {
-              if (std::abs(c.r) <= cut && trimmed.size() < keep_n) trimmed.push_back(c);
-            }
-            kept.swap(trimmed);
-          }
-          overlap[v][u] = static_cast<double>(kept.size()) / ns;
-          ++pairs_used;
+  // One iteration at the schedule's sample count and threshold: associate every view's samples
+  // with every other view, one simultaneous step of all free views.
+  const auto iterate = [&](int points, double threshold, IcpLevelReport* rep) {
+    IcpIteration out;
+    std::vector<Corr> corr;
+    int pairs_used = 0;
+    std::vector<std::vector<double>> overlap(nv, std::vector<double>(nv, 0.0));
+    for (int v = 0; v < nv; ++v) {
+      const PreparedView& sv = prep[v];
+      const int ns = std::min<int>(points, static_cast<int>(sv.order.size()));
+      for (int u = 0; u < nv; ++u) {
+        if (u == v || (block[v] < 0 && block[u] < 0)) continue;
+        const Rigid3d u_from_v = pose[u].Inverse() * pose[v];
+        // Neighbours are searched within the larger of the threshold and the first one: the
+        // threshold bounds the point-to-plane distance, which falls below the sampling
+        // spacing long before the Euclidean neighbour distance does.
+        const double search = std::max(threshold, options.initial_threshold_mm);
+        const double search_sq = search * search;
+        const PreparedView& tv = prep[u];
+        std::vector<Corr> found(ns);
+        tbb::parallel_for(0, ns, [&](int s) {
+          const uint32_t k = sv.order[s];
+          const Vector3d q = u_from_v * sv.data.pts[k];
+          NearestWithin rs(search_sq);
+          tv.tree->findNeighbors(rs, q.data(), nanoflann::SearchParams());
+          Corr& c = found[s];
+          if (!rs.found) return;
+          const uint32_t idx = rs.index;
+          const Vector3d& nt = tv.normals[idx];
+          if (u_from_v.RotateDirection(sv.normals[k]).dot(nt) < cos_max) return;
+          c.v = v;
+          c.u = u;
+          c.p_world = pose[v] * sv.data.pts[k];
+          c.q_world = pose[u] * tv.data.pts[idx];
+          c.n_world = pose[u].RotateDirection(nt);
+          c.r = c.n_world.dot(c.p_world - c.q_world);
+          if (std::abs(c.r) > threshold) c.v = -1;
+        });
+        std::vector<Corr> kept;
+        for (Corr& c : found) {
+          if (c.v >= 0) kept.push_back(c);
+        }
+        if (kept.size() < std::max<size_t>(3, options.min_overlap_fraction * ns)) continue;
+        // Trim the worst distances of this pair.
+        std::vector<double> d;
+        for (const Corr& c : kept) d.push_back(std::abs(c.r));
+        const size_t keep_n = std::max<size_t>(3, std::floor(options.trim_fraction * d.size()));
+        if (keep_n < d.size()) {
+          std::nth_element(d.begin(), d.begin() + (keep_n - 1), d.end());
+          const double cut = d[keep_n - 1];
+          std::vector<Corr> trimmed;
           for (const Corr& c : kept) {
-            dists.push_back(std::abs(c.r));
-            corr.push_back(c);
+            if (std::abs(c.r) <= cut && trimmed.size() < keep_n) trimmed.push_back(c);
           }
+          kept.swap(trimmed);
         }
-      }
-      if (corr.empty()) {
-        result.summary.status = IcpStatus::kNoOverlap;
-        result.summary.message =
-            StrCat("no view pair has corresponding points within ", threshold, " mm");
-        result.summary.seconds = timer.ElapsedSeconds();
-        result.summary.levels.push_back(rep);
-        return result;
-      }
-      double ss = 0;
-      Vector3d centroid = Vector3d::Zero();
-      for (const Corr& c : corr) {
-        ss += c.r * c.r;
-        centroid += c.p_world;
-      }
-      centroid /= static_cast<double>(corr.size());
-      const double rms = std::sqrt(ss / corr.size());
-      if (it == 0) rep.rms_start_mm = rms;
-      rep.rms_end_mm = rms;
-      rep.correspondences = static_cast<int>(corr.size());
-      rep.overlapping_pairs = pairs_used;
-      result.overlap = overlap;
-      // Normal equations over the free views (serial sum: thread-count independent).
-      const int dim = 6 * nfree;
-      Eigen::MatrixXd H = Eigen::MatrixXd::Zero(dim, dim);
-      Eigen::VectorXd g = Eigen::VectorXd::Zero(dim);
-      for (const Corr& c : corr) {
-        Eigen::Matrix<double, 6, 1> jv, ju;
-        jv << (c.p_world - centroid).cross(c.n_world), c.n_world;
-        ju << -(c.q_world - centroid).cross(c.n_world), -c.n_world;
-        const int bv = block[c.v], bu = block[c.u];
-        if (bv >= 0) {
-          H.block<6, 6>(6 * bv, 6 * bv) += jv * jv.transpose();
-          g.segment<6>(6 * bv) += jv * c.r;
-        }
-        if (bu >= 0) {
-          H.block<6, 6>(6 * bu, 6 * bu) += ju * ju.transpose();
-          g.segment<6>(6 * bu) += ju * c.r;
-        }
-        if (bv >= 0 && bu >= 0) {
-          H.block<6, 6>(6 * bv, 6 * bu) += jv * ju.transpose();
-          H.block<6, 6>(6 * bu, 6 * bv) += ju * jv.transpose();
-        }
-      }
-      // Degeneracy-aware step (Zhang, Kaess, Singh, "On degeneracy of optimization-based state
-      // estimation problems", ICRA 2016): in the eigenbasis of the normal matrix (rotations
-      // scaled by the correspondences' RMS lever so that all unknowns are lengths), directions
-      // whose eigenvalue is below degeneracy_ratio x the largest are not moved. A plane with a
-      // sphere on it leaves rotations about the sphere's vertical unconstrained; noise and
-      // edge points would otherwise slide the views along such directions.
-      double lever_sq = 0;
-      for (const Corr& c : corr) lever_sq += (c.p_world - centroid).squaredNorm();
-      const double lever = std::max(1.0, std::sqrt(lever_sq / corr.size()));
-      Eigen::VectorXd scale = Eigen::VectorXd::Ones(dim);
-      for (int b = 0; b < nfree; ++b) scale.segment<3>(6 * b).setConstant(1.0 / lever);
-      const Eigen::MatrixXd Hs = scale.asDiagonal() * H * scale.asDiagonal();
-      const Eigen::VectorXd gs = scale.cwiseProduct(g);
-      const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(Hs);
-      const double lmax = eig.eigenvalues().maxCoeff();
-      Eigen::VectorXd ds = Eigen::VectorXd::Zero(dim);
-      int degenerate = 0;
-      for (int k = 0; k < dim; ++k) {
-        const double l = eig.eigenvalues()[k];
-        if (!(l > options.degeneracy_ratio * lmax)) {
-          ++degenerate;
-          continue;
-        }
-        ds += eig.eigenvectors().col(k) * (-eig.eigenvectors().col(k).dot(gs) / l);
-      }
-      rep.degenerate_directions = degenerate;
-      const Eigen::VectorXd delta = scale.cwiseProduct(ds);
-      double max_rot_deg = 0, max_trans_mm = 0;
-      for (int i = 0; i < nv; ++i) {
-        if (block[i] < 0) continue;
-        const Vector3d w = delta.segment<3>(6 * block[i]);
-        const Vector3d t = delta.segment<3>(6 * block[i] + 3);
-        const double angle = w.norm();
-        const Rigid3d rot = angle > 0 ? Rigid3d::FromAxisAngle(w / angle, angle) : Rigid3d();
-        // P' = R (P - c) + c + t
-        const Rigid3d step(rot.rotation(), centroid + t - rot.RotateDirection(centroid));
-        pose[i] = step * pose[i];
-        max_rot_deg = std::max(max_rot_deg, angle * 180 / M_PI);
-        max_trans_mm = std::max(max_trans_mm, (step * centroid - centroid).norm());
-      }
-      if (options.shrink_within_level && !dists.empty()) {
-        // Dynamic threshold after every iteration: min(previous, factor x percentile).
-        std::vector<double> sorted = dists;
-        const size_t q = std::min(sorted.size() - 1,
-                                  static_cast<size_t>(options.shrink_percentile * sorted.size()));
-        std::nth_element(sorted.begin(), sorted.begin() + q, sorted.end());
-        threshold = std::max(options.min_threshold_mm,
-                             std::min(threshold, options.shrink_factor * sorted[q]));
-      }
-      last_dists.swap(dists);
-      last_signed.clear();
-      const size_t stride = corr.size() / kReportedResiduals + 1;
-      for (size_t k = 0; k < corr.size(); k += stride) {
-        last_signed.push_back(static_cast<float>(corr[k].r));
-      }
-      rep.iterations = it + 1;
-      if (max_rot_deg < options.convergence_rotation_deg &&
-          max_trans_mm < options.convergence_translation_mm) {
-        rep.converged = true;
-        break;
+        overlap[v][u] = static_cast<double>(kept.size()) / ns;
+        ++pairs_used;
+        corr.insert(corr.end(), kept.begin(), kept.end());
       }
     }
-    if (!last_dists.empty()) {
-      std::vector<double> sorted = last_dists;
-      std::sort(sorted.begin(), sorted.end());
-      const auto at = [&](double q) {
-        return sorted[std::min(sorted.size() - 1, static_cast<size_t>(q * sorted.size()))];
-      };
-      rep.residual_p50_mm = at(0.5);
-      rep.residual_p90_mm = at(0.9);
-      rep.residual_p99_mm = at(0.99);
+    if (corr.empty()) return out;
+    out.overlap = true;
+    double ss = 0;
+    Vector3d centroid = Vector3d::Zero();
+    out.residuals_mm.reserve(corr.size());
+    for (const Corr& c : corr) {
+      ss += c.r * c.r;
+      centroid += c.p_world;
+      out.residuals_mm.push_back(c.r);
     }
-    rep.residuals_mm = std::move(last_signed);
-    // Dynamic threshold, per level: min(previous, factor x percentile of the last residuals).
-    // Shrinking it within a level would cut the correspondences that still carry the
-    // misalignment (on a plane-dominated scene the percentile is the plate's noise while the
-    // walls still see the view's slide) and the level would crawl instead of converging.
-    if (!options.shrink_within_level && !last_dists.empty()) {
-      const size_t q = std::min(last_dists.size() - 1,
-                                static_cast<size_t>(options.shrink_percentile * last_dists.size()));
-      std::nth_element(last_dists.begin(), last_dists.begin() + q, last_dists.end());
-      threshold = std::max(options.min_threshold_mm,
-                           std::min(threshold, options.shrink_factor * last_dists[q]));
+    centroid /= static_cast<double>(corr.size());
+    out.rms_mm = std::sqrt(ss / corr.size());
+    rep->points_per_view = points;
+    rep->correspondences = static_cast<int>(corr.size());
+    rep->overlapping_pairs = pairs_used;
+    result.overlap = overlap;
+    // Normal equations over the free views (serial sum: thread-count independent).
+    const int dim = 6 * nfree;
+    Eigen::MatrixXd H = Eigen::MatrixXd::Zero(dim, dim);
+    Eigen::VectorXd g = Eigen::VectorXd::Zero(dim);
+    for (const Corr& c : corr) {
+      Eigen::Matrix<double, 6, 1> jv, ju;
+      jv << (c.p_world - centroid).cross(c.n_world), c.n_world;
+      ju << -(c.q_world - centroid).cross(c.n_world), -c.n_world;
+      const int bv = block[c.v], bu = block[c.u];
+      if (bv >= 0) {
+        H.block<6, 6>(6 * bv, 6 * bv) += jv * jv.transpose();
+        g.segment<6>(6 * bv) += jv * c.r;
+      }
+      if (bu >= 0) {
+        H.block<6, 6>(6 * bu, 6 * bu) += ju * ju.transpose();
+        g.segment<6>(6 * bu) += ju * c.r;
+      }
+      if (bv >= 0 && bu >= 0) {
+        H.block<6, 6>(6 * bv, 6 * bu) += jv * ju.transpose();
+        H.block<6, 6>(6 * bu, 6 * bv) += ju * jv.transpose();
+      }
     }
-    rep.threshold_end_mm = threshold;
-    all_converged &= rep.converged;
-    result.summary.levels.push_back(rep);
-  }
-  result.summary.status = all_converged ? IcpStatus::kOk : IcpStatus::kNotConverged;
-  if (!all_converged) {
-    result.summary.message = "a level stopped at its iteration limit";
+    // A plane with a sphere on it leaves rotations about the sphere's vertical unconstrained;
+    // noise and edge points would otherwise slide the views along such directions.
+    double lever_sq = 0;
+    for (const Corr& c : corr) lever_sq += (c.p_world - centroid).squaredNorm();
+    const double lever = std::max(1.0, std::sqrt(lever_sq / corr.size()));
+    const IcpStep step = DegeneracyAwareStep(H, g, lever, options.degeneracy_ratio, out.rms_mm);
+    rep->degenerate_directions = step.degenerate;
+    out.step_sigmas = step.step_sigmas;
+    for (int i = 0; i < nv; ++i) {
+      if (block[i] < 0) continue;
+      const Vector3d w = step.delta.segment<3>(6 * block[i]);
+      const Vector3d t = step.delta.segment<3>(6 * block[i] + 3);
+      const double angle = w.norm();
+      const Rigid3d rot = angle > 0 ? Rigid3d::FromAxisAngle(w / angle, angle) : Rigid3d();
+      // P' = R (P - c) + c + t
+      const Rigid3d moved(rot.rotation(), centroid + t - rot.RotateDirection(centroid));
+      pose[i] = moved * pose[i];
+      out.step_rotation_deg = std::max(out.step_rotation_deg, angle * 180 / M_PI);
+      out.step_translation_mm =
+          std::max(out.step_translation_mm, (moved * centroid - centroid).norm());
+    }
+    return out;
+  };
+  const IcpScheduleOutcome outcome = RunIcpSchedule(options, iterate, &result.summary.levels);
+  switch (outcome) {
+    case IcpScheduleOutcome::kConverged:
+      result.summary.status = IcpStatus::kOk;
+      break;
+    case IcpScheduleOutcome::kNotConverged:
+      result.summary.status = IcpStatus::kNotConverged;
+      result.summary.message = "a level stopped at its iteration limit";
+      break;
+    case IcpScheduleOutcome::kNoOverlap:
+      result.summary.status = IcpStatus::kNoOverlap;
+      result.summary.message = StrCat("no view pair has corresponding points within ",
+                                      result.summary.levels.back().threshold_end_mm, " mm");
+      break;
   }
   result.summary.seconds = timer.ElapsedSeconds();
   return result;

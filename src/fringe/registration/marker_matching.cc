@@ -1,5 +1,6 @@
 #include "fringe/registration/marker_matching.h"
 
+#include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -161,6 +162,60 @@ class Matcher {
     return true;
   }
 
+  // Gauss-Newton on sum r^T (R C_k R^T + C_c)^-1 r, r = R x_k + t - y_c, from the closed-form
+  // fit (whose scalar weights cannot express the ray-direction uncertainty). Steps about the
+  // pairs' centroid in the map frame; the weights follow the rotation.
+  void RefineWithCovariances(const std::vector<std::pair<int, int>>& pairs, Rigid3d* t, double* rms,
+                             double* max) const {
+    const auto cov = [](const MarkerPoint& p) -> Eigen::Matrix3d {
+      if (p.covariance.isZero(0)) return Eigen::Matrix3d::Identity() * Sq(p.sigma_mm) / 3;
+      return p.covariance;
+    };
+    Vector3d centroid = Vector3d::Zero();
+    for (const auto& [k, c] : pairs) centroid += m_[c].centre;
+    centroid /= static_cast<double>(pairs.size());
+    Rigid3d pose = *t;
+    for (int it = 0; it < 10; ++it) {
+      Eigen::Matrix<double, 6, 6> H = Eigen::Matrix<double, 6, 6>::Zero();
+      Eigen::Matrix<double, 6, 1> g = Eigen::Matrix<double, 6, 1>::Zero();
+      const Eigen::Matrix3d R = pose.rotation_matrix();
+      for (const auto& [k, c] : pairs) {
+        const Vector3d p = pose * v_[k].centre;
+        const Vector3d r = p - m_[c].centre;
+        const Eigen::Matrix3d C = R * cov(v_[k]) * R.transpose() + cov(m_[c]);
+        const Eigen::Matrix3d W = C.inverse();
+        if (!W.allFinite()) return;
+        // d r / d (w, dt) for p' = p + w x (p - centroid) + dt.
+        Eigen::Matrix<double, 3, 6> J;
+        J.leftCols<3>() = -SkewOf(p - centroid);
+        J.rightCols<3>().setIdentity();
+        H += J.transpose() * W * J;
+        g += J.transpose() * W * r;
+      }
+      const Eigen::Matrix<double, 6, 1> d = H.ldlt().solve(-g);
+      if (!d.allFinite()) return;
+      const Vector3d w = d.head<3>();
+      const double angle = w.norm();
+      const Rigid3d rot = angle > 0 ? Rigid3d::FromAxisAngle(w / angle, angle) : Rigid3d();
+      pose = Rigid3d(rot.rotation(), centroid + d.tail<3>() - rot.RotateDirection(centroid)) * pose;
+      if (angle < 1e-12 && d.tail<3>().norm() < 1e-9) break;
+    }
+    double ss = 0, mx = 0;
+    for (const auto& [k, c] : pairs) {
+      const double e = (pose * v_[k].centre - m_[c].centre).norm();
+      ss += e * e;
+      mx = std::max(mx, e);
+    }
+    *t = pose;
+    *rms = std::sqrt(ss / pairs.size());
+    *max = mx;
+  }
+  static Eigen::Matrix3d SkewOf(const Vector3d& v) {
+    Eigen::Matrix3d s;
+    s << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
+    return s;
+  }
+
   // All view markers moved onto the map: nearest map marker within tolerance with compatible
   // normals, one to one (closest first).
   std::vector<std::pair<int, int>> Verify(const Rigid3d& map_from_view) const {
@@ -257,7 +312,8 @@ class Matcher {
       if (h == best) continue;
       r.runner_up_count = std::max(r.runner_up_count, static_cast<int>(hyps[h].pairs.size()));
     }
-    const Hypothesis& b = hyps[best];
+    Hypothesis& b = hyps[best];
+    RefineWithCovariances(b.pairs, &b.map_from_view, &b.rms_mm, &b.max_mm);
     r.pairs = b.pairs;
     r.map_from_view = b.map_from_view;
     r.rms_mm = b.rms_mm;

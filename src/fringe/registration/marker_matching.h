@@ -8,13 +8,16 @@
 // member set's rigid alignment. Each grown set (>= 3) gives a rigid transform (AlignRigid,
 // weighted by the markers' uncertainties); the transform is verified by moving all view markers
 // onto the map (nearest map marker within tolerance, normals compatible, one to one), and then
-// refit with outlier rejection on the verified set. The hypothesis verified by the most markers
-// wins; when a DIFFERENT transform (a symmetric layout) is verified by nearly as many markers,
-// the match is refused (kAmbiguous) rather than risk a confidently wrong one. Normals break the
-// flip symmetry of planar layouts (a mirror image is no rigid motion, a flip turns normals over).
-// A hypothesis of only three markers (always congruent to their mirror image; a chance triple of
-// an unrelated layout agrees within the distance tolerance) must also fit within twice the RMS
-// its markers' uncertainties predict.
+// refit with outlier rejection on the verified set. The final fit of the winner then weighs
+// every correspondence by its full covariance (R C_view R^T + C_map; Gauss-Newton from the
+// closed-form fit): a triangulated centre is several times less certain along its viewing ray
+// than across it, and the view's rays and the map's differ. The hypothesis verified by the most
+// markers wins; when a DIFFERENT transform (a symmetric layout) is verified by nearly as many
+// markers, the match is refused (kAmbiguous) rather than risk a confidently wrong one. Normals
+// break the flip symmetry of planar layouts (a mirror image is no rigid motion, a flip turns
+// normals over). A hypothesis of only three markers (always congruent to their mirror image; a
+// chance triple of an unrelated layout agrees within the distance tolerance) must also fit within
+// twice the RMS its markers' uncertainties predict.
 //
 // Frames: view markers in the view's sensor frame, map markers in the world frame; the result
 // is world_from_sensor. Millimetres. Deterministic (no randomness). Thread safety: reentrant.
@@ -34,6 +37,9 @@ struct MarkerPoint {
   Eigen::Vector3d centre = Eigen::Vector3d::Zero();  // mm
   Eigen::Vector3d normal = Eigen::Vector3d::Zero();  // unit, or zero when unknown
   double sigma_mm = 0.05;                            // 1-sigma centre uncertainty, > 0
+  // Full centre covariance (mm^2) in the same frame, or zero: sigma_mm^2 / 3 in every
+  // direction. Only the final rigid fit uses it (the distance tests use sigma_mm).
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
 };
 
 struct MarkerMatchOptions {

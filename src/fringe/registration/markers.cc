@@ -291,6 +291,7 @@ ViewMarkers DetectViewMarkers(const StereoRig& rig, const cv::Mat& texture_left,
       cov += d * d.transpose();
     }
     m.sigma_mm = std::sqrt(cov.trace());
+    m.covariance_mm2 = cov;
     if (choice[i].candidates > 1) ++s.ambiguous_resolved;
     out.markers.push_back(m);
   }
@@ -385,11 +386,27 @@ ViewMarkers DetectViewMarkersOneCamera(const CameraModel& camera, const cv::Mat&
     }
     const double plane_sigma_mm = n > 3 ? std::sqrt(ss / (n - 3)) / std::sqrt(n) : 0;
     m.sigma_mm = std::sqrt(cov.trace() + plane_sigma_mm * plane_sigma_mm);
+    // The plane's error moves the centre along the ray, by plane_sigma / cos(incidence).
+    const Vector3d ray = m.centre_in_sensor.normalized();
+    const double along = plane_sigma_mm / std::max(0.1, std::abs(plane.normal.dot(ray)));
+    m.covariance_mm2 = cov + along * along * ray * ray.transpose();
     m.depth_difference_mm = 0;
     out.markers.push_back(m);
   }
   FinishViewMarkers("camera image", timer, &out);
   return out;
+}
+
+Eigen::Matrix3d CentreCovariance(const ViewMarker& m, double min_sigma_mm) {
+  const double floor2 = min_sigma_mm * min_sigma_mm;
+  if (m.covariance_mm2.isZero(0) || !m.covariance_mm2.allFinite()) {
+    return Eigen::Matrix3d::Identity() * std::max(m.sigma_mm * m.sigma_mm, floor2) / 3;
+  }
+  // Every direction at least floor2 / 3, so that the inverse exists (a Jacobian from a
+  // degenerate triangulation can leave a direction at zero).
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(m.covariance_mm2);
+  const Eigen::Vector3d l = eig.eigenvalues().cwiseMax(floor2 / 3);
+  return eig.eigenvectors() * l.asDiagonal() * eig.eigenvectors().transpose();
 }
 
 // ---- Files ----
@@ -425,6 +442,10 @@ void WriteViewMarkers(const std::filesystem::path& path, const std::vector<ViewM
                     {"outer_radius_mm", m.outer_radius_mm},
                     {"sigma_mm", m.sigma_mm},
                     {"depth_difference_mm", m.depth_difference_mm}});
+    if (!m.covariance_mm2.isZero(0)) {
+      const Eigen::Matrix3d& c = m.covariance_mm2;
+      list.back()["covariance_mm2"] = {c(0, 0), c(0, 1), c(0, 2), c(1, 1), c(1, 2), c(2, 2)};
+    }
   }
   io::WriteJson(path, {{"format", "fringe-view-markers"},
                        {"version", 1},
@@ -479,6 +500,21 @@ std::vector<ViewMarker> ViewMarkersFromJson(const json& j, const std::string& ct
     m.sigma_mm = io::GetNumber(e, "sigma_mm", c);
     m.depth_difference_mm = io::OptionalNumber(e, "depth_difference_mm", 0, c);
     if (m.sigma_mm < 0) throw Error(c + ".sigma_mm: must be >= 0");
+    if (e.contains("covariance_mm2")) {
+      const std::vector<double> v = io::GetNumbers(e, "covariance_mm2", 6, c);
+      // Bounded before any arithmetic: a centre uncertain by a metre is no marker, and larger
+      // entries would overflow the eigen-decomposition below.
+      for (double x : v) {
+        if (std::abs(x) > 1e6) throw Error(c + ".covariance_mm2: entry beyond 1e6 mm^2");
+      }
+      m.covariance_mm2 << v[0], v[1], v[2], v[1], v[3], v[4], v[2], v[4], v[5];
+      const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(m.covariance_mm2);
+      // Rounding in the written digits may leave a tiny negative eigenvalue; more is no
+      // covariance.
+      if (eig.eigenvalues().minCoeff() < -1e-9 * std::max(1e-30, eig.eigenvalues().maxCoeff())) {
+        throw Error(c + ".covariance_mm2: not positive semi-definite");
+      }
+    }
     if (m.outer_radius_mm <= 0) throw Error(c + ".outer_radius_mm: must be > 0");
     if (m.centre_in_sensor.z() <= 0) throw Error(c + ".centre_in_sensor: behind the sensor");
     out.push_back(m);

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/Dense>
+
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -104,6 +106,14 @@ TEST(DetectViewMarkers, MatchesTruthOnPlaneAndBox) {
     EXPECT_NEAR(m.outer_radius_mm, 5.0, 0.5);
     EXPECT_GT(m.sigma_mm, 0);
     EXPECT_LT(m.sigma_mm, 1.0);
+    // The covariance is the one sigma_mm summarises, and triangulation is least certain along
+    // the viewing ray: its largest axis lies within 20 deg of the ray.
+    EXPECT_NEAR(std::sqrt(m.covariance_mm2.trace()), m.sigma_mm, 1e-12);
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(m.covariance_mm2);
+    const double along_ray =
+        std::abs(eig.eigenvectors().col(2).dot(m.centre_in_sensor.normalized()));
+    EXPECT_GT(along_ray, std::cos(20 * M_PI / 180)) << "marker " << t->id;
+    EXPECT_GT(eig.eigenvalues()(2), 2 * eig.eigenvalues()(1)) << "marker " << t->id;
   }
   // The dark spot was seen as a blob and rejected with a reason.
   const Eigen::Vector2d spot_px =
@@ -215,11 +225,19 @@ TEST(ViewMarkersFile, RoundTrip) {
   m.outer_radius_mm = 2.5;
   m.sigma_mm = 0.02;
   m.depth_difference_mm = -0.05;
+  m.covariance_mm2 << 4e-5, 1e-6, 2e-6, 1e-6, 5e-5, -3e-6, 2e-6, -3e-6, 3e-4;
+  ViewMarker old = m;  // a file from before the covariance: sigma_mm stands for it
+  old.covariance_mm2.setZero();
   const auto path =
       std::filesystem::temp_directory_path() / "fringe_markers_roundtrip.markers.json";
-  WriteViewMarkers(path, {m});
+  WriteViewMarkers(path, {m, old});
   const std::vector<ViewMarker> back = ReadViewMarkers(path);
-  ASSERT_EQ(back.size(), 1u);
+  ASSERT_EQ(back.size(), 2u);
+  EXPECT_LT((back[0].covariance_mm2 - m.covariance_mm2).norm(), 1e-15);
+  EXPECT_TRUE(back[1].covariance_mm2.isZero(0));
+  EXPECT_LT((CentreCovariance(back[1]) - Eigen::Matrix3d::Identity() * 0.02 * 0.02 / 3).norm(),
+            1e-15);
+  EXPECT_LT((CentreCovariance(back[0]) - m.covariance_mm2).norm(), 1e-15);
   EXPECT_EQ(back[0].id, 3);
   EXPECT_LT((back[0].centre_in_sensor - m.centre_in_sensor).norm(), 1e-9);
   EXPECT_LT((back[0].normal_in_sensor - m.normal_in_sensor).norm(), 1e-9);
@@ -253,6 +271,16 @@ TEST(ViewMarkersFile, MalformedFilesNameTheProblem) {
       "0, -1], \"left_px\": [1, 2], \"right_px\": [1, 2], \"outer_radius_mm\": 2.5, "
       "\"sigma_mm\": -1}]}",
       "sigma_mm");
+  expect_error(
+      "{\"markers\": [{\"id\": 0, \"centre_in_sensor\": [0, 0, 500], \"normal_in_sensor\": [0, "
+      "0, -1], \"left_px\": [1, 2], \"right_px\": [1, 2], \"outer_radius_mm\": 2.5, "
+      "\"sigma_mm\": 0.1, \"covariance_mm2\": [1, 0, 0, -1, 0, 1]}]}",
+      "covariance_mm2");
+  expect_error(
+      "{\"markers\": [{\"id\": 0, \"centre_in_sensor\": [0, 0, 500], \"normal_in_sensor\": [0, "
+      "0, -1], \"left_px\": [1, 2], \"right_px\": [1, 2], \"outer_radius_mm\": 2.5, "
+      "\"sigma_mm\": 0.1, \"covariance_mm2\": [1e300, 0, 0, 1e300, 0, 1e300]}]}",
+      "covariance_mm2");
   expect_error("{\"markers\": [", "invalid JSON");
   std::filesystem::remove(path);
 }

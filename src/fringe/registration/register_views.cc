@@ -1,5 +1,6 @@
 #include "fringe/registration/register_views.h"
 
+#include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -161,14 +162,15 @@ class Registrar {
   std::vector<MarkerPoint> ViewPoints(int v) const {
     std::vector<MarkerPoint> pts;
     for (const ViewMarker& m : in_[v].markers) {
-      pts.push_back({m.centre_in_sensor, m.normal_in_sensor, std::max(m.sigma_mm, 1e-3)});
+      pts.push_back({m.centre_in_sensor, m.normal_in_sensor, std::max(m.sigma_mm, 1e-3),
+                     CentreCovariance(m)});
     }
     return pts;
   }
   std::vector<MarkerPoint> MapPoints() const {
     std::vector<MarkerPoint> pts;
     for (const MapMarker& m : r_.map)
-      pts.push_back({m.centre_in_world, m.normal_in_world, m.sigma_mm});
+      pts.push_back({m.centre_in_world, m.normal_in_world, m.sigma_mm, m.covariance_in_world});
     return pts;
   }
 
@@ -190,21 +192,26 @@ class Registrar {
       UpdateMapMarker(m);
     }
   }
+  // The centre: the sightings' information-weighted mean (each sighting's covariance turned
+  // into the world frame: views see a marker along different rays, and each is most certain
+  // across its own ray).
   void UpdateMapMarker(int m) {
     MapMarker& mm = r_.map[m];
-    Vector3d c = Vector3d::Zero(), nsum = Vector3d::Zero();
-    double sigma = 0;
+    Vector3d nsum = Vector3d::Zero(), weighted = Vector3d::Zero();
+    Eigen::Matrix3d info = Eigen::Matrix3d::Zero();
     for (const auto& s : mm.sightings) {
       const Rigid3d& pose = r_.views[s.view].world_from_sensor;
       const ViewMarker& vm = in_[s.view].markers[s.view_marker];
-      c += pose * vm.centre_in_sensor;
+      const Eigen::Matrix3d R = pose.rotation_matrix();
+      const Eigen::Matrix3d w = (R * CentreCovariance(vm) * R.transpose()).inverse();
+      info += w;
+      weighted += w * (pose * vm.centre_in_sensor);
       nsum += pose.RotateDirection(vm.normal_in_sensor);
-      sigma += std::max(vm.sigma_mm, 1e-3);
     }
-    const double n = static_cast<double>(mm.sightings.size());
-    mm.centre_in_world = c / n;
+    mm.covariance_in_world = info.inverse();
+    mm.centre_in_world = mm.covariance_in_world * weighted;
     mm.normal_in_world = nsum.norm() > 0 ? Vector3d(nsum.normalized()) : Vector3d::UnitZ();
-    mm.sigma_mm = sigma / n / std::sqrt(n);
+    mm.sigma_mm = std::sqrt(mm.covariance_in_world.trace());
   }
 
   void PlaceByMarkers() {
@@ -366,7 +373,8 @@ class Registrar {
       centres.push_back(m.centre_in_world);
       for (const auto& s : m.sightings) {
         const ViewMarker& vm = in_[s.view].markers[s.view_marker];
-        sightings.push_back({s.view, m.id, vm.centre_in_sensor, std::max(vm.sigma_mm, 1e-3)});
+        sightings.push_back(
+            {s.view, m.id, vm.centre_in_sensor, std::max(vm.sigma_mm, 1e-3), CentreCovariance(vm)});
       }
     }
     const AdjustmentResult a = AdjustMarkers(poses, centres, sightings, fixed, o_.adjustment);

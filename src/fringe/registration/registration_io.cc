@@ -68,6 +68,7 @@ RegistrationView ReadRegistrationView(const std::filesystem::path& ply, double s
           m.centre_in_sensor *= scale_to_mm;
           m.outer_radius_mm *= scale_to_mm;
           m.sigma_mm *= scale_to_mm;
+          m.covariance_mm2 *= scale_to_mm * scale_to_mm;
         }
       }
     }
@@ -174,6 +175,9 @@ json ToJson(const IcpLevelReport& l) {
           {"rms_end_mm", l.rms_end_mm},
           {"correspondences", l.correspondences},
           {"degenerate_directions", l.degenerate_directions},
+          {"last_step_rotation_deg", l.last_step_rotation_deg},
+          {"last_step_translation_mm", l.last_step_translation_mm},
+          {"last_step_sigmas", l.last_step_sigmas},
           {"residual_p50_mm", l.residual_p50_mm},
           {"residual_p90_mm", l.residual_p90_mm},
           {"residual_p99_mm", l.residual_p99_mm},

@@ -440,7 +440,8 @@ int main(int argc, char** argv) {
       {"peak_mem_gib", peak_mem_gib},
       {"simulate_reconstruct_s", sim_s},
       {"reconstruct_s", reconstruct_s},
-      {"fusion_summary", fused.summary.BriefReport()}};
+      {"fusion_summary", fused.summary.BriefReport()},
+      {"fusion", fusion::SummaryToJson(fused.summary)}};
 
   if (peers) {
     const open3d::geometry::PointCloud pcd = ToOpen3d(views);

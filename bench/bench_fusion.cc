@@ -543,6 +543,7 @@ int main(int argc, char** argv) {
       wt.watertight = true;
       const fusion::MeshResult closed = fusion::MeshPoisson(fused.fused, wt);
       j["mesh_watertight_option"] = closed.summary.watertight;
+      j["mesh_watertight_summary"] = closed.summary.BriefReport();
     }
   }
 

@@ -51,11 +51,14 @@ Eigen::Matrix<T, kMonomials, 1> Monomials(T u, T v) {
 
 struct ViewGrid {
   int width = 0, height = 0;
-  std::vector<int32_t> point;          // per slot: the usable point (index into Points) or kNone
-  std::vector<float> depth_mm;         // per slot: the usable point's z in the sensor frame
+  std::vector<int32_t> point;  // per slot: the usable point (index into Points) or kNone
+  // Per slot: the usable point's world position (NaN where none: the distance tests read one
+  // contiguous array).
+  std::vector<Eigen::Vector3f> pos;
   std::vector<uint32_t> usable_slots;  // slots holding a usable point (point-by-point search)
   Eigen::Matrix3f sensor_from_world_r = Eigen::Matrix3f::Identity();
   Eigen::Vector3f sensor_from_world_t = Eigen::Vector3f::Zero();
+  Eigen::Vector3f origin_in_world = Eigen::Vector3f::Zero();  // the sensor's origin
   Eigen::Matrix<float, kMonomials, 1> col_poly, row_poly;
   float fit_err_px = 0;
   bool fitted = false;
@@ -100,10 +103,9 @@ double FitProjection(const OrganizedPointCloud& g, ViewGrid* grid) {
 }
 
 // The pixel disc of `grid` that holds every slot whose point can lie within radius_mm of p
-// (centre col/row, radius px) and p's depth in the view's sensor frame; false when there is
-// none (p behind the camera).
+// (centre col/row, radius px); false when there is none (p behind the camera).
 struct PixelDisc {
-  float col, row, radius_px, depth_mm;
+  float col, row, radius_px;
 };
 bool DiscOf(const ViewGrid& grid, const Eigen::Vector3f& p_in_world, float radius_mm,
             PixelDisc* d) {
@@ -126,22 +128,21 @@ bool DiscOf(const ViewGrid& grid, const Eigen::Vector3f& p_in_world, float radiu
   d->col = grid.col_poly.dot(m);
   d->row = grid.row_poly.dot(m);
   d->radius_px = 1.05f * sigma * duv + grid.fit_err_px;
-  d->depth_mm = x.z();
   return std::isfinite(d->col) && std::isfinite(d->row) && std::isfinite(d->radius_px);
 }
 
-// Calls f(value) for every slot value of `slots` (a per-slot index array of the grid, kNone
-// where empty) in the window around p, row by row (a deterministic order).
-// Calls f(value) for every slot value of `slots` (a per-slot index array of the grid, kNone
-// where empty) in the disc around p whose point's depth is within radius_mm of p's (a cheap
-// first test: the depths of two points differ by at most their distance), row by row (a
-// deterministic order), until f returns false.
-template <class F>
-void ForEachNear(const ViewGrid& grid, const std::vector<int32_t>& slots,
-                 const Eigen::Vector3f& p_in_world, float radius_mm, F&& f) {
+// Calls f(slot, squared distance) for every slot of the grid in the disc around p that `keep`
+// accepts and whose point lies within radius_mm of p, row by row (a deterministic order), until
+// f returns false.
+template <class Keep, class F>
+void ForEachNear(const ViewGrid& grid, const Eigen::Vector3f& p_in_world, float radius_mm,
+                 Keep&& keep, F&& f) {
+  const float r_sq = radius_mm * radius_mm;
   if (!grid.fitted) {
     for (uint32_t s : grid.usable_slots) {
-      if (slots[s] != kNone && !f(slots[s])) return;
+      if (!keep(s)) continue;
+      const float dist_sq = (grid.pos[s] - p_in_world).squaredNorm();
+      if (dist_sq <= r_sq && !f(s, dist_sq)) return;
     }
     return;
   }
@@ -154,11 +155,12 @@ void ForEachNear(const ViewGrid& grid, const std::vector<int32_t>& slots,
     const float half = std::sqrt(std::max(0.f, d.radius_px * d.radius_px - dr * dr));
     const int c0 = std::max(0, static_cast<int>(std::ceil(d.col - half)));
     const int c1 = std::min(grid.width - 1, static_cast<int>(std::floor(d.col + half)));
-    const size_t row = static_cast<size_t>(r) * grid.width;
-    const int32_t* value = slots.data() + row;
-    const float* depth = grid.depth_mm.data() + row;
-    for (int c = c0; c <= c1; ++c) {
-      if (value[c] != kNone && std::abs(depth[c] - d.depth_mm) <= radius_mm && !f(value[c])) return;
+    const uint32_t row = static_cast<uint32_t>(r) * static_cast<uint32_t>(grid.width);
+    for (uint32_t s = row + c0; s <= row + c1; ++s) {
+      if (!keep(s)) continue;
+      // Empty slots hold NaN: the comparison fails.
+      const float dist_sq = (grid.pos[s] - p_in_world).squaredNorm();
+      if (dist_sq <= r_sq && !f(s, dist_sq)) return;
     }
   }
 }
@@ -520,16 +522,18 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
       grid.width = g.width;
       grid.height = g.height;
       grid.point.assign(g.valid.size(), kNone);
-      grid.depth_mm.assign(g.valid.size(), std::numeric_limits<float>::infinity());
+      grid.pos.assign(g.valid.size(),
+                      Eigen::Vector3f::Constant(std::numeric_limits<float>::quiet_NaN()));
       for (; k < pts.size() && pts.view[k] == v; ++k) {
         if (!pts.usable[k]) continue;
         grid.point[pts.grid[k]] = static_cast<int32_t>(k);
-        grid.depth_mm[pts.grid[k]] = static_cast<float>(g.cloud.points[pts.grid[k]].z());
+        grid.pos[pts.grid[k]] = pts.pos[k];
         grid.usable_slots.push_back(pts.grid[k]);
       }
       const Rigid3d sensor_from_world = views[v].world_from_sensor.Inverse();
       grid.sensor_from_world_r = sensor_from_world.rotation_matrix().cast<float>();
       grid.sensor_from_world_t = sensor_from_world.translation().cast<float>();
+      grid.origin_in_world = views[v].world_from_sensor.translation().cast<float>();
       const double fit_err_px = FitProjection(g, &grid);
       if (fit_err_px > options.max_fit_error_px) {
         return Fail(std::move(result), FusionStatus::kBadView,
@@ -551,6 +555,7 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
   // 1 + 2: overlap and initial centres: each point against the other views' points in the
   // pixel windows around its projections.
   const float cos_max = static_cast<float>(std::cos(options.max_normal_angle_deg * kPi / 180));
+  const float sin_max = static_cast<float>(std::sin(options.max_normal_angle_deg * kPi / 180));
   // kOutranked: a compatible point of another view within the radius outranks this one.
   constexpr uint8_t kOverlap = 1, kSeed = 2, kAbsorbed = 4, kOutranked = 8;
   std::vector<uint8_t> flags(pts.size(), 0);
@@ -558,44 +563,52 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
   // candidate search below looks in).
   std::vector<uint64_t> near_views(pts.size(), 0);
   const bool all_views = views.size() > 64;
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, pts.size(), 1024),
-                    [&](const tbb::blocked_range<size_t>& range) {
-                      for (size_t i = range.begin(); i != range.end(); ++i) {
-                        if (!pts.usable[i]) continue;
-                        const float r = pts.radius_mm[i];
-                        const float r_sq = r * r;
-                        const float rho_sq = pts.seed_radius_mm[i] * pts.seed_radius_mm[i];
-                        const Eigen::Vector3f p = pts.pos[i];
-                        const Eigen::Vector3f n = pts.nrm[i];
-                        bool overlap = false, seed = true, better = false, outranked = false;
-                        uint64_t near = 0;
-                        for (size_t v = 0; v < views.size(); ++v) {
-                          if (v == pts.view[i]) continue;
-                          ForEachNear(grids[v], grids[v].point, p, r, [&](int32_t j) {
-                            const float dist_sq = (pts.pos[j] - p).squaredNorm();
-                            if (dist_sq > r_sq) return true;
-                            if (v < 64) near |= uint64_t{1} << v;
-                            better = better || pts.weight[j] > pts.weight[i];
-                            if (n.dot(pts.nrm[j]) < cos_max) return true;
-                            overlap = true;
-                            if (Outranks(pts, static_cast<uint32_t>(j), static_cast<uint32_t>(i))) {
-                              outranked = true;
-                              if (dist_sq <= rho_sq) seed = false;
-                            }
-                            // Settled (an overlap point outranked within its seed radius; this
-                            // view's bit set): the rest of this view changes nothing.
-                            return seed;
-                          });
-                        }
-                        near_views[i] = near;
-                        if (overlap) {
-                          flags[i] = static_cast<uint8_t>((seed ? (kOverlap | kSeed) : kOverlap) |
-                                                          (outranked ? kOutranked : 0));
-                        } else if (better && pts.border[i] < options.border_trim_px) {
-                          flags[i] = kAbsorbed;
-                        }
-                      }
-                    });
+  tbb::parallel_for(
+      tbb::blocked_range<size_t>(0, pts.size(), 1024),
+      [&](const tbb::blocked_range<size_t>& range) {
+        for (size_t i = range.begin(); i != range.end(); ++i) {
+          if (!pts.usable[i]) continue;
+          const float r = pts.radius_mm[i];
+          const float rho_sq = pts.seed_radius_mm[i] * pts.seed_radius_mm[i];
+          const Eigen::Vector3f p = pts.pos[i];
+          const Eigen::Vector3f n = pts.nrm[i];
+          bool overlap = false, seed = true, better = false, outranked = false;
+          uint64_t near = 0;
+          const bool border = pts.border[i] < options.border_trim_px;
+          for (size_t v = 0; v < views.size(); ++v) {
+            if (v == pts.view[i]) continue;
+            // Normals face their sensor: a view that sees p's side from behind by more than
+            // the compatibility angle has no compatible point there (only a border point
+            // needs the others: `better`).
+            if (!border && n.dot((grids[v].origin_in_world - p).normalized()) < -sin_max) {
+              continue;
+            }
+            ForEachNear(
+                grids[v], p, r, [](uint32_t) { return true; },
+                [&](uint32_t slot, float dist_sq) {
+                  const int32_t j = grids[v].point[slot];
+                  if (v < 64) near |= uint64_t{1} << v;
+                  better = better || pts.weight[j] > pts.weight[i];
+                  if (n.dot(pts.nrm[j]) < cos_max) return true;
+                  overlap = true;
+                  if (Outranks(pts, static_cast<uint32_t>(j), static_cast<uint32_t>(i))) {
+                    outranked = true;
+                    if (dist_sq <= rho_sq) seed = false;
+                  }
+                  // Settled (an overlap point outranked within its seed radius; this
+                  // view's bit set): the rest of this view changes nothing.
+                  return seed;
+                });
+          }
+          near_views[i] = near;
+          if (overlap) {
+            flags[i] = static_cast<uint8_t>((seed ? (kOverlap | kSeed) : kOverlap) |
+                                            (outranked ? kOutranked : 0));
+          } else if (better && border) {
+            flags[i] = kAbsorbed;
+          }
+        }
+      });
 
   std::vector<uint32_t> seeds;
   std::vector<uint8_t> in_overlap(pts.size(), 0);
@@ -650,32 +663,31 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
     for (size_t c = 0; c < nc; ++c) {
       seed_at[pts.view[seeds[c]]][pts.grid[seeds[c]]] = static_cast<int32_t>(c);
     }
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, pts.size(), 1024),
-                      [&](const tbb::blocked_range<size_t>& range) {
-                        std::vector<std::pair<float, int32_t>> found;
-                        for (size_t i = range.begin(); i != range.end(); ++i) {
-                          if (!in_overlap[i]) continue;
-                          const float r = pts.radius_mm[i] + static_cast<float>(max_travel_mm);
-                          const float r_sq = r * r;
-                          const Eigen::Vector3f p = pts.pos[i];
-                          found.clear();
-                          for (size_t v = 0; v < views.size(); ++v) {
-                            if (v != pts.view[i] && !all_views && !(near_views[i] >> v & 1))
-                              continue;
-                            ForEachNear(grids[v], seed_at[v], p, r, [&](int32_t c) {
-                              const float dist_sq = (centre[c] - p).squaredNorm();
-                              if (dist_sq <= r_sq) found.emplace_back(dist_sq, c);
-                              return true;
-                            });
-                          }
-                          const size_t keep = std::min<size_t>(found.size(), kCandidates);
-                          std::partial_sort(found.begin(),
-                                            found.begin() + static_cast<std::ptrdiff_t>(keep),
-                                            found.end());
-                          for (size_t k = 0; k < keep; ++k)
-                            candidates[i * kCandidates + k] = found[k].second;
-                        }
-                      });
+    tbb::parallel_for(
+        tbb::blocked_range<size_t>(0, pts.size(), 1024),
+        [&](const tbb::blocked_range<size_t>& range) {
+          std::vector<std::pair<float, int32_t>> found;
+          for (size_t i = range.begin(); i != range.end(); ++i) {
+            if (!in_overlap[i]) continue;
+            const float r = pts.radius_mm[i] + static_cast<float>(max_travel_mm);
+            const Eigen::Vector3f p = pts.pos[i];
+            found.clear();
+            for (size_t v = 0; v < views.size(); ++v) {
+              if (v != pts.view[i] && !all_views && !(near_views[i] >> v & 1)) continue;
+              const std::vector<int32_t>& seed_of = seed_at[v];
+              ForEachNear(
+                  grids[v], p, r, [&](uint32_t slot) { return seed_of[slot] != kNone; },
+                  [&](uint32_t slot, float dist_sq) {
+                    found.emplace_back(dist_sq, seed_of[slot]);
+                    return true;
+                  });
+            }
+            const size_t keep = std::min<size_t>(found.size(), kCandidates);
+            std::partial_sort(found.begin(), found.begin() + static_cast<std::ptrdiff_t>(keep),
+                              found.end());
+            for (size_t k = 0; k < keep; ++k) candidates[i * kCandidates + k] = found[k].second;
+          }
+        });
   }
   s.candidates_s = stage.ElapsedSeconds();
   stage.Restart();

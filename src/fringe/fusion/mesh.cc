@@ -72,11 +72,14 @@ const char* ToString(MeshStatus s) {
 }
 
 std::string MeshSummary::BriefReport() const {
-  std::string s =
-      util::StrCat("mesh: ", ToString(status), ", ", input_points, " points (spacing ", spacing_mm,
-                   " mm) -> depth ", poisson_depth, ": ", poisson_triangles, " Poisson triangles, ",
-                   trimmed_vertices, " vertices trimmed -> ", vertices, " vertices, ", triangles,
-                   " triangles, ", watertight ? "watertight" : "open");
+  std::string s = util::StrCat(
+      "mesh: ", ToString(status), ", ", input_points, " points (spacing ", spacing_mm,
+      " mm) -> depth ", poisson_depth, ": ", poisson_triangles, " Poisson triangles, ",
+      trimmed_vertices, " vertices trimmed -> ", vertices, " vertices, ", triangles, " triangles, ",
+      watertight ? std::string("watertight")
+                 : util::StrCat("not watertight (", boundary_edges, " boundary edges, ",
+                                non_manifold_edges, " non-manifold edges, ", non_manifold_vertices,
+                                " non-manifold vertices)"));
   if (decimated) {
     s += util::StrCat(", decimation deviation RMS ", decimation_rms_mm, " mm (max ",
                       decimation_max_mm, " mm)");
@@ -97,6 +100,9 @@ nlohmann::json SummaryToJson(const MeshSummary& s) {
           {"vertices", s.vertices},
           {"triangles", s.triangles},
           {"watertight", s.watertight},
+          {"boundary_edges", s.boundary_edges},
+          {"non_manifold_edges", s.non_manifold_edges},
+          {"non_manifold_vertices", s.non_manifold_vertices},
           {"decimated", s.decimated},
           {"decimation_rms_mm", s.decimation_rms_mm},
           {"decimation_max_mm", s.decimation_max_mm},
@@ -202,7 +208,11 @@ MeshResult MeshPoisson(const PointCloud& cloud, const MeshOptions& options) {
   mesh->ComputeVertexNormals();
   // Closed and manifold (Open3D's IsWatertight adds a self-intersection test that is
   // quadratic in the triangle count).
-  s.watertight = mesh->IsEdgeManifold(/*allow_boundary_edges=*/false) && mesh->IsVertexManifold();
+  const int64_t odd_edges = static_cast<int64_t>(mesh->GetNonManifoldEdges(false).size());
+  s.non_manifold_edges = static_cast<int64_t>(mesh->GetNonManifoldEdges(true).size());
+  s.boundary_edges = odd_edges - s.non_manifold_edges;
+  s.non_manifold_vertices = static_cast<int64_t>(mesh->GetNonManifoldVertices().size());
+  s.watertight = odd_edges == 0 && s.non_manifold_vertices == 0;
   result.mesh.vertices = mesh->vertices_;
   result.mesh.normals = mesh->vertex_normals_;
   result.mesh.triangles = Triangles(*mesh);

@@ -64,7 +64,10 @@ struct MeshSummary {
   int64_t trimmed_vertices = 0;
   int64_t vertices = 0;
   int64_t triangles = 0;
-  bool watertight = false;  // every edge shared by exactly two triangles
+  bool watertight = false;  // every edge shared by exactly two triangles, manifold vertices
+  // Why a mesh is not watertight: edges of one triangle (holes, trimmed borders), edges of
+  // more than two, vertices whose triangles do not form one fan.
+  int64_t boundary_edges = 0, non_manifold_edges = 0, non_manifold_vertices = 0;
   bool decimated = false;
   double decimation_rms_mm = 0;  // undecimated vertices to the decimated surface
   double decimation_max_mm = 0;

@@ -23,10 +23,13 @@
 //                             0.75 mm (the 0.6 mm ribs, the 0.3 mm engraving, step edges);
 //   mesh_rms_mm               our mesh's vertices to the truth; mesh_truth_rms_mm truth points
 //                             (the truth surface where measured) to our mesh; mesh_watertight;
+//                             mesh_watertight_option (the --watertight mesh); mesh_cgal_* the
+//                             same figures of CGAL's Poisson on the same fused cloud;
 //   points, time_s (fusion), mesh_time_s, peak_mem_gib (peak RSS growth during fusion).
 //
 // Usage: bench_fusion [--json] [--views 8] [--scale 0.5] [--noise 1.5] [--rot-err-deg 0.005]
 //                     [--trans-err-mm 0.01] [--poisson-depth 10] [--no-peers] [--no-mesh]
+//                     [--no-cgal] [--cache DIR] [--diagnose]
 #include <sys/resource.h>
 #include <tbb/parallel_for.h>
 
@@ -265,9 +268,12 @@ int main(int argc, char** argv) {
                "Print where the views' errors are (border, viewing angle, modulation, residual)");
   app.add_flag("--no-peers", no_peers, "Skip voxel, TSDF and Poisson-on-concatenation");
   app.add_flag("--no-mesh", no_mesh, "Skip meshing");
+  bool no_cgal = false;
+  app.add_flag("--no-cgal", no_cgal, "Skip CGAL's Poisson (the meshing peer)");
   CLI11_PARSE(app, argc, argv);
   peers = !no_peers;
   mesh = !no_mesh;
+  const bool cgal = !no_cgal;
 
   // Simulate and reconstruct the views.
   const StereoRig rig =
@@ -440,7 +446,8 @@ int main(int argc, char** argv) {
       {"peak_mem_gib", peak_mem_gib},
       {"simulate_reconstruct_s", sim_s},
       {"reconstruct_s", reconstruct_s},
-      {"fusion_summary", fused.summary.BriefReport()}};
+      {"fusion_summary", fused.summary.BriefReport()},
+      {"fusion", fusion::SummaryToJson(fused.summary)}};
 
   if (peers) {
     const open3d::geometry::PointCloud pcd = ToOpen3d(views);
@@ -518,30 +525,49 @@ int main(int argc, char** argv) {
   }
 
   if (mesh) {
+    // Truth points where measured (closest truth points of the concatenation, every 7th) to
+    // a mesh: holes and missing surface show here.
+    std::vector<Eigen::Vector3d> truth_pts;
+    for (size_t i = 0; i < concat.size(); i += 7) {
+      Eigen::Vector3d q;
+      if (std::isfinite(truth.SignedDistance(concat[i], kMaxDistanceMm, &q)))
+        truth_pts.push_back(q);
+    }
+    // The same fused cloud meshed by Open3D (ours) and, unless --no-cgal, by CGAL: distance
+    // to the truth both ways, time, peak memory growth, triangles.
+    auto run_mesh = [&](const fusion::MeshOptions& mo, const std::string& prefix) {
+      const double before = util::CurrentMemoryGiB();
+      ResetPeak();
+      util::Timer t;
+      const double cpu0 = CpuSeconds();
+      fusion::MeshResult m = fusion::MeshPoisson(fused.fused, mo);
+      j[prefix + "time_s"] = t.ElapsedSeconds();
+      j[prefix + "cpu_s"] = CpuSeconds() - cpu0;
+      j[prefix + "peak_mem_gib"] = util::PeakMemoryGiB() - before;
+      j[prefix + "summary"] = m.summary.BriefReport();
+      if (m.summary.ok()) {
+        j[prefix + "rms_mm"] = StatsOf(Distances(m.mesh.vertices, truth)).rms;
+        j[prefix + "watertight"] = m.summary.watertight;
+        j[prefix + "triangles"] = m.summary.triangles;
+        const eval::MeshDistance surface(m.mesh);
+        j[prefix + "truth_rms_mm"] = StatsOf(Distances(truth_pts, surface)).rms;
+      }
+      return m;
+    };
     fusion::MeshOptions mo;
     mo.poisson_depth = poisson_depth;
-    util::Timer t;
-    const fusion::MeshResult m = fusion::MeshPoisson(fused.fused, mo);
-    j["mesh_time_s"] = t.ElapsedSeconds();
-    j["mesh_summary"] = m.summary.BriefReport();
+    const fusion::MeshResult m = run_mesh(mo, "mesh_");
+    if (cgal) {
+      fusion::MeshOptions co = mo;
+      co.library = fusion::MeshLibrary::kCgal;
+      run_mesh(co, "mesh_cgal_");
+    }
     if (m.summary.ok()) {
-      j["mesh_rms_mm"] = StatsOf(Distances(m.mesh.vertices, truth)).rms;
-      j["mesh_watertight"] = m.summary.watertight;
-      j["mesh_triangles"] = m.summary.triangles;
-      // Truth points where measured (closest truth points of the concatenation, every 7th) to
-      // our mesh: holes and missing surface show here.
-      std::vector<Eigen::Vector3d> truth_pts;
-      for (size_t i = 0; i < concat.size(); i += 7) {
-        Eigen::Vector3d q;
-        if (std::isfinite(truth.SignedDistance(concat[i], kMaxDistanceMm, &q)))
-          truth_pts.push_back(q);
-      }
-      const eval::MeshDistance ours(m.mesh);
-      j["mesh_truth_rms_mm"] = StatsOf(Distances(truth_pts, ours)).rms;
       fusion::MeshOptions wt = mo;
       wt.watertight = true;
       const fusion::MeshResult closed = fusion::MeshPoisson(fused.fused, wt);
       j["mesh_watertight_option"] = closed.summary.watertight;
+      j["mesh_watertight_summary"] = closed.summary.BriefReport();
     }
   }
 

@@ -349,7 +349,7 @@ Pass it as `poses` to fringe.fuse.)doc")
       .def_readwrite("modulation_half_dn", &fusion::FusionOptions::modulation_half_dn)
       .def_readwrite("residual_half_px", &fusion::FusionOptions::residual_half_px)
       .def_readwrite("min_cos_view", &fusion::FusionOptions::min_cos_view)
-      .def_readwrite("tile_mm", &fusion::FusionOptions::tile_mm)
+      .def_readwrite("max_fit_error_px", &fusion::FusionOptions::max_fit_error_px)
       .def_readwrite("max_spacing_ratio", &fusion::FusionOptions::max_spacing_ratio);
 
   py::class_<fusion::FusionResult, std::shared_ptr<fusion::FusionResult>>(m, "FusionResult", R"doc(

@@ -662,7 +662,7 @@ class FusionOptions:
     modulation_half_dn: float
     residual_half_px: float
     min_cos_view: float
-    tile_mm: float
+    max_fit_error_px: float
     max_spacing_ratio: float
     def __init__(self, **fields: Any) -> None: ...
 

@@ -7,7 +7,6 @@
 #include <atomic>
 #include <cmath>
 #include <limits>
-#include <nanoflann.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "fringe/util/error.h"
@@ -32,88 +31,136 @@ struct Points {
   size_t size() const { return pos.size(); }
 };
 
-// A tile's points copied into one contiguous array (the tree's distance tests then read
-// neighbouring memory instead of chasing an index list into the whole cloud) as a nanoflann
-// dataset.
-struct TileAdaptor {
-  std::vector<Eigen::Vector3f> pos;
-  TileAdaptor(const std::vector<Eigen::Vector3f>& all, const std::vector<uint32_t>& idx)
-      : pos(idx.size()) {
-    for (size_t i = 0; i < idx.size(); ++i) pos[i] = all[idx[i]];
-  }
-  size_t kdtree_get_point_count() const { return pos.size(); }
-  float kdtree_get_pt(size_t i, size_t d) const { return pos[i][static_cast<int>(d)]; }
-  template <class Box>
-  bool kdtree_get_bbox(Box&) const {
-    return false;
-  }
-};
-using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<float, TileAdaptor>,
-                                                 TileAdaptor, 3, uint32_t>;
-using Neighbours = std::vector<std::pair<uint32_t, float>>;
+// Neighbour search through the organized grids. Every view is a camera's pixel grid, so the
+// points of a view within a radius of a point p lie in a small pixel window around p's
+// projection into that view: a fixed cost per view instead of a tree descent over all points.
+// The projection is fitted to the grid itself (column and row as cubic polynomials of the
+// normalized coordinates x/z, y/z in the view's sensor frame: a pinhole with the radial and
+// tangential distortion of the camera that measured it); its largest error over the grid's
+// points widens every window, so a window holds every point of the view within the radius.
+// A view whose grid has too few points for the fit is searched point by point.
+constexpr int kMonomials = 10;
+using Poly = Eigen::Matrix<double, kMonomials, 1>;
 
-// Cubic tiles over the bounding box; each tile lists its own points (core) and those within
-// `margin` of it (halo), so a radius query of a core point inside the tile's tree is exact.
-struct Tiles {
-  Eigen::Vector3d origin;
-  double size = 1;
-  Eigen::Vector3i count;
-  std::vector<std::vector<uint32_t>> core, halo;
-
-  Eigen::Vector3i Cell(const Eigen::Vector3d& p) const {
-    Eigen::Vector3i c;
-    for (int k = 0; k < 3; ++k) {
-      c[k] = std::clamp(static_cast<int>(std::floor((p[k] - origin[k]) / size)), 0, count[k] - 1);
-    }
-    return c;
-  }
-  size_t Index(const Eigen::Vector3i& c) const {
-    return (static_cast<size_t>(c.z()) * count.y() + c.y()) * count.x() + c.x();
-  }
-};
-
-Tiles MakeTiles(const std::vector<Eigen::Vector3f>& pos, double tile_mm) {
-  Tiles t;
-  Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
-  Eigen::Vector3d hi = -lo;
-  for (const auto& p : pos) {
-    lo = lo.cwiseMin(p.cast<double>());
-    hi = hi.cwiseMax(p.cast<double>());
-  }
-  t.origin = lo;
-  t.size = tile_mm;
-  // Keep the tile count bounded for huge or degenerate extents.
-  for (;;) {
-    for (int k = 0; k < 3; ++k) {
-      t.count[k] = std::max(1, static_cast<int>(std::ceil((hi[k] - lo[k]) / t.size)));
-    }
-    if (static_cast<double>(t.count.x()) * t.count.y() * t.count.z() <= 1e5) break;
-    t.size *= 2;
-  }
-  const size_t n = static_cast<size_t>(t.count.x()) * t.count.y() * t.count.z();
-  t.core.assign(n, {});
-  t.halo.assign(n, {});
-  return t;
+template <class T>
+Eigen::Matrix<T, kMonomials, 1> Monomials(T u, T v) {
+  Eigen::Matrix<T, kMonomials, 1> m;
+  m << T(1), u, v, u * u, u * v, v * v, u * u * u, u * u * v, u * v * v, v * v * v;
+  return m;
 }
 
-// Fills core and halo lists (ascending point index: deterministic) for the points with
-// include[i] != 0.
-void FillTiles(Tiles* t, const std::vector<Eigen::Vector3f>& pos,
-               const std::vector<uint8_t>& include, double margin_mm) {
-  for (auto& v : t->core) v.clear();
-  for (auto& v : t->halo) v.clear();
-  for (size_t i = 0; i < pos.size(); ++i) {
-    if (!include.empty() && !include[i]) continue;
-    const Eigen::Vector3d p = pos[i].cast<double>();
-    t->core[t->Index(t->Cell(p))].push_back(static_cast<uint32_t>(i));
-    const Eigen::Vector3i a = t->Cell(p - Eigen::Vector3d::Constant(margin_mm));
-    const Eigen::Vector3i b = t->Cell(p + Eigen::Vector3d::Constant(margin_mm));
-    for (int z = a.z(); z <= b.z(); ++z) {
-      for (int y = a.y(); y <= b.y(); ++y) {
-        for (int x = a.x(); x <= b.x(); ++x) {
-          t->halo[t->Index({x, y, z})].push_back(static_cast<uint32_t>(i));
-        }
-      }
+struct ViewGrid {
+  int width = 0, height = 0;
+  std::vector<int32_t> point;  // per slot: the usable point (index into Points) or kNone
+  // Per slot: the usable point's world position (NaN where none: the distance tests read one
+  // contiguous array).
+  std::vector<Eigen::Vector3f> pos;
+  std::vector<uint32_t> usable_slots;  // slots holding a usable point (point-by-point search)
+  Eigen::Matrix3f sensor_from_world_r = Eigen::Matrix3f::Identity();
+  Eigen::Vector3f sensor_from_world_t = Eigen::Vector3f::Zero();
+  Eigen::Vector3f origin_in_world = Eigen::Vector3f::Zero();  // the sensor's origin
+  Eigen::Matrix<float, kMonomials, 1> col_poly, row_poly;
+  float fit_err_px = 0;
+  bool fitted = false;
+};
+
+// Fits the grid's projection from its valid points (sensor frame). Returns the largest error
+// over all of them, px; NaN when too few points for a fit (the view is then searched point by
+// point).
+double FitProjection(const OrganizedPointCloud& g, ViewGrid* grid) {
+  constexpr size_t kMinPoints = 100, kMaxSamples = 40000;
+  std::vector<uint32_t> slots;
+  for (size_t i = 0; i < g.valid.size(); ++i) {
+    if (g.valid[i] && g.cloud.points[i].z() > 0) slots.push_back(static_cast<uint32_t>(i));
+  }
+  if (slots.size() < kMinPoints) return std::numeric_limits<double>::quiet_NaN();
+  const size_t stride = std::max<size_t>(1, slots.size() / kMaxSamples);
+  const size_t n = (slots.size() + stride - 1) / stride;
+  Eigen::MatrixXd a(n, kMonomials);
+  Eigen::MatrixXd b(n, 2);
+  for (size_t k = 0; k < n; ++k) {
+    const uint32_t s = slots[k * stride];
+    const Eigen::Vector3d& p = g.cloud.points[s];
+    a.row(static_cast<Eigen::Index>(k)) = Monomials(p.x() / p.z(), p.y() / p.z()).transpose();
+    b(static_cast<Eigen::Index>(k), 0) = static_cast<double>(s % static_cast<uint32_t>(g.width));
+    b(static_cast<Eigen::Index>(k), 1) = static_cast<double>(s / static_cast<uint32_t>(g.width));
+  }
+  const Eigen::MatrixXd x = a.colPivHouseholderQr().solve(b);
+  if (!x.allFinite()) return std::numeric_limits<double>::infinity();
+  const Poly col = x.col(0), row = x.col(1);
+  grid->col_poly = col.cast<float>();
+  grid->row_poly = row.cast<float>();
+  // The largest error over every valid point (the fit saw a subsample).
+  std::vector<double> err(slots.size());
+  tbb::parallel_for(size_t{0}, slots.size(), [&](size_t k) {
+    const Eigen::Vector3d& p = g.cloud.points[slots[k]];
+    const Poly m = Monomials(p.x() / p.z(), p.y() / p.z());
+    const double dc = col.dot(m) - static_cast<double>(slots[k] % static_cast<uint32_t>(g.width));
+    const double dr = row.dot(m) - static_cast<double>(slots[k] / static_cast<uint32_t>(g.width));
+    err[k] = std::hypot(dc, dr);
+  });
+  return *std::max_element(err.begin(), err.end());
+}
+
+// The pixel disc of `grid` that holds every slot whose point can lie within radius_mm of p
+// (centre col/row, radius px); false when there is none (p behind the camera).
+struct PixelDisc {
+  float col, row, radius_px;
+};
+bool DiscOf(const ViewGrid& grid, const Eigen::Vector3f& p_in_world, float radius_mm,
+            PixelDisc* d) {
+  const Eigen::Vector3f x = grid.sensor_from_world_r * p_in_world + grid.sensor_from_world_t;
+  if (x.z() <= radius_mm) return false;
+  const float u = x.x() / x.z(), v = x.y() / x.z();
+  const Eigen::Matrix<float, kMonomials, 1> m = Monomials(u, v);
+  Eigen::Matrix<float, kMonomials, 1> mu, mv;  // derivatives of the monomials by u and v
+  mu << 0, 1, 0, 2 * u, v, 0, 3 * u * u, 2 * u * v, v * v, 0;
+  mv << 0, 0, 1, 0, u, 2 * v, 0, u * u, 2 * u * v, 3 * v * v;
+  // The projection's Jacobian and its largest singular value.
+  const float a = grid.col_poly.dot(mu), b = grid.col_poly.dot(mv);
+  const float c = grid.row_poly.dot(mu), e = grid.row_poly.dot(mv);
+  const float t = a * a + b * b + c * c + e * e, det = a * e - b * c;
+  const float sigma = std::sqrt(0.5f * (t + std::sqrt(std::max(0.f, t * t - 4 * det * det))));
+  // A point q within radius R of p has normalized coordinates within
+  // R (1 + |(u, v)|) / (z - R) of p's: sigma (+ 5 % for its change across the disc) bounds the
+  // distance of q's projection, the fit error that of q's slot from its projection.
+  const float duv = radius_mm * (1 + std::sqrt(u * u + v * v)) / (x.z() - radius_mm);
+  d->col = grid.col_poly.dot(m);
+  d->row = grid.row_poly.dot(m);
+  d->radius_px = 1.05f * sigma * duv + grid.fit_err_px;
+  return std::isfinite(d->col) && std::isfinite(d->row) && std::isfinite(d->radius_px);
+}
+
+// Calls f(slot, squared distance) for every slot of the grid in the disc around p that `keep`
+// accepts and whose point lies within radius_mm of p, row by row (a deterministic order), until
+// f returns false.
+template <class Keep, class F>
+void ForEachNear(const ViewGrid& grid, const Eigen::Vector3f& p_in_world, float radius_mm,
+                 Keep&& keep, F&& f) {
+  const float r_sq = radius_mm * radius_mm;
+  if (!grid.fitted) {
+    for (uint32_t s : grid.usable_slots) {
+      if (!keep(s)) continue;
+      const float dist_sq = (grid.pos[s] - p_in_world).squaredNorm();
+      if (dist_sq <= r_sq && !f(s, dist_sq)) return;
+    }
+    return;
+  }
+  PixelDisc d;
+  if (!DiscOf(grid, p_in_world, radius_mm, &d)) return;
+  const int r0 = std::max(0, static_cast<int>(std::ceil(d.row - d.radius_px)));
+  const int r1 = std::min(grid.height - 1, static_cast<int>(std::floor(d.row + d.radius_px)));
+  for (int r = r0; r <= r1; ++r) {
+    const float dr = static_cast<float>(r) - d.row;
+    const float half = std::sqrt(std::max(0.f, d.radius_px * d.radius_px - dr * dr));
+    const int c0 = std::max(0, static_cast<int>(std::ceil(d.col - half)));
+    const int c1 = std::min(grid.width - 1, static_cast<int>(std::floor(d.col + half)));
+    const uint32_t row = static_cast<uint32_t>(r) * static_cast<uint32_t>(grid.width);
+    for (uint32_t s = row + c0; s <= row + c1; ++s) {
+      if (!keep(s)) continue;
+      // Empty slots hold NaN: the comparison fails.
+      const float dist_sq = (grid.pos[s] - p_in_world).squaredNorm();
+      if (dist_sq <= r_sq && !f(s, dist_sq)) return;
     }
   }
 }
@@ -256,8 +303,8 @@ void FusionOptions::Check() const {
                     border_trim_px, "must be in [0, 100]");
   util::CheckOption(min_border_hole_px >= 1, kName, "min_border_hole_px", min_border_hole_px,
                     "must be >= 1");
-  util::CheckOption(tile_mm > 0 && tile_mm <= 1e4, kName, "tile_mm", tile_mm,
-                    "must be in (0, 1e4]");
+  util::CheckOption(max_fit_error_px > 0, kName, "max_fit_error_px", max_fit_error_px,
+                    "must be > 0");
   util::CheckOption(max_spacing_ratio > 1, kName, "max_spacing_ratio", max_spacing_ratio,
                     "must be > 1");
 }
@@ -310,7 +357,13 @@ nlohmann::json SummaryToJson(const FusionSummary& s) {
           {"iterations", s.iterations},
           {"last_max_shift_mm", s.last_max_shift_mm},
           {"median_spacing_mm", s.median_spacing_mm},
-          {"time_s", s.time_s}};
+          {"max_fit_error_px", s.max_fit_error_px},
+          {"time_s", s.time_s},
+          {"prepare_s", s.prepare_s},
+          {"overlap_s", s.overlap_s},
+          {"candidates_s", s.candidates_s},
+          {"cluster_s", s.cluster_s},
+          {"output_s", s.output_s}};
 }
 
 FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions& options) {
@@ -441,7 +494,7 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
           w *= BorderWeight(pts.border[k], options.border_ramp_px);
           pts.weight[k] = static_cast<float>(std::isfinite(w) ? w : 0);
           // Isolated points take the view's median spacing; grazing ones at most 4 times it
-          // (the largest radius sets every tile's halo).
+          // (the radius sets the pixel windows of the neighbour search).
           const float median = static_cast<float>(median_spacing[pts.view[k]]);
           float sp = spacing[pts.view[k]][i];
           sp = std::isfinite(sp) ? std::min(sp, 4 * median) : median;
@@ -456,53 +509,106 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
     return Fail(std::move(result), FusionStatus::kBadView,
                 "a valid point has a non-finite position");
   }
-  double margin_mm = 0;
   for (size_t k = 0; k < pts.size(); ++k) {
-    if (pts.usable[k] && std::isfinite(pts.radius_mm[k])) {
-      margin_mm = std::max(margin_mm, static_cast<double>(pts.radius_mm[k]));
-    } else {
-      pts.usable[k] = 0;
+    if (!std::isfinite(pts.radius_mm[k])) pts.usable[k] = 0;
+  }
+  // The views' grids for the neighbour search.
+  std::vector<ViewGrid> grids(views.size());
+  {
+    size_t k = 0;
+    for (size_t v = 0; v < views.size(); ++v) {
+      const OrganizedPointCloud& g = views[v].cloud;
+      ViewGrid& grid = grids[v];
+      grid.width = g.width;
+      grid.height = g.height;
+      grid.point.assign(g.valid.size(), kNone);
+      grid.pos.assign(g.valid.size(),
+                      Eigen::Vector3f::Constant(std::numeric_limits<float>::quiet_NaN()));
+      for (; k < pts.size() && pts.view[k] == v; ++k) {
+        if (!pts.usable[k]) continue;
+        grid.point[pts.grid[k]] = static_cast<int32_t>(k);
+        grid.pos[pts.grid[k]] = pts.pos[k];
+        grid.usable_slots.push_back(pts.grid[k]);
+      }
+      const Rigid3d sensor_from_world = views[v].world_from_sensor.Inverse();
+      grid.sensor_from_world_r = sensor_from_world.rotation_matrix().cast<float>();
+      grid.sensor_from_world_t = sensor_from_world.translation().cast<float>();
+      grid.origin_in_world = views[v].world_from_sensor.translation().cast<float>();
+      const double fit_err_px = FitProjection(g, &grid);
+      if (fit_err_px > options.max_fit_error_px) {
+        return Fail(std::move(result), FusionStatus::kBadView,
+                    util::StrCat("view '", views[v].name,
+                                 "': its grid is not a camera's pixel grid (the points project "
+                                 "to their slots with errors up to ",
+                                 fit_err_px,
+                                 " px; fusion needs the organized cloud as "
+                                 "reconstructed, in its sensor frame)"));
+      }
+      grid.fitted = std::isfinite(fit_err_px);
+      grid.fit_err_px = grid.fitted ? static_cast<float>(fit_err_px) : 0.f;
+      s.max_fit_error_px = std::max(s.max_fit_error_px, static_cast<double>(grid.fit_err_px));
     }
   }
+  s.prepare_s = timer.ElapsedSeconds();
+  util::Timer stage;
 
-  // 1 + 2: overlap and initial centres, tile by tile.
+  // 1 + 2: overlap and initial centres: each point against the other views' points in the
+  // pixel windows around its projections.
   const float cos_max = static_cast<float>(std::cos(options.max_normal_angle_deg * kPi / 180));
-  Tiles tiles = MakeTiles(pts.pos, std::max(options.tile_mm, 2 * margin_mm));
-  FillTiles(&tiles, pts.pos, pts.usable, margin_mm);
+  const float sin_max = static_cast<float>(std::sin(options.max_normal_angle_deg * kPi / 180));
   // kOutranked: a compatible point of another view within the radius outranks this one.
   constexpr uint8_t kOverlap = 1, kSeed = 2, kAbsorbed = 4, kOutranked = 8;
   std::vector<uint8_t> flags(pts.size(), 0);
-  const nanoflann::SearchParams unsorted(32, 0, false);
-  tbb::parallel_for(size_t{0}, tiles.core.size(), [&](size_t t) {
-    if (tiles.core[t].empty()) return;
-    const TileAdaptor adaptor(pts.pos, tiles.halo[t]);
-    Tree tree(3, adaptor, nanoflann::KDTreeSingleIndexAdaptorParams(16));
-    tree.buildIndex();
-    Neighbours nb;
-    for (uint32_t i : tiles.core[t]) {
-      const float r = pts.radius_mm[i];
-      const float rho = pts.seed_radius_mm[i];
-      tree.radiusSearch(pts.pos[i].data(), r * r, nb, unsorted);
-      bool overlap = false, seed = true, better = false, outranked = false;
-      for (const auto& [local, dist_sq] : nb) {
-        const uint32_t j = tiles.halo[t][local];
-        if (pts.view[j] == pts.view[i]) continue;
-        better = better || pts.weight[j] > pts.weight[i];
-        if (pts.nrm[i].dot(pts.nrm[j]) < cos_max) continue;
-        overlap = true;
-        if (Outranks(pts, j, i)) {
-          outranked = true;
-          if (dist_sq <= rho * rho) seed = false;
+  // Per point: bit v set when view v (< 64) has a point within its radius (the views the
+  // candidate search below looks in).
+  std::vector<uint64_t> near_views(pts.size(), 0);
+  const bool all_views = views.size() > 64;
+  tbb::parallel_for(
+      tbb::blocked_range<size_t>(0, pts.size(), 1024),
+      [&](const tbb::blocked_range<size_t>& range) {
+        for (size_t i = range.begin(); i != range.end(); ++i) {
+          if (!pts.usable[i]) continue;
+          const float r = pts.radius_mm[i];
+          const float rho_sq = pts.seed_radius_mm[i] * pts.seed_radius_mm[i];
+          const Eigen::Vector3f p = pts.pos[i];
+          const Eigen::Vector3f n = pts.nrm[i];
+          bool overlap = false, seed = true, better = false, outranked = false;
+          uint64_t near = 0;
+          const bool border = pts.border[i] < options.border_trim_px;
+          for (size_t v = 0; v < views.size(); ++v) {
+            if (v == pts.view[i]) continue;
+            // Normals face their sensor: a view that sees p's side from behind by more than
+            // the compatibility angle has no compatible point there (only a border point
+            // needs the others: `better`).
+            if (!border && n.dot((grids[v].origin_in_world - p).normalized()) < -sin_max) {
+              continue;
+            }
+            ForEachNear(
+                grids[v], p, r, [](uint32_t) { return true; },
+                [&](uint32_t slot, float dist_sq) {
+                  const int32_t j = grids[v].point[slot];
+                  if (v < 64) near |= uint64_t{1} << v;
+                  better = better || pts.weight[j] > pts.weight[i];
+                  if (n.dot(pts.nrm[j]) < cos_max) return true;
+                  overlap = true;
+                  if (Outranks(pts, static_cast<uint32_t>(j), static_cast<uint32_t>(i))) {
+                    outranked = true;
+                    if (dist_sq <= rho_sq) seed = false;
+                  }
+                  // Settled (an overlap point outranked within its seed radius; this
+                  // view's bit set): the rest of this view changes nothing.
+                  return seed;
+                });
+          }
+          near_views[i] = near;
+          if (overlap) {
+            flags[i] = static_cast<uint8_t>((seed ? (kOverlap | kSeed) : kOverlap) |
+                                            (outranked ? kOutranked : 0));
+          } else if (better && border) {
+            flags[i] = kAbsorbed;
+          }
         }
-      }
-      if (overlap) {
-        flags[i] = static_cast<uint8_t>((seed ? (kOverlap | kSeed) : kOverlap) |
-                                        (outranked ? kOutranked : 0));
-      } else if (better && pts.border[i] < options.border_trim_px) {
-        flags[i] = kAbsorbed;
-      }
-    }
-  });
+      });
 
   std::vector<uint32_t> seeds;
   std::vector<uint8_t> in_overlap(pts.size(), 0);
@@ -515,6 +621,8 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
   for (size_t v = 0; v < views.size(); ++v)
     result.overlap[v].assign(views[v].cloud.valid.size(), 0);
   for (size_t k = 0; k < pts.size(); ++k) result.overlap[pts.view[k]][pts.grid[k]] = in_overlap[k];
+  s.overlap_s = stage.ElapsedSeconds();
+  stage.Restart();
 
   // 3: clustering. Centres start at the seeds and move along their normals only.
   const size_t nc = seeds.size();
@@ -530,88 +638,126 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
   std::vector<uint32_t> member_start(nc + 1, 0), members;
   // Candidate centres of every overlap point, found once: centres move along their normals by
   // noise and registration error, a fraction of a spacing; each centre's total travel from its
-  // seed is bounded by the seed's radius (a cluster that would travel farther is no surface
+  // seed is bounded (half a median spacing + the registration term, at most the seed radius: a
+  // cluster that would travel farther is no surface
   // estimate anymore), so the centres within a point's radius at any iteration are among those
-  // whose seeds lie within radius + the largest travel. Of those the kCandidates nearest are
-  // kept (ordered by seed distance, then index: deterministic); the iterations then assign
-  // among them without a tree query.
+  // whose seeds lie within radius + the largest travel. They are looked for in the point's own
+  // view and in the views with a point within its radius (a centre of a view without one
+  // would have to travel into the radius; the views that measured the place have centres
+  // there). Of those the kCandidates nearest are kept (ordered by seed distance, then index:
+  // deterministic); the iterations then assign among them without a search.
   constexpr int kCandidates = 8;
+  // Travel: noise and registration error (half a median spacing + the registration term is
+  // several noise sigmas on every rig measured), at most the seed radius.
+  const float travel_limit_mm = static_cast<float>(0.5 * s.median_spacing_mm + reg_term);
   double max_travel_mm = 0;
   std::vector<float> travel_mm(nc);
   for (size_t c = 0; c < nc; ++c) {
-    travel_mm[c] = pts.seed_radius_mm[seeds[c]];
+    travel_mm[c] = std::min(pts.seed_radius_mm[seeds[c]], travel_limit_mm);
     max_travel_mm = std::max(max_travel_mm, static_cast<double>(travel_mm[c]));
   }
-  std::vector<int32_t> candidates;
+  std::vector<int32_t> candidates(pts.size() * kCandidates, kNone);
   {
-    Tiles centre_tiles;  // the same tiles, listing the seeds
-    centre_tiles.origin = tiles.origin;
-    centre_tiles.size = tiles.size;
-    centre_tiles.count = tiles.count;
-    centre_tiles.core.resize(tiles.core.size());
-    centre_tiles.halo.resize(tiles.halo.size());
-    FillTiles(&centre_tiles, centre, {}, margin_mm + max_travel_mm);
-    candidates.assign(pts.size() * kCandidates, kNone);
-    tbb::parallel_for(size_t{0}, tiles.core.size(), [&](size_t t) {
-      const std::vector<uint32_t>& local_centres = centre_tiles.halo[t];
-      if (tiles.core[t].empty() || local_centres.empty()) return;
-      const TileAdaptor adaptor(centre, local_centres);
-      Tree tree(3, adaptor, nanoflann::KDTreeSingleIndexAdaptorParams(16));
-      tree.buildIndex();
-      Neighbours nb;
-      std::vector<std::pair<float, uint32_t>> found;
-      for (uint32_t i : tiles.core[t]) {
-        if (!in_overlap[i]) continue;
-        const float r = pts.radius_mm[i] + static_cast<float>(max_travel_mm);
-        tree.radiusSearch(pts.pos[i].data(), r * r, nb, unsorted);
-        found.clear();
-        for (const auto& [local, dist_sq] : nb) found.emplace_back(dist_sq, local_centres[local]);
-        const size_t keep = std::min<size_t>(found.size(), kCandidates);
-        std::partial_sort(found.begin(), found.begin() + static_cast<std::ptrdiff_t>(keep),
-                          found.end());
-        for (size_t k = 0; k < keep; ++k) {
-          candidates[i * kCandidates + k] = static_cast<int32_t>(found[k].second);
-        }
-      }
-    });
-  }
-  for (int it = 0; it < options.max_iterations && nc > 0; ++it) {
-    tbb::parallel_for(size_t{0}, pts.size(), [&](size_t i) {
-      if (!in_overlap[i]) return;
-      const float r_sq = pts.radius_mm[i] * pts.radius_mm[i];
-      int32_t best = kNone;
-      float best_d = std::numeric_limits<float>::infinity();
-      for (int k = 0; k < kCandidates; ++k) {
-        const int32_t c = candidates[i * kCandidates + k];
-        if (c == kNone) break;
-        const float dist_sq = (centre[c] - pts.pos[i]).squaredNorm();
-        if (dist_sq > r_sq || pts.nrm[i].dot(centre_n[c]) < cos_max) continue;
-        if (dist_sq < best_d || (dist_sq == best_d && c < best)) {
-          best = c;
-          best_d = dist_sq;
-        }
-      }
-      assign[i] = best;
-    });
-    // Members per centre in ascending point order (counting sort): fixed summation order.
-    std::fill(member_start.begin(), member_start.end(), 0);
-    for (size_t k = 0; k < pts.size(); ++k) {
-      if (assign[k] != kNone) ++member_start[assign[k] + 1];
+    std::vector<std::vector<int32_t>> seed_at(views.size());  // per view and slot: the centre
+    for (size_t v = 0; v < views.size(); ++v) seed_at[v].assign(grids[v].point.size(), kNone);
+    for (size_t c = 0; c < nc; ++c) {
+      seed_at[pts.view[seeds[c]]][pts.grid[seeds[c]]] = static_cast<int32_t>(c);
     }
-    for (size_t c = 0; c < nc; ++c) member_start[c + 1] += member_start[c];
-    members.resize(member_start[nc]);
-    {
+    tbb::parallel_for(
+        tbb::blocked_range<size_t>(0, pts.size(), 1024),
+        [&](const tbb::blocked_range<size_t>& range) {
+          std::vector<std::pair<float, int32_t>> found;
+          for (size_t i = range.begin(); i != range.end(); ++i) {
+            if (!in_overlap[i]) continue;
+            const float r = pts.radius_mm[i] + static_cast<float>(max_travel_mm);
+            const Eigen::Vector3f p = pts.pos[i];
+            found.clear();
+            for (size_t v = 0; v < views.size(); ++v) {
+              if (v != pts.view[i] && !all_views && !(near_views[i] >> v & 1)) continue;
+              const std::vector<int32_t>& seed_of = seed_at[v];
+              ForEachNear(
+                  grids[v], p, r, [&](uint32_t slot) { return seed_of[slot] != kNone; },
+                  [&](uint32_t slot, float dist_sq) {
+                    found.emplace_back(dist_sq, seed_of[slot]);
+                    return true;
+                  });
+            }
+            const size_t keep = std::min<size_t>(found.size(), kCandidates);
+            std::partial_sort(found.begin(), found.begin() + static_cast<std::ptrdiff_t>(keep),
+                              found.end());
+            for (size_t k = 0; k < keep; ++k) candidates[i * kCandidates + k] = found[k].second;
+          }
+        });
+  }
+  s.candidates_s = stage.ElapsedSeconds();
+  stage.Restart();
+  // Iterations. A point's assignment can change only when one of its candidate centres moved
+  // in the last iteration, a centre's update only when its membership changed or it moved: a
+  // centre whose update would move it less than convergence_mm with unchanged membership
+  // settles (stays where it is) and is not evaluated again until its membership changes.
+  // Every decision depends on the input only: the result does not depend on the threads.
+  std::vector<uint8_t> moved(nc, 1), changed(nc, 1);
+  std::vector<int32_t> new_assign(pts.size(), kNone);
+  // Per centre, from its last evaluation: the combined step along the normal, the step by the
+  // seed's own view alone, the spread of the views' steps (NaN with one view) and the combined
+  // normal.
+  std::vector<double> step(nc, 0), own_step(nc, 0), disagreement(nc, kNaN);
+  std::vector<Eigen::Vector3f> new_normal(centre_n);
+  std::vector<uint8_t> evaluate(nc, 0);
+  std::vector<float> shift(nc, 0.f);
+  for (int it = 0; it < options.max_iterations && nc > 0; ++it) {
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, pts.size(), 4096),
+                      [&](const tbb::blocked_range<size_t>& range) {
+                        for (size_t i = range.begin(); i != range.end(); ++i) {
+                          new_assign[i] = assign[i];
+                          if (!in_overlap[i]) continue;
+                          const int32_t* cand = &candidates[i * kCandidates];
+                          bool stale = it == 0;
+                          for (int k = 0; k < kCandidates && cand[k] != kNone && !stale; ++k) {
+                            stale = moved[cand[k]] != 0;
+                          }
+                          if (!stale) continue;
+                          const float r_sq = pts.radius_mm[i] * pts.radius_mm[i];
+                          int32_t best = kNone;
+                          float best_d = std::numeric_limits<float>::infinity();
+                          for (int k = 0; k < kCandidates && cand[k] != kNone; ++k) {
+                            const int32_t c = cand[k];
+                            const float dist_sq = (centre[c] - pts.pos[i]).squaredNorm();
+                            if (dist_sq > r_sq || pts.nrm[i].dot(centre_n[c]) < cos_max) continue;
+                            if (dist_sq < best_d || (dist_sq == best_d && c < best)) {
+                              best = c;
+                              best_d = dist_sq;
+                            }
+                          }
+                          new_assign[i] = best;
+                        }
+                      });
+    // Memberships that changed (serial: each centre's flag is written by one thread).
+    std::fill(changed.begin(), changed.end(), it == 0 ? 1 : 0);
+    bool any_change = it == 0;
+    for (size_t k = 0; k < pts.size(); ++k) {
+      if (new_assign[k] == assign[k]) continue;
+      if (assign[k] != kNone) changed[assign[k]] = 1;
+      if (new_assign[k] != kNone) changed[new_assign[k]] = 1;
+      assign[k] = new_assign[k];
+      any_change = true;
+    }
+    if (any_change) {
+      // Members per centre in ascending point order (counting sort): fixed summation order.
+      std::fill(member_start.begin(), member_start.end(), 0);
+      for (size_t k = 0; k < pts.size(); ++k) {
+        if (assign[k] != kNone) ++member_start[assign[k] + 1];
+      }
+      for (size_t c = 0; c < nc; ++c) member_start[c + 1] += member_start[c];
+      members.resize(member_start[nc]);
       std::vector<uint32_t> fill(member_start.begin(), member_start.end() - 1);
       for (size_t k = 0; k < pts.size(); ++k) {
         if (assign[k] != kNone) members[fill[assign[k]]++] = static_cast<uint32_t>(k);
       }
     }
-    std::vector<float> shift(nc, 0.f);
-    // Per centre: the combined step along the normal, the step by the seed's own view alone,
-    // the spread of the views' steps (NaN with one view) and the combined normal.
-    std::vector<double> step(nc, 0), own_step(nc, 0), disagreement(nc, kNaN);
-    std::vector<Eigen::Vector3f> new_normal(centre_n);
     tbb::parallel_for(size_t{0}, nc, [&](size_t c) {
+      evaluate[c] = changed[c] || moved[c];
+      if (!evaluate[c]) return;
       // Each view's surface is evaluated on the centre's normal line: every member gives the
       // point where its tangent plane crosses that line (exact for a member on the same plane
       // however far it lies sideways); within a view, members close beside the line count
@@ -627,6 +773,9 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
       Eigen::Vector3d sn = Eigen::Vector3d::Zero();
       const Eigen::Vector3d n = centre_n[c].cast<double>();
       const double lateral_sigma = options.lateral_sigma * centre_spacing[c];
+      step[c] = 0;
+      own_step[c] = 0;
+      disagreement[c] = kNaN;
       for (uint32_t m = member_start[c]; m < member_start[c + 1]; ++m) {
         const uint32_t i = members[m];
         const Eigen::Vector3d d = (pts.pos[i] - centre[c]).cast<double>();
@@ -660,6 +809,7 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
         ++used;
         if (per_view[k].view == pts.view[seeds[c]]) own_step[c] = e;
       }
+      new_normal[c] = centre_n[c];
       if (sw <= 0) return;
       step[c] = sd / sw;
       if (used >= 2) disagreement[c] = hi - lo;
@@ -679,30 +829,46 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
         limit = options.max_disagreement * d[d.size() / 2];
       }
     }
-    // Once disagreeing, a centre stays with its seed view (the iteration then converges).
+    // Once disagreeing, a centre stays with its seed view (the iteration then converges). A
+    // centre that turns disagreeing without being evaluated now moves at its next evaluation.
     int64_t rejected = 0;
     for (size_t c = 0; c < nc; ++c) {
-      if (disagreement[c] > limit) keep_own[c] = 1;
+      if (disagreement[c] > limit && !keep_own[c]) {
+        keep_own[c] = 1;
+        if (!evaluate[c]) changed[c] = 2;
+      }
       rejected += keep_own[c];
     }
     s.disagreeing_clusters = rejected;
     tbb::parallel_for(size_t{0}, nc, [&](size_t c) {
+      shift[c] = 0;
+      if (!evaluate[c]) {
+        moved[c] = changed[c] == 2;  // re-evaluate with its seed view's step
+        return;
+      }
       const bool disagree = keep_own[c] != 0;
       const double d = disagree ? own_step[c] : step[c];
-      Eigen::Vector3d moved = centre[c].cast<double>() + d * centre_n[c].cast<double>();
-      const Eigen::Vector3d from_seed = moved - pts.pos[seeds[c]].cast<double>();
+      Eigen::Vector3d moved_to = centre[c].cast<double>() + d * centre_n[c].cast<double>();
+      const Eigen::Vector3d from_seed = moved_to - pts.pos[seeds[c]].cast<double>();
       if (from_seed.norm() > travel_mm[c]) {
-        moved = pts.pos[seeds[c]].cast<double>() + from_seed * (travel_mm[c] / from_seed.norm());
+        moved_to = pts.pos[seeds[c]].cast<double>() + from_seed * (travel_mm[c] / from_seed.norm());
       }
-      shift[c] = static_cast<float>((moved - centre[c].cast<double>()).norm());
-      centre[c] = moved.cast<float>();
+      shift[c] = static_cast<float>((moved_to - centre[c].cast<double>()).norm());
+      if (shift[c] < options.convergence_mm && !changed[c]) {
+        moved[c] = 0;  // settled
+        return;
+      }
+      moved[c] = 1;
+      centre[c] = moved_to.cast<float>();
       if (!disagree) centre_n[c] = new_normal[c];
     });
     s.iterations = it + 1;
-    s.last_max_shift_mm = nc > 0 ? *std::max_element(shift.begin(), shift.end()) : 0;
-    if (s.last_max_shift_mm < options.convergence_mm) break;
+    s.last_max_shift_mm = *std::max_element(shift.begin(), shift.end());
+    if (std::find(moved.begin(), moved.end(), 1) == moved.end()) break;
   }
   // The last update moved the centres; the membership of that update defines the clusters.
+  s.cluster_s = stage.ElapsedSeconds();
+  stage.Restart();
 
   // Output: centres with members, then the passed-through points.
   PointCloud& out = result.fused;
@@ -776,6 +942,7 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
         s.trimmed > 0 ? util::StrCat(" except ", s.trimmed, " lone border points (trimmed)")
                       : std::string());
   }
+  s.output_s = stage.ElapsedSeconds();
   s.time_s = timer.ElapsedSeconds();
   return result;
 }

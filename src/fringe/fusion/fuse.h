@@ -46,8 +46,15 @@
 //   loses nothing). Every other single-coverage point passes through unchanged. The summary
 //   counts absorbed and trimmed points; border_trim_px = 0 keeps them all.
 //
-// Neighbour search: nanoflann k-d trees built per spatial tile (tile + margin of the largest
-// radius), so that memory stays bounded by the tile and the work runs in parallel over tiles.
+// Neighbour search through the organized grids: a point's neighbours in another view lie in a
+// small pixel window around its projection into that view's grid (the projection is fitted to
+// the grid's own points: a camera's pixel grid, with its distortion; the window is widened by
+// the fit's largest error, so no neighbour within the radius is missed). The cost per point is
+// a fixed number of slot reads per view instead of a k-d tree descent over all points; the
+// work runs in parallel over points.
+// Clustering iterations only revisit what changed: a point's assignment when one of its
+// candidate centres moved, a centre when its membership changed or it moved; a centre whose
+// update is below convergence_mm with unchanged members settles.
 //
 // Frames and units: each view's cloud is in its sensor frame, world_from_sensor places it; the
 // output is in the world frame; millimetres.
@@ -100,7 +107,9 @@ struct FusionOptions {
   int border_trim_px = 2;
   // Invalid regions smaller than this (decoding dropouts inside a surface) make no border, >= 1.
   int min_border_hole_px = 16;
-  double tile_mm = 40;  // tile edge of the neighbour search, (0, 1e4]
+  // A view whose points project to their grid slots with a larger error is refused (kBadView:
+  // not a camera's pixel grid, the neighbour search needs one), px, > 0.
+  double max_fit_error_px = 4;
   // Views whose median point spacings differ by more than this factor are taken to be in
   // different units (metres vs millimetres) and refused, > 1.
   double max_spacing_ratio = 20;
@@ -114,7 +123,7 @@ enum class FusionStatus {
   kEmptyInput,      // no views, or no valid point in any view
   kMissingNormals,  // a view without normals (fusion needs them for compatibility and weights)
   kUnitsMismatch,   // views' point spacings differ as metres and millimetres would
-  kBadView,         // grid and attribute sizes disagree, or a non-finite pose
+  kBadView,         // grid and attribute sizes disagree, a non-finite pose, or not a camera's grid
 };
 const char* ToString(FusionStatus s);
 
@@ -139,7 +148,11 @@ struct FusionSummary {
   int iterations = 0;
   double last_max_shift_mm = 0;  // largest centre move of the last iteration
   double median_spacing_mm = 0;  // over all views
+  double max_fit_error_px = 0;   // largest error of the grids' fitted projections
   double time_s = 0;
+  // Wall time of the stages (sum ~ time_s): views checked and points gathered with weights and
+  // radii; overlap and seeds; candidate centres; clustering iterations; output.
+  double prepare_s = 0, overlap_s = 0, candidates_s = 0, cluster_s = 0, output_s = 0;
   // True when `fused` holds the result (kOk or kNoOverlap).
   bool has_output() const {
     return status == FusionStatus::kOk || status == FusionStatus::kNoOverlap;

@@ -7,8 +7,11 @@
 #include <open3d/geometry/TriangleMesh.h>
 #include <algorithm>
 #include <cmath>
+#include <memory>
+#include <tuple>
 
 #include "fringe/eval/deviation.h"
+#include "fringe/fusion/mesh_cgal.h"
 #include "fringe/io/mesh_io.h"
 #include "fringe/util/error.h"
 #include "fringe/util/files.h"
@@ -57,6 +60,16 @@ void MeshOptions::Check() const {
   util::CheckOption(threads >= 0, kName, "threads", threads, "must be >= 0");
 }
 
+const char* ToString(MeshLibrary l) {
+  switch (l) {
+    case MeshLibrary::kOpen3d:
+      return "open3d";
+    case MeshLibrary::kCgal:
+      return "cgal";
+  }
+  return "?";
+}
+
 const char* ToString(MeshStatus s) {
   switch (s) {
     case MeshStatus::kOk:
@@ -72,11 +85,14 @@ const char* ToString(MeshStatus s) {
 }
 
 std::string MeshSummary::BriefReport() const {
-  std::string s =
-      util::StrCat("mesh: ", ToString(status), ", ", input_points, " points (spacing ", spacing_mm,
-                   " mm) -> depth ", poisson_depth, ": ", poisson_triangles, " Poisson triangles, ",
-                   trimmed_vertices, " vertices trimmed -> ", vertices, " vertices, ", triangles,
-                   " triangles, ", watertight ? "watertight" : "open");
+  std::string s = util::StrCat(
+      "mesh: ", ToString(status), ", ", input_points, " points (spacing ", spacing_mm,
+      " mm) -> depth ", poisson_depth, ": ", poisson_triangles, " Poisson triangles, ",
+      trimmed_vertices, " vertices trimmed -> ", vertices, " vertices, ", triangles, " triangles, ",
+      watertight ? std::string("watertight")
+                 : util::StrCat("not watertight (", boundary_edges, " boundary edges, ",
+                                non_manifold_edges, " non-manifold edges, ", non_manifold_vertices,
+                                " non-manifold vertices)"));
   if (decimated) {
     s += util::StrCat(", decimation deviation RMS ", decimation_rms_mm, " mm (max ",
                       decimation_max_mm, " mm)");
@@ -91,12 +107,17 @@ nlohmann::json SummaryToJson(const MeshSummary& s) {
           {"message", s.message},
           {"input_points", s.input_points},
           {"poisson_triangles", s.poisson_triangles},
+          {"library", s.library},
           {"poisson_depth", s.poisson_depth},
+          {"closed_holes", s.closed_holes},
           {"spacing_mm", s.spacing_mm},
           {"trimmed_vertices", s.trimmed_vertices},
           {"vertices", s.vertices},
           {"triangles", s.triangles},
           {"watertight", s.watertight},
+          {"boundary_edges", s.boundary_edges},
+          {"non_manifold_edges", s.non_manifold_edges},
+          {"non_manifold_vertices", s.non_manifold_vertices},
           {"decimated", s.decimated},
           {"decimation_rms_mm", s.decimation_rms_mm},
           {"decimation_max_mm", s.decimation_max_mm},
@@ -146,10 +167,23 @@ MeshResult MeshPoisson(const PointCloud& cloud, const MeshOptions& options) {
     s.poisson_depth = std::clamp(static_cast<int>(std::ceil(std::log2(std::max(cells, 1.0)))), 5,
                                  options.max_auto_depth);
   }
+  s.library = ToString(options.library);
   util::Timer timer;
-  auto [mesh, densities] = open3d::geometry::TriangleMesh::CreateFromPointCloudPoisson(
-      pcd, static_cast<size_t>(s.poisson_depth), 0.0f, static_cast<float>(kScale), false,
-      options.threads == 0 ? -1 : options.threads);
+  std::shared_ptr<open3d::geometry::TriangleMesh> mesh;
+  std::vector<double> densities;  // Open3D only
+  if (options.library == MeshLibrary::kOpen3d) {
+    std::tie(mesh, densities) = open3d::geometry::TriangleMesh::CreateFromPointCloudPoisson(
+        pcd, static_cast<size_t>(s.poisson_depth), 0.0f, static_cast<float>(kScale), false,
+        options.threads == 0 ? -1 : options.threads);
+  } else {
+    internal::IndexedMesh m;
+    mesh = std::make_shared<open3d::geometry::TriangleMesh>();
+    s.poisson_depth = 0;  // no octree
+    if (internal::CgalPoisson(pcd.points_, pcd.normals_, s.spacing_mm, &m)) {
+      mesh->vertices_ = std::move(m.vertices);
+      for (const auto& t : m.triangles) mesh->triangles_.emplace_back(t[0], t[1], t[2]);
+    }
+  }
   s.poisson_s = timer.ElapsedSeconds();
   s.poisson_triangles = static_cast<int64_t>(mesh->triangles_.size());
   if (mesh->triangles_.empty()) {
@@ -159,7 +193,7 @@ MeshResult MeshPoisson(const PointCloud& cloud, const MeshOptions& options) {
   if (!options.watertight) {
     // Low support: low Poisson density, or far from every measured point.
     const double max_dist_mm = options.trim_distance_factor * s.spacing_mm;
-    const double min_density = options.trim_density_quantile > 0
+    const double min_density = options.trim_density_quantile > 0 && !densities.empty()
                                    ? Quantile(densities, options.trim_density_quantile)
                                    : -std::numeric_limits<double>::infinity();
     std::vector<uint8_t> remove(mesh->vertices_.size(), 0);
@@ -168,12 +202,26 @@ MeshResult MeshPoisson(const PointCloud& cloud, const MeshOptions& options) {
       std::vector<double> d2(1);
       const bool far =
           tree.SearchKNN(mesh->vertices_[v], 1, idx, d2) < 1 || d2[0] > max_dist_mm * max_dist_mm;
-      remove[v] = far || densities[v] < min_density;
+      remove[v] = far || (!densities.empty() && densities[v] < min_density);
     });
     std::vector<bool> mask(remove.begin(), remove.end());
     s.trimmed_vertices = std::count(remove.begin(), remove.end(), 1);
     mesh->RemoveVerticesByMask(mask);
     mesh->RemoveUnreferencedVertices();
+  } else if (!mesh->IsEdgeManifold(/*allow_boundary_edges=*/false) || !mesh->IsVertexManifold()) {
+    // Open3D's Poisson keeps Neumann conditions on its cube: the surface of an open scan
+    // (the part's plate, seen from above only) runs into the cube's faces and ends there.
+    internal::IndexedMesh m;
+    m.vertices = mesh->vertices_;
+    for (const auto& t : mesh->triangles_) m.triangles.push_back({t(0), t(1), t(2)});
+    const int closed = internal::CloseHoles(&m);
+    if (closed > 0) {
+      s.closed_holes = closed;
+      mesh->vertices_ = std::move(m.vertices);
+      mesh->triangles_.clear();
+      for (const auto& t : m.triangles) mesh->triangles_.emplace_back(t[0], t[1], t[2]);
+      mesh->vertex_normals_.clear();
+    }
   }
 
   if (options.max_triangles > 0 &&
@@ -202,7 +250,11 @@ MeshResult MeshPoisson(const PointCloud& cloud, const MeshOptions& options) {
   mesh->ComputeVertexNormals();
   // Closed and manifold (Open3D's IsWatertight adds a self-intersection test that is
   // quadratic in the triangle count).
-  s.watertight = mesh->IsEdgeManifold(/*allow_boundary_edges=*/false) && mesh->IsVertexManifold();
+  const int64_t odd_edges = static_cast<int64_t>(mesh->GetNonManifoldEdges(false).size());
+  s.non_manifold_edges = static_cast<int64_t>(mesh->GetNonManifoldEdges(true).size());
+  s.boundary_edges = odd_edges - s.non_manifold_edges;
+  s.non_manifold_vertices = static_cast<int64_t>(mesh->GetNonManifoldVertices().size());
+  s.watertight = odd_edges == 0 && s.non_manifold_vertices == 0;
   result.mesh.vertices = mesh->vertices_;
   result.mesh.normals = mesh->vertex_normals_;
   result.mesh.triangles = Triangles(*mesh);

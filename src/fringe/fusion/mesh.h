@@ -28,14 +28,24 @@
 
 namespace fringe::fusion {
 
+// The Poisson implementation: Open3D's screened Poisson on an adaptive octree (the default:
+// faster and closer to the data on the demo part, docs/benchmarks.md) or CGAL's Poisson on a
+// Delaunay refinement (Kazhdan 2006, unscreened; meshed as a closed manifold).
+enum class MeshLibrary { kOpen3d = 0, kCgal };
+const char* ToString(MeshLibrary l);
+
 struct MeshOptions {
+  MeshLibrary library = MeshLibrary::kOpen3d;
   // Octree depth, [5, 14]; 0: from the cloud, the shallowest depth whose finest cell is at most
   // cell_spacings median point spacings across the cloud's extent (Poisson's cost grows ~8x per
   // level: a fixed depth is either too coarse for a fine scan or too slow for a coarse one).
   int poisson_depth = 0;
-  double cell_spacings = 2;             // (0, 100]
-  int max_auto_depth = 12;              // [5, 14]
-  bool watertight = false;              // true: keep the closed Poisson surface, no trimming
+  double cell_spacings = 2;  // (0, 100]
+  int max_auto_depth = 12;   // [5, 14]
+  // true: keep the closed Poisson surface, no trimming; holes left where Open3D's surface
+  // leaves its bounding cube (an open scan: a plate seen from one side) are closed by CGAL's
+  // hole triangulation.
+  bool watertight = false;
   double trim_density_quantile = 0.02;  // [0, 1)
   double trim_distance_factor = 4;      // times the median point spacing, > 0
   int64_t max_triangles = 0;            // 0: no decimation; else >= 4
@@ -61,10 +71,15 @@ struct MeshSummary {
   int64_t poisson_triangles = 0;  // before trimming and decimation
   int poisson_depth = 0;          // the depth used
   double spacing_mm = 0;          // median nearest-neighbour distance of the cloud
+  std::string library;            // "open3d" or "cgal"
   int64_t trimmed_vertices = 0;
+  int64_t closed_holes = 0;  // watertight: border cycles closed by CGAL's hole triangulation
   int64_t vertices = 0;
   int64_t triangles = 0;
-  bool watertight = false;  // every edge shared by exactly two triangles
+  bool watertight = false;  // every edge shared by exactly two triangles, manifold vertices
+  // Why a mesh is not watertight: edges of one triangle (holes, trimmed borders), edges of
+  // more than two, vertices whose triangles do not form one fan.
+  int64_t boundary_edges = 0, non_manifold_edges = 0, non_manifold_vertices = 0;
   bool decimated = false;
   double decimation_rms_mm = 0;  // undecimated vertices to the decimated surface
   double decimation_max_mm = 0;

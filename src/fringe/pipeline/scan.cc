@@ -284,6 +284,7 @@ struct Model {
   std::vector<int> view_of;    // per registration input: index into the scan's views
   std::vector<int> fusion_of;  // per registration input: index of its fusion view, or -1
   std::vector<std::vector<uint8_t>> grid_valid;  // per registration input: its grid's mask
+  std::vector<cv::Size> grid_size;               // per registration input: its grid's size
   std::vector<registration::RegistrationView> inputs;
   registration::RegistrationResult registration;
   fusion::FusionResult fused;
@@ -296,7 +297,48 @@ struct Model {
   std::vector<double> residuals_adjusted_mm, residuals_final_mm, marker_residuals_mm;
   double residual_threshold_mm = 0;
   std::vector<double> mesh_deviation_mm;  // per mesh vertex, signed, vs truth (empty without)
+  // Per registration input, with truth: the signed deviation of the view's points placed by
+  // their true pose, on its grid shrunk to the picture's width (CV_32F, NaN: no point); empty
+  // without truth or for a view that was not placed.
+  std::vector<cv::Mat> view_deviation_mm;
 };
+
+// The signed deviation from the truth mesh of an organized view's points placed by
+// world_from_sensor, sampled on the grid every `step` pixels in both directions (the view's
+// picture: point sampling keeps each value a real point's, no averaging across edges).
+// `compact` lists the valid slots of the grid (`valid`, grid_size) in grid order.
+cv::Mat ViewDeviationMap(const PointCloud& compact, const std::vector<uint8_t>& valid,
+                         cv::Size grid_size, const Rigid3d& world_from_sensor,
+                         const eval::MeshDistance& distance, int max_width_px) {
+  const int step = std::max(1, (grid_size.width + max_width_px - 1) / max_width_px);
+  const int w = (grid_size.width + step - 1) / step, h = (grid_size.height + step - 1) / step;
+  cv::Mat out(h, w, CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
+  // Compact index of every valid grid slot.
+  std::vector<int64_t> compact_of(valid.size(), -1);
+  int64_t n = 0;
+  for (size_t g = 0; g < valid.size(); ++g) {
+    if (valid[g]) compact_of[g] = n++;
+  }
+  if (n != static_cast<int64_t>(compact.size())) return out;  // not this cloud's grid
+  PointCloud sample;
+  std::vector<cv::Point> where;
+  for (int r = 0; r < h; ++r) {
+    for (int c = 0; c < w; ++c) {
+      const size_t g = static_cast<size_t>(r * step) * static_cast<size_t>(grid_size.width) +
+                       static_cast<size_t>(c * step);
+      if (compact_of[g] < 0) continue;
+      sample.points.push_back(world_from_sensor *
+                              compact.points[static_cast<size_t>(compact_of[g])]);
+      where.emplace_back(c, r);
+    }
+  }
+  std::vector<double> d;
+  eval::DeviationFromMesh(sample, distance, {}, &d);
+  for (size_t i = 0; i < where.size() && i < d.size(); ++i) {
+    out.at<float>(where[i]) = static_cast<float>(d[i]);
+  }
+  return out;
+}
 
 // Nearest-neighbour search over a point set (nanoflann k-d tree).
 class PointIndex {
@@ -507,6 +549,13 @@ void EvaluateAgainstTruth(const scan::ScanFolder& folder, Model* m, ScanSummary*
   }
   s->single_view_all_rms_mm = Rms(single_all);
   s->single_view_rms_mm = Rms(single_overlap);
+  m->view_deviation_mm.assign(n, cv::Mat());
+  for (size_t k = 0; k < n; ++k) {
+    if (!use[k]) continue;
+    m->view_deviation_mm[k] =
+        ViewDeviationMap(m->inputs[k].cloud, m->grid_valid[k], m->grid_size[k], true_pose[k],
+                         distance, kPictureWidthPx);
+  }
   // Fused cloud and mesh, moved into the truth's world by the gauge.
   {
     PointCloud sample;
@@ -854,6 +903,14 @@ json ScanSummary::FiguresJson() const {
           {"report_s", report_s},
           {"total_s", total_s},
           {"evaluate_s", evaluate_s},
+          {"calibrate_cpu_s", calibrate_cpu_s},
+          {"views_cpu_s", views_cpu_s},
+          {"register_cpu_s", register_cpu_s},
+          {"fuse_cpu_s", fuse_cpu_s},
+          {"mesh_cpu_s", mesh_cpu_s},
+          {"report_cpu_s", report_cpu_s},
+          {"total_cpu_s", total_cpu_s},
+          {"evaluate_cpu_s", evaluate_cpu_s},
           {"peak_mem_gib", peak_mem_gib},
           {"marker_adjusted_rms_mm", marker_adjusted_rms_mm},
           {"icp_rms_mm", icp_rms_mm},
@@ -934,6 +991,7 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
     fs::create_directories(dir / "views");
     // 1. Calibration (its time is reported apart: a rig is calibrated once, not per scan).
     util::Timer timer;
+    util::CpuTimer cpu;
     const cv::Mat first =
         io::ReadGrayImage(folder.layout().CameraDir(names.front(), scan::Camera::kLeft) /
                           scheme.ImageNames().front());
@@ -947,11 +1005,14 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
       io::WriteRig(dir / "rig.json", cal.rig);
     }
     s.calibrate_s = timer.ElapsedSeconds();
+    s.calibrate_cpu_s = cpu.ElapsedSeconds();
 
     // 2. Views, streamed: a serial source hands out view indices, at most views_in_flight are
     // read and reconstructed at once, results are stored by index (order-independent).
     util::Timer total;
+    util::CpuTimer total_cpu;
     timer.Restart();
+    cpu.Restart();
     const stereo::ViewReconstructor reconstructor(cal.rig, scheme, options.reconstruction);
     std::vector<ViewResult> results(names.size());
     {
@@ -974,6 +1035,7 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
               }));
     }
     s.views_s = timer.ElapsedSeconds();
+    s.views_cpu_s = cpu.ElapsedSeconds();
     for (const ViewResult& v : results) {
       s.views.push_back(v.summary);
       s.read_s += v.summary.read_s;
@@ -986,6 +1048,7 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
     // 3. Registration of the views that worked.
     util::Progress progress("scan: register, fuse, mesh", 3);
     timer.Restart();
+    cpu.Restart();
     Model m;
     for (size_t i = 0; i < results.size(); ++i) {
       if (!results[i].summary.ok) continue;
@@ -995,6 +1058,7 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
       rv.markers = results[i].markers;
       m.view_of.push_back(static_cast<int>(i));
       m.grid_valid.push_back(results[i].cloud.valid);
+      m.grid_size.emplace_back(results[i].cloud.width, results[i].cloud.height);
       m.inputs.push_back(std::move(rv));
     }
     m.registration = registration::RegisterViews(m.inputs, options.registration);
@@ -1044,10 +1108,12 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
     registration::WritePoses(dir / "poses.json", placed_names, placed_poses);
     registration::WriteMarkerMap(dir / "markers.json", m.registration, m.inputs);
     s.register_s = timer.ElapsedSeconds();
+    s.register_cpu_s = cpu.ElapsedSeconds();
     progress.Advance();
 
     // 4. Fusion and mesh.
     timer.Restart();
+    cpu.Restart();
     fusion::FusionOptions fusion_options = options.fusion;
     fusion_options.registration_rms_mm =
         s.icp_rms_mm > 0 ? s.icp_rms_mm : std::max(s.marker_adjusted_rms_mm, 0.0);
@@ -1070,8 +1136,10 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
                   "intensity = texture, quality = weighted modulation"});
     fusion_views.clear();  // the grids are no longer needed
     s.fuse_s = timer.ElapsedSeconds();
+    s.fuse_cpu_s = cpu.ElapsedSeconds();
     progress.Advance();
     timer.Restart();
+    cpu.Restart();
     m.mesh = fusion::MeshPoisson(m.fused.fused, options.mesh);
     const fusion::MeshSummary& ms = m.mesh.summary;
     s.meshing = fusion::SummaryToJson(ms);
@@ -1082,9 +1150,12 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
     fusion::WriteMeshFile(dir / "mesh.ply", m.mesh);
     fusion::WriteMeshFile(dir / "mesh.stl", m.mesh);
     s.mesh_s = timer.ElapsedSeconds();
+    s.mesh_cpu_s = cpu.ElapsedSeconds();
     progress.Advance();
 
-    // Residuals for the report (before and after ICP) and the display frame.
+    // Residuals for the report (before and after ICP) and the display frame: report time.
+    timer.Restart();
+    cpu.Restart();
     std::vector<const PointCloud*> placed_clouds;
     std::vector<Rigid3d> adjusted, final_poses;
     for (size_t k = 0; k < m.inputs.size(); ++k) {
@@ -1112,23 +1183,45 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
       m.residuals_adjusted_mm = OverlapResiduals(placed_clouds, adjusted, m.residual_threshold_mm);
       m.residuals_final_mm = OverlapResiduals(placed_clouds, final_poses, m.residual_threshold_mm);
     }
-
+    s.report_s = timer.ElapsedSeconds();
+    s.report_cpu_s = cpu.ElapsedSeconds();
     s.total_s = total.ElapsedSeconds();
+    s.total_cpu_s = total_cpu.ElapsedSeconds();
     // 5. Truth (simulated scans): not part of a real scan, timed apart.
     if (options.evaluate_truth && folder.has_truth()) {
       timer.Restart();
+      cpu.Restart();
       s.has_truth = true;
       EvaluateAgainstTruth(folder, &m, &s);
+      // Per view, its deviation map beside its other pictures: one symmetric range for all views
+      // (three times the single-view RMS, at least 0.05 mm) so that the views compare.
+      const double range_mm = std::max(0.05, 3 * s.single_view_all_rms_mm);
+      for (size_t k = 0; k < m.view_deviation_mm.size(); ++k) {
+        if (m.view_deviation_mm[k].empty()) continue;
+        const size_t i = static_cast<size_t>(m.view_of[k]);
+        results[i].pictures.push_back(
+            {StrCat("view ", s.views[i].name,
+                    ": signed deviation from the truth of the view's points placed by their TRUE "
+                    "pose (the sensor alone, registration excluded), mm; RMS ",
+                    Fixed(s.views[i].truth_rms_mm, 4), " mm; dark grey: no point"),
+             ColourMapWithBar(m.view_deviation_mm[k], -range_mm, range_mm,
+                              "signed deviation from truth, mm", kPictureWidthPx)});
+      }
       s.evaluate_s = timer.ElapsedSeconds();
+      s.evaluate_cpu_s = cpu.ElapsedSeconds();
     }
 
     // 6. Summary and report.
     s.peak_mem_gib = util::PeakMemoryGiB();
     if (options.write_report) {
       timer.Restart();
+      cpu.Restart();
       BuildReport(project, s, cal, results, m).Write(dir / "report.html");
-      s.report_s = timer.ElapsedSeconds();
-      s.total_s += s.report_s;
+      const double report_s = timer.ElapsedSeconds(), report_cpu_s = cpu.ElapsedSeconds();
+      s.report_s += report_s;
+      s.report_cpu_s += report_cpu_s;
+      s.total_s += report_s;
+      s.total_cpu_s += report_cpu_s;
     }
     io::WriteJson(dir / "summary.json", s.ToJson());
   });

@@ -197,7 +197,14 @@ TEST_F(ScanTest, WholeChainMatchesTheTruth) {
     EXPECT_GT(counted, 100);
     EXPECT_LE(l["residual_p50_mm"].get<double>(), l["residual_p90_mm"].get<double>());
   }
-  EXPECT_GE(sources, 12 + 4 + 4 + 2 + static_cast<int>(levels.size()));
+  EXPECT_GE(sources, 12 + 4 + 4 + 2 + 3 + static_cast<int>(levels.size()));
+  // One deviation map per view against the truth (the sensor alone), captioned with its RMS.
+  for (const ScanViewSummary& v : s.views) {
+    EXPECT_TRUE(std::isfinite(v.truth_rms_mm)) << v.name;
+    EXPECT_LT(v.truth_rms_mm, kMaxViewRmsMm) << v.name;
+    const std::string caption = "view " + v.name + ": signed deviation from the truth";
+    EXPECT_NE(html.find(caption), std::string::npos) << caption;
+  }
   EXPECT_EQ(static_cast<int>(images.size()), sources);
   EXPECT_EQ(html.find("://"), std::string::npos);  // no external URL (base64 has no colon)
 }

@@ -16,10 +16,12 @@
 #include <sstream>
 
 #include "fringe/calib/calibrate_folder.h"
+#include "fringe/calib/projector_folder.h"
 #include "fringe/eval/deviation.h"
 #include "fringe/geometry/align.h"
 #include "fringe/io/calibration_io.h"
 #include "fringe/io/image_io.h"
+#include "fringe/io/opencv_calibration.h"
 #include "fringe/io/ply.h"
 #include "fringe/phase/decode.h"
 #include "fringe/phase/pattern_scheme.h"
@@ -27,6 +29,7 @@
 #include "fringe/registration/markers.h"
 #include "fringe/registration/registration_io.h"
 #include "fringe/scan/scan_folder.h"
+#include "fringe/stereo/camera_projector.h"
 #include "fringe/util/error.h"
 #include "fringe/util/files.h"
 #include "fringe/util/log.h"
@@ -53,6 +56,8 @@ struct Calibration {
   StereoRig rig;
   std::string source;
   std::optional<calib::FolderCalibration> folder;  // when calibrated from board images here
+  // One camera + projector, calibrated here from the board pose folders.
+  std::optional<calib::ProjectorFolderCalibration> projector_folder;
 };
 
 constexpr int kPictureWidthPx = 480;
@@ -66,25 +71,48 @@ std::string Fixed(double v, int digits) {
   return os.str();
 }
 
-// The rig: options first, then PROJECT/rig.json, then PROJECT/calibration/ board images.
-Calibration ResolveCalibration(const scan::ScanFolder& folder, const ScanOptions& options,
-                               int width, int height) {
+// A camera + projector scan needs the projector calibrated as an inverse camera.
+void RequireProjector(const scan::ScanFolder& folder, const Calibration& c) {
+  if (folder.stereo() || c.rig.projector) return;
+  throw Error(StrCat("scan: ", c.source, ": the rig has no calibrated projector, but ",
+                     folder.layout().Manifest().string(),
+                     " says 'cameras': 1 (camera + projector views need the projector's "
+                     "intrinsics and projector_from_left: `fringe calibrate` on a projector "
+                     "calibration folder, docs/scan-folder.md)"));
+}
+
+// The rig: options first, then PROJECT/rig.json, then PROJECT/calibration/ board images (a
+// stereo calibration, or for one camera a camera + projector calibration of board pose folders).
+Calibration ResolveCalibration(const scan::ScanFolder& folder, const phase::PatternScheme& scheme,
+                               const ScanOptions& options, int width, int height) {
   const fs::path& project = folder.root();
   Calibration c;
   if (!options.opencv_intrinsics.empty()) {
-    c.rig =
-        io::ImportOpenCvStereo(options.opencv_intrinsics, options.opencv_extrinsics, width, height);
     c.source = options.opencv_intrinsics.string() + " + " + options.opencv_extrinsics.string();
+    if (folder.stereo()) {
+      c.rig = io::ImportOpenCvStereo(options.opencv_intrinsics, options.opencv_extrinsics, width,
+                                     height);
+    } else {
+      // The camera and the projector as OpenCV's two devices; the scheme's projector size stands
+      // in when the files do not hold it.
+      c.rig =
+          io::ReadOpenCvCalibration({options.opencv_intrinsics, options.opencv_extrinsics}, width,
+                                    height, scheme.projector_width, scheme.projector_height)
+              .ToCameraProjectorRig(c.source);
+    }
+    RequireProjector(folder, c);
     return c;
   }
   if (!options.calib.empty()) {
     c.rig = io::ReadRig(options.calib);
     c.source = options.calib.string();
+    RequireProjector(folder, c);
     return c;
   }
   if (fs::exists(project / "rig.json")) {
     c.rig = io::ReadRig(project / "rig.json");
     c.source = (project / "rig.json").string();
+    RequireProjector(folder, c);
     return c;
   }
   const fs::path cal_dir = folder.layout().CalibrationDir();
@@ -95,6 +123,18 @@ Calibration ResolveCalibration(const scan::ScanFolder& folder, const ScanOptions
   }
   const CalibrationTarget target = folder.ReadTarget();
   util::LogInfo("scan: calibrating from " + cal_dir.string());
+  if (!folder.stereo()) {
+    calib::ProjectorFolderCalibration cal = calib::CalibrateProjectorFolder(cal_dir, target);
+    if (!cal.ok()) {
+      throw Error(StrCat("scan: ", cal_dir.string(),
+                         ": camera + projector calibration failed: ", cal.message()));
+    }
+    c.rig = cal.rig;
+    c.source = StrCat("calibration/ of the scan folder (", cal.names.size(),
+                      " board poses, camera + projector)");
+    c.projector_folder = std::move(cal);
+    return c;
+  }
   calib::FolderCalibration cal = calib::CalibrateFolder(cal_dir, target);
   if (!cal.stereo) {
     throw Error(StrCat("scan: ", cal_dir.string(),
@@ -202,13 +242,22 @@ ViewResult ProcessView(const scan::ScanFolder& folder, const std::string& name,
   std::string stage = "read";
   try {
     util::Timer timer;
-    // One stack or several exposures per camera (phase/stack_io.h).
+    // One stack or several exposures per camera (phase/stack_io.h); one camera: left only.
     std::vector<std::vector<cv::Mat>> left, right;
     left = folder.ReadExposureStacks(name, scan::Camera::kLeft, scheme);
-    right = folder.ReadExposureStacks(name, scan::Camera::kRight, scheme);
+    if (folder.stereo()) {
+      right = folder.ReadExposureStacks(name, scan::Camera::kRight, scheme);
+    } else if (left.size() > 1) {
+      throw Error(StrCat(folder.layout().CameraDir(name, scan::Camera::kLeft).string(), ": ",
+                         left.size(),
+                         " exposures: they are combined in stereo scans only (camera + "
+                         "projector views take one stack)"));
+    }
     s.read_s = timer.ElapsedSeconds();
     stage = "reconstruct";
-    stereo::ViewReconstruction rec = reconstructor.Reconstruct(left, right);
+    stereo::ViewReconstruction rec =
+        folder.stereo() ? reconstructor.Reconstruct(left, right)
+                        : reconstructor.Reconstruct(stereo::ViewStacks{{left.front()}, {}});
     if (rec.summary.ok() && options.write_report) {
       v.pictures.push_back(
           PhasePicture(name, left.front(), scheme, options.reconstruction.decode, kPictureWidthPx));
@@ -230,8 +279,14 @@ ViewResult ProcessView(const scan::ScanFolder& folder, const std::string& name,
     if (options.detect_markers) {
       stage = "markers";
       timer.Restart();
-      registration::ViewMarkers markers = registration::DetectViewMarkers(
-          rig, rec.texture_left, rec.texture_right, rec.cloud, options.markers);
+      // Stereo: triangulated from both textures; one camera: the ring centre's ray against the
+      // measured surface.
+      registration::ViewMarkers markers =
+          folder.stereo()
+              ? registration::DetectViewMarkers(rig, rec.texture_left, rec.texture_right, rec.cloud,
+                                                options.markers)
+              : registration::DetectViewMarkersOneCamera(rig.left, rec.texture_left, rec.cloud,
+                                                         options.markers);
       s.markers = static_cast<int>(markers.markers.size());
       v.markers = std::move(markers.markers);
       registration::WriteViewMarkers(out_dir / "views" / (name + ".markers.json"), v.markers);
@@ -259,11 +314,21 @@ ViewResult ProcessView(const scan::ScanFolder& folder, const std::string& name,
   return v;
 }
 
-ReportTable ViewTable(const std::vector<ScanViewSummary>& views) {
+ReportTable ViewTable(const std::vector<ScanViewSummary>& views, bool stereo) {
   ReportTable t;
   t.caption = "Views";
-  t.header = {"view",         "status",        "points", "markers",  "measured px",
-              "decoded left", "decoded right", "read s", "decode s", "reconstruct s"};
+  // One camera + projector: the second decoded column is the second fringe direction's (0
+  // with one scheme).
+  t.header = {"view",
+              "status",
+              "points",
+              "markers",
+              "measured px",
+              stereo ? "decoded left" : "decoded",
+              stereo ? "decoded right" : "decoded 2nd direction",
+              "read s",
+              "decode s",
+              "reconstruct s"};
   for (const ScanViewSummary& v : views) {
     if (!v.ok) {
       t.rows.push_back({v.name, "FAILED in " + v.failed_stage + ": " + v.message, "", "", "", "",
@@ -716,8 +781,9 @@ ReportSection ModelSection(const ScanSummary& s, const Model& m) {
       {"from the front, 45 degrees down", Eigen::Vector3d(0, 1, -1)},
       {"from the side, 45 degrees down", Eigen::Vector3d(-1, 0, -1)},
       {"from the back, 30 degrees down", Eigen::Vector3d(0, -1.7, -1)}};
+  const MeshRenderer renderer(display);  // one Embree scene for every picture
   for (const auto& [label, d] : directions) {
-    sec.images.push_back({"mesh " + label, RenderMesh(display, d.normalized())});
+    sec.images.push_back({"mesh " + label, renderer.Render(d.normalized())});
   }
   if (s.has_truth && !m.mesh_deviation_mm.empty()) {
     ReportTable t;
@@ -736,8 +802,8 @@ ReportSection ModelSection(const ScanSummary& s, const Model& m) {
     for (const auto& [label, d] : {directions[0], directions[1]}) {
       sec.images.push_back(
           {"mesh deviation from the truth " + label + " (signed, mm; grey: farther than 2 mm)",
-           RenderMeshColoured(display, m.mesh_deviation_mm, -range, range,
-                              "signed deviation from truth, mm", d.normalized(), 560, 420)});
+           renderer.RenderColoured(m.mesh_deviation_mm, -range, range,
+                                   "signed deviation from truth, mm", d.normalized(), 560, 420)});
     }
   }
   return sec;
@@ -806,18 +872,29 @@ Report BuildReport(const fs::path& project, const ScanSummary& s, const Calibrat
     sec.title = "Calibration";
     sec.paragraphs.push_back("Rig from " + cal.source + ".");
     ReportTable t;
-    t.header = {"figure", "left", "right"};
-    t.rows.push_back(
-        {"focal length fx, px", Fixed(cal.rig.left.fx, 2), Fixed(cal.rig.right.fx, 2)});
+    // The second device: the right camera, or in a camera + projector scan the projector.
+    const CameraModel& second = s.stereo ? cal.rig.right : *cal.rig.projector;
+    t.header = {"figure", s.stereo ? "left" : "camera", s.stereo ? "right" : "projector"};
+    t.rows.push_back({"focal length fx, px", Fixed(cal.rig.left.fx, 2), Fixed(second.fx, 2)});
     t.rows.push_back({"image size, px", StrCat(cal.rig.left.width, " x ", cal.rig.left.height),
-                      StrCat(cal.rig.right.width, " x ", cal.rig.right.height)});
+                      StrCat(second.width, " x ", second.height)});
     if (cal.folder) {
       t.rows.push_back({"reprojection RMS, px",
                         Fixed(cal.folder->pair.left.summary.final_rms_px, 4),
                         Fixed(cal.folder->pair.right.summary.final_rms_px, 4)});
+    } else if (cal.projector_folder) {
+      t.rows.push_back({"reprojection RMS, px", Fixed(s.calibration_rms_left_px, 4),
+                        Fixed(s.calibration_rms_projector_px, 4)});
     }
     sec.tables.push_back(t);
-    sec.paragraphs.push_back("Baseline " + Fixed(cal.rig.BaselineMm(), 3) + " mm.");
+    sec.paragraphs.push_back(
+        s.stereo ? "Baseline " + Fixed(cal.rig.BaselineMm(), 3) + " mm."
+                 : "Camera + projector: camera to projector distance " +
+                       Fixed(cal.rig.projector_from_left.translation().norm(), 3) + " mm.");
+    if (cal.projector_folder) {
+      sec.images.push_back({"camera: residual vectors (magnified) and board coverage",
+                            calib::ResidualImage(cal.projector_folder->LeftCamera())});
+    }
     if (cal.folder) {
       sec.images.push_back({"left camera: residual vectors (magnified) and board coverage",
                             calib::ResidualImage(cal.folder->pair.left)});
@@ -829,7 +906,7 @@ Report BuildReport(const fs::path& project, const ScanSummary& s, const Calibrat
   {
     ReportSection sec;
     sec.title = "Views";
-    sec.tables.push_back(ViewTable(s.views));
+    sec.tables.push_back(ViewTable(s.views, s.stereo));
     for (const ViewResult& v : views) {
       for (const ReportImage& p : v.pictures) sec.images.push_back(p);
     }
@@ -936,9 +1013,14 @@ json ScanSummary::ToJson() const {
   j["registration"] = registration;
   j["fusion"] = fusion;
   j["mesh"] = meshing;
+  j["mode"] = stereo ? "stereo" : "camera-projector";
   if (calibration_rms_left_px > 0) {
     j["calibration_rms_left_px"] = calibration_rms_left_px;
-    j["calibration_rms_right_px"] = calibration_rms_right_px;
+    if (stereo) {
+      j["calibration_rms_right_px"] = calibration_rms_right_px;
+    } else {
+      j["calibration_rms_projector_px"] = calibration_rms_projector_px;
+    }
   }
   json v = json::array();
   for (const ScanViewSummary& e : views) {
@@ -992,15 +1074,20 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
     // 1. Calibration (its time is reported apart: a rig is calibrated once, not per scan).
     util::Timer timer;
     util::CpuTimer cpu;
-    const cv::Mat first =
-        io::ReadGrayImage(folder.layout().CameraDir(names.front(), scan::Camera::kLeft) /
-                          scheme.ImageNames().front());
-    const Calibration cal = ResolveCalibration(folder, options, first.cols, first.rows);
+    // The image size from the manifest (every stack is checked against it when read).
+    const Calibration cal = ResolveCalibration(
+        folder, scheme, options, folder.manifest().image_width, folder.manifest().image_height);
+    s.stereo = folder.stereo();
     s.calibration_source = cal.source;
     if (cal.folder) {
       s.calibration_rms_left_px = cal.folder->pair.left.summary.final_rms_px;
       s.calibration_rms_right_px = cal.folder->pair.right.summary.final_rms_px;
       calib::WriteFolderCalibration(dir / "rig.json", *cal.folder);
+    } else if (cal.projector_folder) {
+      s.calibration_rms_left_px = cal.projector_folder->LeftCamera().summary.final_rms_px;
+      s.calibration_rms_projector_px = cal.projector_folder->camera_projector.projector_rms_px;
+      io::WriteRig(dir / "rig.json", cal.rig,
+                   {{"calibration", cal.projector_folder->CalibrationJson()}});
     } else {
       io::WriteRig(dir / "rig.json", cal.rig);
     }
@@ -1013,7 +1100,12 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
     util::CpuTimer total_cpu;
     timer.Restart();
     cpu.Restart();
-    const stereo::ViewReconstructor reconstructor(cal.rig, scheme, options.reconstruction);
+    // Stereo matching of the two cameras, or one camera against the projector's columns.
+    const stereo::ViewReconstructor reconstructor =
+        folder.stereo() ? stereo::ViewReconstructor(cal.rig, scheme, options.reconstruction)
+                        : stereo::MakeCameraProjectorReconstructor(
+                              stereo::CameraProjectorRig::FromLeftCamera(cal.rig), {scheme},
+                              options.reconstruction);
     std::vector<ViewResult> results(names.size());
     {
       util::Progress progress("scan: reconstruct views", static_cast<int>(names.size()));

@@ -105,8 +105,11 @@ struct ScanViewSummary {
 struct ScanSummary {
   ScanStatus status = ScanStatus::kOk;
   std::string message;
+  bool stereo = true;              // two cameras; false: one camera + projector (scan.json)
   std::string calibration_source;  // "rig.json", "calibration/ (15 board pairs)", a path
-  double calibration_rms_left_px = 0, calibration_rms_right_px = 0;  // 0 unless calibrated here
+  // 0 unless calibrated here; one camera: left = the camera, and the projector's.
+  double calibration_rms_left_px = 0, calibration_rms_right_px = 0;
+  double calibration_rms_projector_px = 0;
   std::vector<ScanViewSummary> views;
   int views_ok = 0;
   int64_t points = 0;  // sum over the views that worked

@@ -1,5 +1,7 @@
 #include "fringe/pipeline/scan.h"
 
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
 #include <tbb/parallel_pipeline.h>
 
 #include <nanoflann.hpp>
@@ -243,11 +245,15 @@ ViewResult ProcessView(const scan::ScanFolder& folder, const std::string& name,
   try {
     util::Timer timer;
     // One stack or several exposures per camera (phase/stack_io.h); one camera: left only.
+    // The two cameras' PNGs are decoded at the same time (the reads of a stack are serial).
     std::vector<std::vector<cv::Mat>> left, right;
-    left = folder.ReadExposureStacks(name, scan::Camera::kLeft, scheme);
-    if (folder.stereo()) {
-      right = folder.ReadExposureStacks(name, scan::Camera::kRight, scheme);
-    } else if (left.size() > 1) {
+    tbb::parallel_invoke(
+        [&] { left = folder.ReadExposureStacks(name, scan::Camera::kLeft, scheme); },
+        [&] {
+          if (folder.stereo())
+            right = folder.ReadExposureStacks(name, scan::Camera::kRight, scheme);
+        });
+    if (!folder.stereo() && left.size() > 1) {
       throw Error(StrCat(folder.layout().CameraDir(name, scan::Camera::kLeft).string(), ": ",
                          left.size(),
                          " exposures: they are combined in stereo scans only (camera + "
@@ -449,17 +455,18 @@ std::vector<double> OverlapResiduals(const std::vector<const PointCloud*>& cloud
                                      const std::vector<Rigid3d>& world_from_sensor,
                                      double threshold_mm) {
   constexpr size_t kTargetPoints = 150000, kSamples = 3000;
+  // Views in parallel (trees, then queries); the residuals are concatenated in view order.
   std::vector<std::unique_ptr<PointIndex>> index(clouds.size());
   std::vector<std::vector<size_t>> target_ids(clouds.size());
-  for (size_t v = 0; v < clouds.size(); ++v) {
+  tbb::parallel_for(size_t{0}, clouds.size(), [&](size_t v) {
     target_ids[v] = Stride(clouds[v]->size(), kTargetPoints);
     std::vector<Eigen::Vector3d> p;
     p.reserve(target_ids[v].size());
     for (size_t i : target_ids[v]) p.push_back(world_from_sensor[v] * clouds[v]->points[i]);
     index[v] = std::make_unique<PointIndex>(std::move(p));
-  }
-  std::vector<double> out;
-  for (size_t v = 0; v < clouds.size(); ++v) {
+  });
+  std::vector<std::vector<double>> per_view(clouds.size());
+  tbb::parallel_for(size_t{0}, clouds.size(), [&](size_t v) {
     for (size_t i : Stride(clouds[v]->size(), kSamples)) {
       const Eigen::Vector3d p = world_from_sensor[v] * clouds[v]->points[i];
       for (size_t u = 0; u < clouds.size(); ++u) {
@@ -469,10 +476,12 @@ std::vector<double> OverlapResiduals(const std::vector<const PointCloud*>& cloud
         const size_t j = target_ids[u][k];
         const Eigen::Vector3d n = world_from_sensor[u].RotateDirection(clouds[u]->normals[j]);
         if (!n.allFinite()) continue;
-        out.push_back((p - world_from_sensor[u] * clouds[u]->points[j]).dot(n));
+        per_view[v].push_back((p - world_from_sensor[u] * clouds[u]->points[j]).dot(n));
       }
     }
-  }
+  });
+  std::vector<double> out;
+  for (const std::vector<double>& r : per_view) out.insert(out.end(), r.begin(), r.end());
   return out;
 }
 
@@ -1180,20 +1189,25 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
     fs::create_directories(dir / "registered");
     m.fusion_of.assign(m.inputs.size(), -1);
     std::vector<fusion::FusionView> fusion_views;
-    for (size_t k = 0; k < m.inputs.size(); ++k) {
+    // The organized clouds moved into the world, so that `fringe fuse OUT` can re-run fusion
+    // from OUT/poses.json and OUT/registered/ (it moves them back by the inverse poses): one
+    // view per task (a moved copy of its grid each), every file its own.
+    tbb::parallel_for(size_t{0}, m.inputs.size(), [&](size_t k) {
       const registration::ViewRegistration& r = m.registration.views[k];
-      if (!r.placed()) continue;
-      placed_names.push_back(r.name);
-      placed_poses.push_back(r.world_from_sensor);
-      // The organized cloud moved into the world, so that `fringe fuse OUT` can re-run fusion
-      // from OUT/poses.json and OUT/registered/ (it moves them back by the inverse poses).
-      OrganizedPointCloud& grid = results[static_cast<size_t>(m.view_of[k])].cloud;
-      OrganizedPointCloud world = grid;
+      if (!r.placed()) return;
+      OrganizedPointCloud world = results[static_cast<size_t>(m.view_of[k])].cloud;
       registration::TransformGrid(r.world_from_sensor, &world);
       io::WritePly(dir / "registered" / (r.name + ".ply"), world,
                    io::PlyFormat::kBinaryLittleEndian,
                    {StrCat("fringe scan: view ", r.name,
                            " registered, world frame (the first view's sensor frame), mm")});
+    });
+    for (size_t k = 0; k < m.inputs.size(); ++k) {
+      const registration::ViewRegistration& r = m.registration.views[k];
+      if (!r.placed()) continue;
+      placed_names.push_back(r.name);
+      placed_poses.push_back(r.world_from_sensor);
+      OrganizedPointCloud& grid = results[static_cast<size_t>(m.view_of[k])].cloud;
       m.fusion_of[k] = static_cast<int>(fusion_views.size());
       fusion_views.push_back({r.name, std::move(grid), r.world_from_sensor});
     }
@@ -1239,8 +1253,8 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
     s.mesh_vertices = ms.vertices;
     s.mesh_triangles = ms.triangles;
     s.mesh_watertight = ms.watertight;
-    fusion::WriteMeshFile(dir / "mesh.ply", m.mesh);
-    fusion::WriteMeshFile(dir / "mesh.stl", m.mesh);
+    tbb::parallel_invoke([&] { fusion::WriteMeshFile(dir / "mesh.ply", m.mesh); },
+                         [&] { fusion::WriteMeshFile(dir / "mesh.stl", m.mesh); });
     s.mesh_s = timer.ElapsedSeconds();
     s.mesh_cpu_s = cpu.ElapsedSeconds();
     progress.Advance();

@@ -11,6 +11,7 @@
 #include <array>
 #include <cstdint>
 #include <filesystem>
+#include <memory>
 #include <opencv2/core.hpp>
 #include <string>
 #include <vector>
@@ -61,6 +62,30 @@ std::array<double, 2> DisplayRange(const cv::Mat& values, double p = 0.01);
 // The colour bar ColourMapWithBar puts under its map: a turbo gradient from lo to hi, five
 // labelled ticks and `unit` below, width_px wide (CV_8UC3, white background).
 cv::Mat ColourBar(int width_px, double lo, double hi, const std::string& unit);
+
+// Renderings of one mesh from several directions: the mesh's Embree scene is built once (a
+// few seconds for a scan's millions of triangles) and every picture casts its rays in
+// parallel. Holds a reference to `mesh`, which must outlive it. Methods as the free functions
+// below.
+class MeshRenderer {
+ public:
+  explicit MeshRenderer(const TriangleMesh& mesh);
+  ~MeshRenderer();
+  MeshRenderer(const MeshRenderer&) = delete;
+  MeshRenderer& operator=(const MeshRenderer&) = delete;
+  cv::Mat Render(const Eigen::Vector3d& view_dir, int width_px = 480, int height_px = 360) const;
+  // Throws fringe::Error when vertex_values does not have one value per vertex.
+  cv::Mat RenderColoured(const std::vector<double>& vertex_values, double lo, double hi,
+                         const std::string& unit, const Eigen::Vector3d& view_dir,
+                         int width_px = 480, int height_px = 360) const;
+
+ private:
+  template <typename Paint>
+  void Cast(const Eigen::Vector3d& view_dir, int width_px, int height_px, Paint paint) const;
+  struct Impl;
+  const TriangleMesh& mesh_;
+  std::unique_ptr<Impl> impl_;
+};
 
 // Lambert-shaded rendering of a triangle mesh seen from `view_dir` (unit vector from the eye
 // toward the mesh, the mesh's frame; the frame's z is up on the picture unless the view looks

@@ -1,6 +1,7 @@
 #include "fringe/pipeline/report.h"
 
 #include <gtest/gtest.h>
+#include <tbb/task_arena.h>
 
 #include <cmath>
 #include <limits>
@@ -57,6 +58,28 @@ TEST(Report, RenderedBoxFillsItsSilhouette) {
   EXPECT_NEAR(cv::countNonZero(img), expected_px, 0.05 * expected_px);
   EXPECT_EQ(img.at<uint8_t>(0, 0), 0);       // background
   EXPECT_GT(img.at<uint8_t>(100, 100), 40);  // the lit face
+}
+
+TEST(Report, RenderingsOfOneRendererDoNotDependOnTheThreadCount) {
+  // The rows are cast in parallel; one thread and all threads give the same pictures, and the
+  // renderer's pictures equal the free functions'.
+  const TriangleMesh box =
+      sim::MakeBoxMesh(Eigen::Vector3d(-10, -10, -10), Eigen::Vector3d(10, 12, 14));
+  std::vector<double> values;
+  for (const Eigen::Vector3d& v : box.vertices) values.push_back(v.z() / 14);
+  const MeshRenderer renderer(box);
+  const Eigen::Vector3d dir = Eigen::Vector3d(-1, 0.5, -0.7).normalized();
+  const cv::Mat all = renderer.Render(dir, 160, 120);
+  const cv::Mat all_coloured = renderer.RenderColoured(values, -1, 1, "mm", dir, 160, 120);
+  cv::Mat one, one_coloured;
+  tbb::task_arena(1).execute([&] {
+    one = renderer.Render(dir, 160, 120);
+    one_coloured = renderer.RenderColoured(values, -1, 1, "mm", dir, 160, 120);
+  });
+  EXPECT_GT(cv::countNonZero(all), 1000);
+  EXPECT_EQ(cv::norm(all, one, cv::NORM_INF), 0);
+  EXPECT_EQ(cv::norm(all_coloured, one_coloured, cv::NORM_INF), 0);
+  EXPECT_EQ(cv::norm(all, RenderMesh(box, dir, 160, 120), cv::NORM_INF), 0);
 }
 
 TEST(Report, ColouredRenderingFollowsTheVertexValues) {

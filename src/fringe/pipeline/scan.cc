@@ -1,5 +1,7 @@
 #include "fringe/pipeline/scan.h"
 
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
 #include <tbb/parallel_pipeline.h>
 
 #include <nanoflann.hpp>
@@ -16,10 +18,12 @@
 #include <sstream>
 
 #include "fringe/calib/calibrate_folder.h"
+#include "fringe/calib/projector_folder.h"
 #include "fringe/eval/deviation.h"
 #include "fringe/geometry/align.h"
 #include "fringe/io/calibration_io.h"
 #include "fringe/io/image_io.h"
+#include "fringe/io/opencv_calibration.h"
 #include "fringe/io/ply.h"
 #include "fringe/phase/decode.h"
 #include "fringe/phase/pattern_scheme.h"
@@ -27,6 +31,7 @@
 #include "fringe/registration/markers.h"
 #include "fringe/registration/registration_io.h"
 #include "fringe/scan/scan_folder.h"
+#include "fringe/stereo/camera_projector.h"
 #include "fringe/util/error.h"
 #include "fringe/util/files.h"
 #include "fringe/util/log.h"
@@ -53,6 +58,8 @@ struct Calibration {
   StereoRig rig;
   std::string source;
   std::optional<calib::FolderCalibration> folder;  // when calibrated from board images here
+  // One camera + projector, calibrated here from the board pose folders.
+  std::optional<calib::ProjectorFolderCalibration> projector_folder;
 };
 
 constexpr int kPictureWidthPx = 480;
@@ -66,25 +73,48 @@ std::string Fixed(double v, int digits) {
   return os.str();
 }
 
-// The rig: options first, then PROJECT/rig.json, then PROJECT/calibration/ board images.
-Calibration ResolveCalibration(const scan::ScanFolder& folder, const ScanOptions& options,
-                               int width, int height) {
+// A camera + projector scan needs the projector calibrated as an inverse camera.
+void RequireProjector(const scan::ScanFolder& folder, const Calibration& c) {
+  if (folder.stereo() || c.rig.projector) return;
+  throw Error(StrCat("scan: ", c.source, ": the rig has no calibrated projector, but ",
+                     folder.layout().Manifest().string(),
+                     " says 'cameras': 1 (camera + projector views need the projector's "
+                     "intrinsics and projector_from_left: `fringe calibrate` on a projector "
+                     "calibration folder, docs/scan-folder.md)"));
+}
+
+// The rig: options first, then PROJECT/rig.json, then PROJECT/calibration/ board images (a
+// stereo calibration, or for one camera a camera + projector calibration of board pose folders).
+Calibration ResolveCalibration(const scan::ScanFolder& folder, const phase::PatternScheme& scheme,
+                               const ScanOptions& options, int width, int height) {
   const fs::path& project = folder.root();
   Calibration c;
   if (!options.opencv_intrinsics.empty()) {
-    c.rig =
-        io::ImportOpenCvStereo(options.opencv_intrinsics, options.opencv_extrinsics, width, height);
     c.source = options.opencv_intrinsics.string() + " + " + options.opencv_extrinsics.string();
+    if (folder.stereo()) {
+      c.rig = io::ImportOpenCvStereo(options.opencv_intrinsics, options.opencv_extrinsics, width,
+                                     height);
+    } else {
+      // The camera and the projector as OpenCV's two devices; the scheme's projector size stands
+      // in when the files do not hold it.
+      c.rig =
+          io::ReadOpenCvCalibration({options.opencv_intrinsics, options.opencv_extrinsics}, width,
+                                    height, scheme.projector_width, scheme.projector_height)
+              .ToCameraProjectorRig(c.source);
+    }
+    RequireProjector(folder, c);
     return c;
   }
   if (!options.calib.empty()) {
     c.rig = io::ReadRig(options.calib);
     c.source = options.calib.string();
+    RequireProjector(folder, c);
     return c;
   }
   if (fs::exists(project / "rig.json")) {
     c.rig = io::ReadRig(project / "rig.json");
     c.source = (project / "rig.json").string();
+    RequireProjector(folder, c);
     return c;
   }
   const fs::path cal_dir = folder.layout().CalibrationDir();
@@ -95,6 +125,18 @@ Calibration ResolveCalibration(const scan::ScanFolder& folder, const ScanOptions
   }
   const CalibrationTarget target = folder.ReadTarget();
   util::LogInfo("scan: calibrating from " + cal_dir.string());
+  if (!folder.stereo()) {
+    calib::ProjectorFolderCalibration cal = calib::CalibrateProjectorFolder(cal_dir, target);
+    if (!cal.ok()) {
+      throw Error(StrCat("scan: ", cal_dir.string(),
+                         ": camera + projector calibration failed: ", cal.message()));
+    }
+    c.rig = cal.rig;
+    c.source = StrCat("calibration/ of the scan folder (", cal.names.size(),
+                      " board poses, camera + projector)");
+    c.projector_folder = std::move(cal);
+    return c;
+  }
   calib::FolderCalibration cal = calib::CalibrateFolder(cal_dir, target);
   if (!cal.stereo) {
     throw Error(StrCat("scan: ", cal_dir.string(),
@@ -202,13 +244,26 @@ ViewResult ProcessView(const scan::ScanFolder& folder, const std::string& name,
   std::string stage = "read";
   try {
     util::Timer timer;
-    // One stack or several exposures per camera (phase/stack_io.h).
+    // One stack or several exposures per camera (phase/stack_io.h); one camera: left only.
+    // The two cameras' PNGs are decoded at the same time (the reads of a stack are serial).
     std::vector<std::vector<cv::Mat>> left, right;
-    left = folder.ReadExposureStacks(name, scan::Camera::kLeft, scheme);
-    right = folder.ReadExposureStacks(name, scan::Camera::kRight, scheme);
+    tbb::parallel_invoke(
+        [&] { left = folder.ReadExposureStacks(name, scan::Camera::kLeft, scheme); },
+        [&] {
+          if (folder.stereo())
+            right = folder.ReadExposureStacks(name, scan::Camera::kRight, scheme);
+        });
+    if (!folder.stereo() && left.size() > 1) {
+      throw Error(StrCat(folder.layout().CameraDir(name, scan::Camera::kLeft).string(), ": ",
+                         left.size(),
+                         " exposures: they are combined in stereo scans only (camera + "
+                         "projector views take one stack)"));
+    }
     s.read_s = timer.ElapsedSeconds();
     stage = "reconstruct";
-    stereo::ViewReconstruction rec = reconstructor.Reconstruct(left, right);
+    stereo::ViewReconstruction rec =
+        folder.stereo() ? reconstructor.Reconstruct(left, right)
+                        : reconstructor.Reconstruct(stereo::ViewStacks{{left.front()}, {}});
     if (rec.summary.ok() && options.write_report) {
       v.pictures.push_back(
           PhasePicture(name, left.front(), scheme, options.reconstruction.decode, kPictureWidthPx));
@@ -230,8 +285,14 @@ ViewResult ProcessView(const scan::ScanFolder& folder, const std::string& name,
     if (options.detect_markers) {
       stage = "markers";
       timer.Restart();
-      registration::ViewMarkers markers = registration::DetectViewMarkers(
-          rig, rec.texture_left, rec.texture_right, rec.cloud, options.markers);
+      // Stereo: triangulated from both textures; one camera: the ring centre's ray against the
+      // measured surface.
+      registration::ViewMarkers markers =
+          folder.stereo()
+              ? registration::DetectViewMarkers(rig, rec.texture_left, rec.texture_right, rec.cloud,
+                                                options.markers)
+              : registration::DetectViewMarkersOneCamera(rig.left, rec.texture_left, rec.cloud,
+                                                         options.markers);
       s.markers = static_cast<int>(markers.markers.size());
       v.markers = std::move(markers.markers);
       registration::WriteViewMarkers(out_dir / "views" / (name + ".markers.json"), v.markers);
@@ -259,11 +320,21 @@ ViewResult ProcessView(const scan::ScanFolder& folder, const std::string& name,
   return v;
 }
 
-ReportTable ViewTable(const std::vector<ScanViewSummary>& views) {
+ReportTable ViewTable(const std::vector<ScanViewSummary>& views, bool stereo) {
   ReportTable t;
   t.caption = "Views";
-  t.header = {"view",         "status",        "points", "markers",  "measured px",
-              "decoded left", "decoded right", "read s", "decode s", "reconstruct s"};
+  // One camera + projector: the second decoded column is the second fringe direction's (0
+  // with one scheme).
+  t.header = {"view",
+              "status",
+              "points",
+              "markers",
+              "measured px",
+              stereo ? "decoded left" : "decoded",
+              stereo ? "decoded right" : "decoded 2nd direction",
+              "read s",
+              "decode s",
+              "reconstruct s"};
   for (const ScanViewSummary& v : views) {
     if (!v.ok) {
       t.rows.push_back({v.name, "FAILED in " + v.failed_stage + ": " + v.message, "", "", "", "",
@@ -284,6 +355,7 @@ struct Model {
   std::vector<int> view_of;    // per registration input: index into the scan's views
   std::vector<int> fusion_of;  // per registration input: index of its fusion view, or -1
   std::vector<std::vector<uint8_t>> grid_valid;  // per registration input: its grid's mask
+  std::vector<cv::Size> grid_size;               // per registration input: its grid's size
   std::vector<registration::RegistrationView> inputs;
   registration::RegistrationResult registration;
   fusion::FusionResult fused;
@@ -296,7 +368,48 @@ struct Model {
   std::vector<double> residuals_adjusted_mm, residuals_final_mm, marker_residuals_mm;
   double residual_threshold_mm = 0;
   std::vector<double> mesh_deviation_mm;  // per mesh vertex, signed, vs truth (empty without)
+  // Per registration input, with truth: the signed deviation of the view's points placed by
+  // their true pose, on its grid shrunk to the picture's width (CV_32F, NaN: no point); empty
+  // without truth or for a view that was not placed.
+  std::vector<cv::Mat> view_deviation_mm;
 };
+
+// The signed deviation from the truth mesh of an organized view's points placed by
+// world_from_sensor, sampled on the grid every `step` pixels in both directions (the view's
+// picture: point sampling keeps each value a real point's, no averaging across edges).
+// `compact` lists the valid slots of the grid (`valid`, grid_size) in grid order.
+cv::Mat ViewDeviationMap(const PointCloud& compact, const std::vector<uint8_t>& valid,
+                         cv::Size grid_size, const Rigid3d& world_from_sensor,
+                         const eval::MeshDistance& distance, int max_width_px) {
+  const int step = std::max(1, (grid_size.width + max_width_px - 1) / max_width_px);
+  const int w = (grid_size.width + step - 1) / step, h = (grid_size.height + step - 1) / step;
+  cv::Mat out(h, w, CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
+  // Compact index of every valid grid slot.
+  std::vector<int64_t> compact_of(valid.size(), -1);
+  int64_t n = 0;
+  for (size_t g = 0; g < valid.size(); ++g) {
+    if (valid[g]) compact_of[g] = n++;
+  }
+  if (n != static_cast<int64_t>(compact.size())) return out;  // not this cloud's grid
+  PointCloud sample;
+  std::vector<cv::Point> where;
+  for (int r = 0; r < h; ++r) {
+    for (int c = 0; c < w; ++c) {
+      const size_t g = static_cast<size_t>(r * step) * static_cast<size_t>(grid_size.width) +
+                       static_cast<size_t>(c * step);
+      if (compact_of[g] < 0) continue;
+      sample.points.push_back(world_from_sensor *
+                              compact.points[static_cast<size_t>(compact_of[g])]);
+      where.emplace_back(c, r);
+    }
+  }
+  std::vector<double> d;
+  eval::DeviationFromMesh(sample, distance, {}, &d);
+  for (size_t i = 0; i < where.size() && i < d.size(); ++i) {
+    out.at<float>(where[i]) = static_cast<float>(d[i]);
+  }
+  return out;
+}
 
 // Nearest-neighbour search over a point set (nanoflann k-d tree).
 class PointIndex {
@@ -342,17 +455,18 @@ std::vector<double> OverlapResiduals(const std::vector<const PointCloud*>& cloud
                                      const std::vector<Rigid3d>& world_from_sensor,
                                      double threshold_mm) {
   constexpr size_t kTargetPoints = 150000, kSamples = 3000;
+  // Views in parallel (trees, then queries); the residuals are concatenated in view order.
   std::vector<std::unique_ptr<PointIndex>> index(clouds.size());
   std::vector<std::vector<size_t>> target_ids(clouds.size());
-  for (size_t v = 0; v < clouds.size(); ++v) {
+  tbb::parallel_for(size_t{0}, clouds.size(), [&](size_t v) {
     target_ids[v] = Stride(clouds[v]->size(), kTargetPoints);
     std::vector<Eigen::Vector3d> p;
     p.reserve(target_ids[v].size());
     for (size_t i : target_ids[v]) p.push_back(world_from_sensor[v] * clouds[v]->points[i]);
     index[v] = std::make_unique<PointIndex>(std::move(p));
-  }
-  std::vector<double> out;
-  for (size_t v = 0; v < clouds.size(); ++v) {
+  });
+  std::vector<std::vector<double>> per_view(clouds.size());
+  tbb::parallel_for(size_t{0}, clouds.size(), [&](size_t v) {
     for (size_t i : Stride(clouds[v]->size(), kSamples)) {
       const Eigen::Vector3d p = world_from_sensor[v] * clouds[v]->points[i];
       for (size_t u = 0; u < clouds.size(); ++u) {
@@ -362,10 +476,12 @@ std::vector<double> OverlapResiduals(const std::vector<const PointCloud*>& cloud
         const size_t j = target_ids[u][k];
         const Eigen::Vector3d n = world_from_sensor[u].RotateDirection(clouds[u]->normals[j]);
         if (!n.allFinite()) continue;
-        out.push_back((p - world_from_sensor[u] * clouds[u]->points[j]).dot(n));
+        per_view[v].push_back((p - world_from_sensor[u] * clouds[u]->points[j]).dot(n));
       }
     }
-  }
+  });
+  std::vector<double> out;
+  for (const std::vector<double>& r : per_view) out.insert(out.end(), r.begin(), r.end());
   return out;
 }
 
@@ -507,6 +623,13 @@ void EvaluateAgainstTruth(const scan::ScanFolder& folder, Model* m, ScanSummary*
   }
   s->single_view_all_rms_mm = Rms(single_all);
   s->single_view_rms_mm = Rms(single_overlap);
+  m->view_deviation_mm.assign(n, cv::Mat());
+  for (size_t k = 0; k < n; ++k) {
+    if (!use[k]) continue;
+    m->view_deviation_mm[k] =
+        ViewDeviationMap(m->inputs[k].cloud, m->grid_valid[k], m->grid_size[k], true_pose[k],
+                         distance, kPictureWidthPx);
+  }
   // Fused cloud and mesh, moved into the truth's world by the gauge.
   {
     PointCloud sample;
@@ -667,8 +790,9 @@ ReportSection ModelSection(const ScanSummary& s, const Model& m) {
       {"from the front, 45 degrees down", Eigen::Vector3d(0, 1, -1)},
       {"from the side, 45 degrees down", Eigen::Vector3d(-1, 0, -1)},
       {"from the back, 30 degrees down", Eigen::Vector3d(0, -1.7, -1)}};
+  const MeshRenderer renderer(display);  // one Embree scene for every picture
   for (const auto& [label, d] : directions) {
-    sec.images.push_back({"mesh " + label, RenderMesh(display, d.normalized())});
+    sec.images.push_back({"mesh " + label, renderer.Render(d.normalized())});
   }
   if (s.has_truth && !m.mesh_deviation_mm.empty()) {
     ReportTable t;
@@ -687,8 +811,8 @@ ReportSection ModelSection(const ScanSummary& s, const Model& m) {
     for (const auto& [label, d] : {directions[0], directions[1]}) {
       sec.images.push_back(
           {"mesh deviation from the truth " + label + " (signed, mm; grey: farther than 2 mm)",
-           RenderMeshColoured(display, m.mesh_deviation_mm, -range, range,
-                              "signed deviation from truth, mm", d.normalized(), 560, 420)});
+           renderer.RenderColoured(m.mesh_deviation_mm, -range, range,
+                                   "signed deviation from truth, mm", d.normalized(), 560, 420)});
     }
   }
   return sec;
@@ -757,18 +881,29 @@ Report BuildReport(const fs::path& project, const ScanSummary& s, const Calibrat
     sec.title = "Calibration";
     sec.paragraphs.push_back("Rig from " + cal.source + ".");
     ReportTable t;
-    t.header = {"figure", "left", "right"};
-    t.rows.push_back(
-        {"focal length fx, px", Fixed(cal.rig.left.fx, 2), Fixed(cal.rig.right.fx, 2)});
+    // The second device: the right camera, or in a camera + projector scan the projector.
+    const CameraModel& second = s.stereo ? cal.rig.right : *cal.rig.projector;
+    t.header = {"figure", s.stereo ? "left" : "camera", s.stereo ? "right" : "projector"};
+    t.rows.push_back({"focal length fx, px", Fixed(cal.rig.left.fx, 2), Fixed(second.fx, 2)});
     t.rows.push_back({"image size, px", StrCat(cal.rig.left.width, " x ", cal.rig.left.height),
-                      StrCat(cal.rig.right.width, " x ", cal.rig.right.height)});
+                      StrCat(second.width, " x ", second.height)});
     if (cal.folder) {
       t.rows.push_back({"reprojection RMS, px",
                         Fixed(cal.folder->pair.left.summary.final_rms_px, 4),
                         Fixed(cal.folder->pair.right.summary.final_rms_px, 4)});
+    } else if (cal.projector_folder) {
+      t.rows.push_back({"reprojection RMS, px", Fixed(s.calibration_rms_left_px, 4),
+                        Fixed(s.calibration_rms_projector_px, 4)});
     }
     sec.tables.push_back(t);
-    sec.paragraphs.push_back("Baseline " + Fixed(cal.rig.BaselineMm(), 3) + " mm.");
+    sec.paragraphs.push_back(
+        s.stereo ? "Baseline " + Fixed(cal.rig.BaselineMm(), 3) + " mm."
+                 : "Camera + projector: camera to projector distance " +
+                       Fixed(cal.rig.projector_from_left.translation().norm(), 3) + " mm.");
+    if (cal.projector_folder) {
+      sec.images.push_back({"camera: residual vectors (magnified) and board coverage",
+                            calib::ResidualImage(cal.projector_folder->LeftCamera())});
+    }
     if (cal.folder) {
       sec.images.push_back({"left camera: residual vectors (magnified) and board coverage",
                             calib::ResidualImage(cal.folder->pair.left)});
@@ -780,7 +915,7 @@ Report BuildReport(const fs::path& project, const ScanSummary& s, const Calibrat
   {
     ReportSection sec;
     sec.title = "Views";
-    sec.tables.push_back(ViewTable(s.views));
+    sec.tables.push_back(ViewTable(s.views, s.stereo));
     for (const ViewResult& v : views) {
       for (const ReportImage& p : v.pictures) sec.images.push_back(p);
     }
@@ -854,6 +989,14 @@ json ScanSummary::FiguresJson() const {
           {"report_s", report_s},
           {"total_s", total_s},
           {"evaluate_s", evaluate_s},
+          {"calibrate_cpu_s", calibrate_cpu_s},
+          {"views_cpu_s", views_cpu_s},
+          {"register_cpu_s", register_cpu_s},
+          {"fuse_cpu_s", fuse_cpu_s},
+          {"mesh_cpu_s", mesh_cpu_s},
+          {"report_cpu_s", report_cpu_s},
+          {"total_cpu_s", total_cpu_s},
+          {"evaluate_cpu_s", evaluate_cpu_s},
           {"peak_mem_gib", peak_mem_gib},
           {"marker_adjusted_rms_mm", marker_adjusted_rms_mm},
           {"icp_rms_mm", icp_rms_mm},
@@ -879,9 +1022,14 @@ json ScanSummary::ToJson() const {
   j["registration"] = registration;
   j["fusion"] = fusion;
   j["mesh"] = meshing;
+  j["mode"] = stereo ? "stereo" : "camera-projector";
   if (calibration_rms_left_px > 0) {
     j["calibration_rms_left_px"] = calibration_rms_left_px;
-    j["calibration_rms_right_px"] = calibration_rms_right_px;
+    if (stereo) {
+      j["calibration_rms_right_px"] = calibration_rms_right_px;
+    } else {
+      j["calibration_rms_projector_px"] = calibration_rms_projector_px;
+    }
   }
   json v = json::array();
   for (const ScanViewSummary& e : views) {
@@ -934,25 +1082,39 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
     fs::create_directories(dir / "views");
     // 1. Calibration (its time is reported apart: a rig is calibrated once, not per scan).
     util::Timer timer;
-    const cv::Mat first =
-        io::ReadGrayImage(folder.layout().CameraDir(names.front(), scan::Camera::kLeft) /
-                          scheme.ImageNames().front());
-    const Calibration cal = ResolveCalibration(folder, options, first.cols, first.rows);
+    util::CpuTimer cpu;
+    // The image size from the manifest (every stack is checked against it when read).
+    const Calibration cal = ResolveCalibration(
+        folder, scheme, options, folder.manifest().image_width, folder.manifest().image_height);
+    s.stereo = folder.stereo();
     s.calibration_source = cal.source;
     if (cal.folder) {
       s.calibration_rms_left_px = cal.folder->pair.left.summary.final_rms_px;
       s.calibration_rms_right_px = cal.folder->pair.right.summary.final_rms_px;
       calib::WriteFolderCalibration(dir / "rig.json", *cal.folder);
+    } else if (cal.projector_folder) {
+      s.calibration_rms_left_px = cal.projector_folder->LeftCamera().summary.final_rms_px;
+      s.calibration_rms_projector_px = cal.projector_folder->camera_projector.projector_rms_px;
+      io::WriteRig(dir / "rig.json", cal.rig,
+                   {{"calibration", cal.projector_folder->CalibrationJson()}});
     } else {
       io::WriteRig(dir / "rig.json", cal.rig);
     }
     s.calibrate_s = timer.ElapsedSeconds();
+    s.calibrate_cpu_s = cpu.ElapsedSeconds();
 
     // 2. Views, streamed: a serial source hands out view indices, at most views_in_flight are
     // read and reconstructed at once, results are stored by index (order-independent).
     util::Timer total;
+    util::CpuTimer total_cpu;
     timer.Restart();
-    const stereo::ViewReconstructor reconstructor(cal.rig, scheme, options.reconstruction);
+    cpu.Restart();
+    // Stereo matching of the two cameras, or one camera against the projector's columns.
+    const stereo::ViewReconstructor reconstructor =
+        folder.stereo() ? stereo::ViewReconstructor(cal.rig, scheme, options.reconstruction)
+                        : stereo::MakeCameraProjectorReconstructor(
+                              stereo::CameraProjectorRig::FromLeftCamera(cal.rig), {scheme},
+                              options.reconstruction);
     std::vector<ViewResult> results(names.size());
     {
       util::Progress progress("scan: reconstruct views", static_cast<int>(names.size()));
@@ -974,6 +1136,7 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
               }));
     }
     s.views_s = timer.ElapsedSeconds();
+    s.views_cpu_s = cpu.ElapsedSeconds();
     for (const ViewResult& v : results) {
       s.views.push_back(v.summary);
       s.read_s += v.summary.read_s;
@@ -986,6 +1149,7 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
     // 3. Registration of the views that worked.
     util::Progress progress("scan: register, fuse, mesh", 3);
     timer.Restart();
+    cpu.Restart();
     Model m;
     for (size_t i = 0; i < results.size(); ++i) {
       if (!results[i].summary.ok) continue;
@@ -995,6 +1159,7 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
       rv.markers = results[i].markers;
       m.view_of.push_back(static_cast<int>(i));
       m.grid_valid.push_back(results[i].cloud.valid);
+      m.grid_size.emplace_back(results[i].cloud.width, results[i].cloud.height);
       m.inputs.push_back(std::move(rv));
     }
     m.registration = registration::RegisterViews(m.inputs, options.registration);
@@ -1024,30 +1189,37 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
     fs::create_directories(dir / "registered");
     m.fusion_of.assign(m.inputs.size(), -1);
     std::vector<fusion::FusionView> fusion_views;
-    for (size_t k = 0; k < m.inputs.size(); ++k) {
+    // The organized clouds moved into the world, so that `fringe fuse OUT` can re-run fusion
+    // from OUT/poses.json and OUT/registered/ (it moves them back by the inverse poses): one
+    // view per task (a moved copy of its grid each), every file its own.
+    tbb::parallel_for(size_t{0}, m.inputs.size(), [&](size_t k) {
       const registration::ViewRegistration& r = m.registration.views[k];
-      if (!r.placed()) continue;
-      placed_names.push_back(r.name);
-      placed_poses.push_back(r.world_from_sensor);
-      // The organized cloud moved into the world, so that `fringe fuse OUT` can re-run fusion
-      // from OUT/poses.json and OUT/registered/ (it moves them back by the inverse poses).
-      OrganizedPointCloud& grid = results[static_cast<size_t>(m.view_of[k])].cloud;
-      OrganizedPointCloud world = grid;
+      if (!r.placed()) return;
+      OrganizedPointCloud world = results[static_cast<size_t>(m.view_of[k])].cloud;
       registration::TransformGrid(r.world_from_sensor, &world);
       io::WritePly(dir / "registered" / (r.name + ".ply"), world,
                    io::PlyFormat::kBinaryLittleEndian,
                    {StrCat("fringe scan: view ", r.name,
                            " registered, world frame (the first view's sensor frame), mm")});
+    });
+    for (size_t k = 0; k < m.inputs.size(); ++k) {
+      const registration::ViewRegistration& r = m.registration.views[k];
+      if (!r.placed()) continue;
+      placed_names.push_back(r.name);
+      placed_poses.push_back(r.world_from_sensor);
+      OrganizedPointCloud& grid = results[static_cast<size_t>(m.view_of[k])].cloud;
       m.fusion_of[k] = static_cast<int>(fusion_views.size());
       fusion_views.push_back({r.name, std::move(grid), r.world_from_sensor});
     }
     registration::WritePoses(dir / "poses.json", placed_names, placed_poses);
     registration::WriteMarkerMap(dir / "markers.json", m.registration, m.inputs);
     s.register_s = timer.ElapsedSeconds();
+    s.register_cpu_s = cpu.ElapsedSeconds();
     progress.Advance();
 
     // 4. Fusion and mesh.
     timer.Restart();
+    cpu.Restart();
     fusion::FusionOptions fusion_options = options.fusion;
     fusion_options.registration_rms_mm =
         s.icp_rms_mm > 0 ? s.icp_rms_mm : std::max(s.marker_adjusted_rms_mm, 0.0);
@@ -1070,8 +1242,10 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
                   "intensity = texture, quality = weighted modulation"});
     fusion_views.clear();  // the grids are no longer needed
     s.fuse_s = timer.ElapsedSeconds();
+    s.fuse_cpu_s = cpu.ElapsedSeconds();
     progress.Advance();
     timer.Restart();
+    cpu.Restart();
     m.mesh = fusion::MeshPoisson(m.fused.fused, options.mesh);
     const fusion::MeshSummary& ms = m.mesh.summary;
     s.meshing = fusion::SummaryToJson(ms);
@@ -1079,12 +1253,15 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
     s.mesh_vertices = ms.vertices;
     s.mesh_triangles = ms.triangles;
     s.mesh_watertight = ms.watertight;
-    fusion::WriteMeshFile(dir / "mesh.ply", m.mesh);
-    fusion::WriteMeshFile(dir / "mesh.stl", m.mesh);
+    tbb::parallel_invoke([&] { fusion::WriteMeshFile(dir / "mesh.ply", m.mesh); },
+                         [&] { fusion::WriteMeshFile(dir / "mesh.stl", m.mesh); });
     s.mesh_s = timer.ElapsedSeconds();
+    s.mesh_cpu_s = cpu.ElapsedSeconds();
     progress.Advance();
 
-    // Residuals for the report (before and after ICP) and the display frame.
+    // Residuals for the report (before and after ICP) and the display frame: report time.
+    timer.Restart();
+    cpu.Restart();
     std::vector<const PointCloud*> placed_clouds;
     std::vector<Rigid3d> adjusted, final_poses;
     for (size_t k = 0; k < m.inputs.size(); ++k) {
@@ -1112,23 +1289,45 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
       m.residuals_adjusted_mm = OverlapResiduals(placed_clouds, adjusted, m.residual_threshold_mm);
       m.residuals_final_mm = OverlapResiduals(placed_clouds, final_poses, m.residual_threshold_mm);
     }
-
+    s.report_s = timer.ElapsedSeconds();
+    s.report_cpu_s = cpu.ElapsedSeconds();
     s.total_s = total.ElapsedSeconds();
+    s.total_cpu_s = total_cpu.ElapsedSeconds();
     // 5. Truth (simulated scans): not part of a real scan, timed apart.
     if (options.evaluate_truth && folder.has_truth()) {
       timer.Restart();
+      cpu.Restart();
       s.has_truth = true;
       EvaluateAgainstTruth(folder, &m, &s);
+      // Per view, its deviation map beside its other pictures: one symmetric range for all views
+      // (three times the single-view RMS, at least 0.05 mm) so that the views compare.
+      const double range_mm = std::max(0.05, 3 * s.single_view_all_rms_mm);
+      for (size_t k = 0; k < m.view_deviation_mm.size(); ++k) {
+        if (m.view_deviation_mm[k].empty()) continue;
+        const size_t i = static_cast<size_t>(m.view_of[k]);
+        results[i].pictures.push_back(
+            {StrCat("view ", s.views[i].name,
+                    ": signed deviation from the truth of the view's points placed by their TRUE "
+                    "pose (the sensor alone, registration excluded), mm; RMS ",
+                    Fixed(s.views[i].truth_rms_mm, 4), " mm; dark grey: no point"),
+             ColourMapWithBar(m.view_deviation_mm[k], -range_mm, range_mm,
+                              "signed deviation from truth, mm", kPictureWidthPx)});
+      }
       s.evaluate_s = timer.ElapsedSeconds();
+      s.evaluate_cpu_s = cpu.ElapsedSeconds();
     }
 
     // 6. Summary and report.
     s.peak_mem_gib = util::PeakMemoryGiB();
     if (options.write_report) {
       timer.Restart();
+      cpu.Restart();
       BuildReport(project, s, cal, results, m).Write(dir / "report.html");
-      s.report_s = timer.ElapsedSeconds();
-      s.total_s += s.report_s;
+      const double report_s = timer.ElapsedSeconds(), report_cpu_s = cpu.ElapsedSeconds();
+      s.report_s += report_s;
+      s.report_cpu_s += report_cpu_s;
+      s.total_s += report_s;
+      s.total_cpu_s += report_cpu_s;
     }
     io::WriteJson(dir / "summary.json", s.ToJson());
   });

@@ -105,8 +105,11 @@ struct ScanViewSummary {
 struct ScanSummary {
   ScanStatus status = ScanStatus::kOk;
   std::string message;
+  bool stereo = true;              // two cameras; false: one camera + projector (scan.json)
   std::string calibration_source;  // "rig.json", "calibration/ (15 board pairs)", a path
-  double calibration_rms_left_px = 0, calibration_rms_right_px = 0;  // 0 unless calibrated here
+  // 0 unless calibrated here; one camera: left = the camera, and the projector's.
+  double calibration_rms_left_px = 0, calibration_rms_right_px = 0;
+  double calibration_rms_projector_px = 0;
   std::vector<ScanViewSummary> views;
   int views_ok = 0;
   int64_t points = 0;  // sum over the views that worked
@@ -116,6 +119,11 @@ struct ScanSummary {
   double register_s = 0, fuse_s = 0, mesh_s = 0, report_s = 0;
   double total_s = 0;     // wall, calibration excluded (a rig is calibrated once, not per scan)
   double evaluate_s = 0;  // truth comparison (not in total_s: a real scan has no truth)
+  // Process CPU time (all threads) of the same stages: CPU / wall shows how parallel a stage ran
+  // (at most the number of cores), and CPU stays comparable on a machine shared with other jobs.
+  // views_cpu_s covers read, decode, reconstruct and markers of all views together.
+  double calibrate_cpu_s = 0, views_cpu_s = 0, register_cpu_s = 0, fuse_cpu_s = 0, mesh_cpu_s = 0;
+  double report_cpu_s = 0, total_cpu_s = 0, evaluate_cpu_s = 0;
   double peak_mem_gib = 0;
   // Registration.
   std::string registration_status;

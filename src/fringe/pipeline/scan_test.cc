@@ -10,6 +10,7 @@
 #include "fringe/pipeline/scan.h"
 
 #include <gtest/gtest.h>
+#include <tbb/task_arena.h>
 
 #include <unistd.h>
 
@@ -49,6 +50,10 @@ constexpr double kMaxTransErrMm = 0.03;
 constexpr double kFusedOverSingleOverlap = 0.8;
 constexpr double kMaxFusedRmsMm = 0.15;
 constexpr double kMaxMeshRmsMm = 0.15;
+// Camera + projector: the projector sits midway between the cameras (half the stereo baseline,
+// so about twice the depth noise) and markers are measured in one camera (ring centre ray
+// against the fitted surface), so registration is looser than in stereo.
+constexpr double kMaxTransErrMmCameraProjector = 0.1;
 
 // Small, quick meshing for tests (the default depth 10 is for the full-size scan).
 ScanOptions TestOptions() {
@@ -197,9 +202,78 @@ TEST_F(ScanTest, WholeChainMatchesTheTruth) {
     EXPECT_GT(counted, 100);
     EXPECT_LE(l["residual_p50_mm"].get<double>(), l["residual_p90_mm"].get<double>());
   }
-  EXPECT_GE(sources, 12 + 4 + 4 + 2 + static_cast<int>(levels.size()));
+  EXPECT_GE(sources, 12 + 4 + 4 + 2 + 3 + static_cast<int>(levels.size()));
+  // One deviation map per view against the truth (the sensor alone), captioned with its RMS.
+  for (const ScanViewSummary& v : s.views) {
+    EXPECT_TRUE(std::isfinite(v.truth_rms_mm)) << v.name;
+    EXPECT_LT(v.truth_rms_mm, kMaxViewRmsMm) << v.name;
+    const std::string caption = "view " + v.name + ": signed deviation from the truth";
+    EXPECT_NE(html.find(caption), std::string::npos) << caption;
+  }
   EXPECT_EQ(static_cast<int>(images.size()), sources);
   EXPECT_EQ(html.find("://"), std::string::npos);  // no external URL (base64 has no colon)
+}
+
+// A camera + projector scan folder made from the stereo one (the same rendered left images):
+// the right camera's folders removed, scan.json saying one camera; rig.json stays the true rig,
+// whose left camera and projector the scan uses.
+fs::path CameraProjectorScan(const fs::path& copy) {
+  for (const char* view : {"000", "001", "002"}) fs::remove_all(copy / "views" / view / "right");
+  nlohmann::json manifest = io::ReadJson(copy / "scan.json");
+  manifest["cameras"] = 1;
+  io::WriteJson(copy / "scan.json", manifest);
+  return copy;
+}
+
+TEST_F(ScanTest, CameraProjectorScanMatchesTheTruth) {
+  const fs::path scan = CameraProjectorScan(CopyOfScan("camera-projector"));
+  const fs::path out = tmp_ / "out";
+  const ScanSummary s = RunScan(scan, out, TestOptions());
+  EXPECT_EQ(s.status, ScanStatus::kOk) << s.message;
+  EXPECT_FALSE(s.stereo);
+  ASSERT_EQ(s.views.size(), 3u);
+  EXPECT_EQ(s.views_ok, 3);
+  const scan::ScanFolder folder = scan::ScanFolder::Open(scan);
+  EXPECT_FALSE(folder.stereo());
+  const scan::TruthPoses truth = folder.ReadTruthPoses();
+  const eval::MeshDistance distance(folder.ReadTruthMesh());
+  for (const ScanViewSummary& v : s.views) {
+    EXPECT_TRUE(v.ok) << v.message;
+    EXPECT_GT(v.valid_fraction, kMinValidFraction) << v.name;
+    EXPECT_GE(v.markers, 5) << v.name;  // measured in the one camera
+    // The view's cloud placed by its true pose lies on the truth mesh (recomputed here).
+    PointCloud world = io::ReadOrganizedPly(out / "views" / (v.name + ".ply")).Compact();
+    for (auto& p : world.points) p = truth.Find(v.name)->world_from_sensor * p;
+    EXPECT_LT(eval::DeviationFromMesh(world, distance).rms_mm, kMaxViewRmsMm) << v.name;
+  }
+  std::cout << s.BriefReport() << "\n";
+  EXPECT_LT(s.pose_rot_err_deg, kMaxRotErrDeg);
+  EXPECT_LT(s.pose_trans_err_mm, kMaxTransErrMmCameraProjector);
+  EXPECT_LT(s.fused_rms_mm, kMaxFusedRmsMm);
+  EXPECT_LT(s.mesh_rms_mm, kMaxMeshRmsMm);
+  EXPECT_TRUE(fs::exists(out / "mesh.stl"));
+  const auto summary = io::ReadJson(out / "summary.json");
+  EXPECT_EQ(summary["mode"].get<std::string>(), "camera-projector");
+  // The rig written is the one used: a camera and its projector.
+  EXPECT_TRUE(io::ReadRig(out / "rig.json").projector.has_value());
+  EXPECT_NE(util::ReadTextFile(out / "report.html").find("projector"), std::string::npos);
+}
+
+TEST_F(ScanTest, CameraProjectorScanWithoutProjectorCalibrationFailsNamingTheRig) {
+  const fs::path scan = CameraProjectorScan(CopyOfScan("camera-projector-noproj"));
+  StereoRig rig = io::ReadRig(scan / "rig.json");
+  rig.projector.reset();
+  io::WriteRig(scan / "rig.json", rig);
+  const fs::path out = tmp_ / "out";
+  try {
+    RunScan(scan, out, TestOptions());
+    FAIL() << "a camera + projector scan needs a calibrated projector";
+  } catch (const Error& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("rig.json"), std::string::npos) << m;
+    EXPECT_NE(m.find("no calibrated projector"), std::string::npos) << m;
+  }
+  EXPECT_FALSE(fs::exists(out));
 }
 
 TEST_F(ScanTest, MissingImageFailsNamingTheViewAndFileAndWritesNothing) {
@@ -338,6 +412,29 @@ TEST_F(ScanTest, ViewWithoutMarkersFailsRegistrationNamingIt) {
   EXPECT_TRUE(fs::exists(out / "mesh.ply"));
   EXPECT_NE(util::ReadTextFile(out / "report.html").find("View 002 was left out"),
             std::string::npos);
+}
+
+TEST(Scan, ResultsDoNotDependOnTheThreadCount) {
+  // A small marker-free scan (quarter-size rig, 2 views of the sphere) run on one thread and on
+  // all: the same poses, fused cloud and mesh, byte for byte.
+  test::TempDir dir;
+  sim::ScanOptions o;
+  o.scene = "sphere";
+  o.views = 2;
+  o.calibration_images = 0;
+  o.render.sensor.supersampling = 1;
+  o.truth_maps = false;
+  sim::SimulateScan(sim::ScaledRig(StereoRig::Reference(), 0.25), o, dir / "scan");
+  ScanOptions options;
+  options.calib = dir / "scan" / "truth" / "rig.json";
+  options.mesh.poisson_depth = 7;
+  options.write_report = false;
+  RunScan(dir / "scan", dir / "all", options);
+  tbb::task_arena(1).execute([&] { RunScan(dir / "scan", dir / "one", options); });
+  for (const char* f : {"poses.json", "views/000.ply", "views/001.ply", "registered/001.ply",
+                        "fused.ply", "mesh.ply"}) {
+    EXPECT_EQ(util::ReadTextFile(dir / "all" / f), util::ReadTextFile(dir / "one" / f)) << f;
+  }
 }
 
 TEST_F(ScanTest, UnwritableOutputFailsBeforeWriting) {

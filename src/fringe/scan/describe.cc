@@ -113,12 +113,18 @@ std::string DescribeScanFolder(const ScanFolder& scan) {
     os << " (" << scan.views().front() << " .. " << scan.views().back() << "), scheme " << m.scheme;
   }
   os << "\n";
+  if (!scan.stereo()) os << "  one camera + projector (views hold left/ only)\n";
   for (const std::string& v : scan.views()) {
     os << "    " << v << ": left "
-       << io::ListImageFiles(scan.layout().CameraDir(v, Camera::kLeft)).size() << " images, right "
-       << io::ListImageFiles(scan.layout().CameraDir(v, Camera::kRight)).size() << " images\n";
+       << io::ListImageFiles(scan.layout().CameraDir(v, Camera::kLeft)).size() << " images";
+    if (scan.stereo()) {
+      os << ", right " << io::ListImageFiles(scan.layout().CameraDir(v, Camera::kRight)).size()
+         << " images";
+    }
+    os << "\n";
   }
-  os << "  calibration: " << m.calibration_images << " board images per camera";
+  os << "  calibration: " << m.calibration_images
+     << (scan.stereo() ? " board images per camera" : " board pose folders");
   if (scan.has_calibration()) os << ", target " << m.calibration_target;
   os << "\n";
   os << "  truth: " << (scan.has_truth() ? m.truth + "/" : "none") << "\n";

@@ -53,19 +53,22 @@ std::string IndexName(int index) {
 }
 
 json ManifestToJson(const ScanManifest& m) {
-  return {{"format", kFormat},
-          {"version", ScanManifest::kVersion},
-          {"generator", m.generator},
-          {"scene", m.scene},
-          {"seed", m.seed},
-          {"views", m.views},
-          {"image_width", m.image_width},
-          {"image_height", m.image_height},
-          {"bit_depth", m.bit_depth},
-          {"scheme", PathOrNull(m.scheme)},
-          {"calibration_images", m.calibration_images},
-          {"calibration_target", PathOrNull(m.calibration_target)},
-          {"truth", PathOrNull(m.truth)}};
+  json j = {{"format", kFormat},
+            {"version", ScanManifest::kVersion},
+            {"generator", m.generator},
+            {"scene", m.scene},
+            {"seed", m.seed},
+            {"views", m.views},
+            {"image_width", m.image_width},
+            {"image_height", m.image_height},
+            {"bit_depth", m.bit_depth},
+            {"scheme", PathOrNull(m.scheme)},
+            {"calibration_images", m.calibration_images},
+            {"calibration_target", PathOrNull(m.calibration_target)},
+            {"truth", PathOrNull(m.truth)}};
+  // Written only for one camera: two-camera manifests stay as they were.
+  if (m.cameras != 2) j["cameras"] = m.cameras;
+  return j;
 }
 
 ScanManifest ManifestFromJson(const json& j, const std::string& context) {
@@ -85,7 +88,7 @@ ScanManifest ManifestFromJson(const json& j, const std::string& context) {
     io::CheckKnownKeys(
         j,
         {"format", "version", "generator", "scene", "seed", "views", "image_width", "image_height",
-         "bit_depth", "scheme", "calibration_images", "calibration_target", "truth"},
+         "bit_depth", "scheme", "calibration_images", "calibration_target", "truth", "cameras"},
         context);
     constexpr long long kMaxCount = 100000;  // views or board images: far beyond any scan
     constexpr long long kMaxSide = 65536;    // pixels
@@ -98,6 +101,7 @@ ScanManifest ManifestFromJson(const json& j, const std::string& context) {
     m.image_width = static_cast<int>(io::GetInteger(j, "image_width", 1, kMaxSide, context));
     m.image_height = static_cast<int>(io::GetInteger(j, "image_height", 1, kMaxSide, context));
     m.bit_depth = static_cast<int>(io::OptionalInteger(j, "bit_depth", 8, 1, 16, context));
+    m.cameras = static_cast<int>(io::OptionalInteger(j, "cameras", 2, 1, 2, context));
     m.scheme = OptionalPath(j, "scheme");
     m.calibration_images =
         static_cast<int>(io::GetInteger(j, "calibration_images", 0, kMaxCount, context));
@@ -167,8 +171,14 @@ ScanFolder ScanFolder::Open(const fs::path& root) {
       throw Error(StrCat(l.ViewDir(IndexName(v)).string(), ": missing view folder (views are ",
                          IndexName(0), " .. ", IndexName(m.views - 1), ")"));
     }
-    for (Camera c : {Camera::kLeft, Camera::kRight}) {
-      util::RequireDirectory(l.CameraDir(s.views_[v], c), "camera image folder");
+    util::RequireDirectory(l.CameraDir(s.views_[v], Camera::kLeft), "camera image folder");
+    if (m.cameras == 2) {
+      util::RequireDirectory(l.CameraDir(s.views_[v], Camera::kRight), "camera image folder");
+    } else if (fs::exists(l.CameraDir(s.views_[v], Camera::kRight), ec)) {
+      // A stereo view in a camera + projector scan: one of the two is a mistake.
+      throw Error(StrCat(l.CameraDir(s.views_[v], Camera::kRight).string(),
+                         ": a right camera, but ", l.Manifest().string(),
+                         " says 'cameras': 1 (camera + projector views hold left/ only)"));
     }
   }
   if (!m.scheme.empty()) util::RequireFile(root / m.scheme, "scheme manifest named by scan.json");
@@ -176,7 +186,20 @@ ScanFolder ScanFolder::Open(const fs::path& root) {
   // Calibration images: the same names for both cameras.
   if (!m.calibration_target.empty())
     util::RequireFile(root / m.calibration_target, "calibration target named by scan.json");
-  if (m.calibration_images > 0) {
+  if (m.calibration_images > 0 && m.cameras == 1) {
+    // Camera + projector: one folder per board pose (its board image and fringe stacks, checked
+    // by the projector calibration that reads them).
+    util::RequireDirectory(l.CalibrationDir(), "calibration folder");
+    for (const auto& e : fs::directory_iterator(l.CalibrationDir())) {
+      if (e.is_directory()) s.calibration_images_.push_back(e.path().filename().string());
+    }
+    std::sort(s.calibration_images_.begin(), s.calibration_images_.end());
+    if (static_cast<int>(s.calibration_images_.size()) != m.calibration_images) {
+      throw Error(StrCat(l.CalibrationDir().string(), ": ", s.calibration_images_.size(),
+                         " board pose folders, but ", l.Manifest().string(), " says ",
+                         m.calibration_images));
+    }
+  } else if (m.calibration_images > 0) {
     const std::vector<std::string> left = io::ListImageFiles(l.CalibrationDir(Camera::kLeft));
     const std::vector<std::string> right = io::ListImageFiles(l.CalibrationDir(Camera::kRight));
     for (const auto& [names, camera] :

@@ -6,9 +6,12 @@
 //
 //   DIR/scan.json                  manifest (ScanManifest)
 //   DIR/scheme.json                pattern scheme manifest
-//   DIR/views/NNN/{left,right}/    fringe image stacks, names from the scheme
+//   DIR/views/NNN/{left,right}/    fringe image stacks, names from the scheme (left/ only in a
+//                                  camera + projector scan, scan.json "cameras": 1)
 //   DIR/calibration/target.json    calibration board
-//   DIR/calibration/{left,right}/  board images, KKK.png
+//   DIR/calibration/{left,right}/  board images, KKK.png (two cameras), or
+//   DIR/calibration/KKK/           one board pose of the camera + projector calibration layout
+//                                  (calib/projector_folder.h; one camera)
 //   DIR/truth/                     simulated scans only (truth.h, sim::ReadCameraTruth)
 //
 // Errors: every problem throws fringe::Error naming the file or folder and what was expected.
@@ -75,9 +78,12 @@ struct ScanManifest {
   int views = 0;          // number of view folders views/NNN
   int image_width = 0;    // camera image size, px
   int image_height = 0;
-  int bit_depth = 8;               // 8, or 12 (stored in 16-bit PNG)
+  int bit_depth = 8;  // 8, or 12 (stored in 16-bit PNG)
+  // 2: stereo views (left/ and right/); 1: camera + projector views (left/ only), the projector
+  // calibrated as an inverse camera. JSON key "cameras", optional (default 2).
+  int cameras = 2;
   std::string scheme;              // "scheme.json" when there are views
-  int calibration_images = 0;      // board images per camera
+  int calibration_images = 0;      // board images per camera (one camera: board pose folders)
   std::string calibration_target;  // "calibration/target.json" when there are board images
   std::string truth;               // "truth" for simulated scans
 };
@@ -91,9 +97,11 @@ void WriteManifest(const std::filesystem::path& path, const ScanManifest& manife
 class ScanFolder {
  public:
   // Reads ROOT/scan.json and checks the folder against it: the views under views/ are exactly
-  // 000 .. views-1, each with left/ and right/; the scheme, target and truth folder it names
-  // exist; calibration/left and right each hold `calibration_images` images with the same
-  // names. Throws fringe::Error naming the first file or folder that disagrees.
+  // 000 .. views-1, each with left/ and right/ (one camera: left/ and no right/); the scheme,
+  // target and truth folder it names exist; calibration/left and right each hold
+  // `calibration_images` images with the same names (one camera: calibration/ holds
+  // `calibration_images` board pose folders). Throws fringe::Error naming the first file or
+  // folder that disagrees.
   static ScanFolder Open(const std::filesystem::path& root);
   // True when `dir` has a scan.json (a scan folder, maybe invalid).
   static bool IsScanFolder(const std::filesystem::path& dir);
@@ -107,6 +115,8 @@ class ScanFolder {
   // View names, sorted ("000", "001", ...).
   const std::vector<std::string>& views() const { return views_; }
   bool has_views() const { return !views_.empty(); }
+  // Two cameras (stereo views) or one (camera + projector views, left/ only).
+  bool stereo() const { return manifest_.cameras == 2; }
   // The pattern scheme (scheme.json); throws when the scan has none.
   phase::PatternScheme ReadScheme() const;
   // One camera's fringe images of a view in the scheme's order (phase::ReadStack checks them);
@@ -119,7 +129,8 @@ class ScanFolder {
                                                        const phase::PatternScheme& scheme) const;
 
   bool has_calibration() const { return manifest_.calibration_images > 0; }
-  // Board image file names (same in left/ and right/), sorted.
+  // Board image file names (same in left/ and right/), sorted; one camera: the board pose
+  // folder names.
   const std::vector<std::string>& calibration_images() const { return calibration_images_; }
   CalibrationTarget ReadTarget() const;
 

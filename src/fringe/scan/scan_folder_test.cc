@@ -129,6 +129,40 @@ TEST(ScanFolder, ManifestRoundTripsAndRejectsBadFields) {
   ExpectError([&] { ManifestFromJson(with("bit_depth", 10), "s.json"); }, {"bit_depth"});
 }
 
+TEST(ScanFolder, OneCameraScanHoldsLeftViewsAndBoardPoseFolders) {
+  test::TempDir dir;
+  const fs::path root = dir / "scan";
+  ScanManifest m = WriteSmallScan(root, 2, 0);
+  // Without the manifest's word a view without right/ is an error naming the folder.
+  fs::remove_all(root / "views" / "001" / "right");
+  ExpectError([&] { ScanFolder::Open(root); }, {"001", "right"});
+  fs::remove_all(root / "views" / "000" / "right");
+  m.cameras = 1;
+  // Board poses of the camera + projector calibration layout: one folder each.
+  for (const char* pose : {"000", "001"}) fs::create_directories(root / "calibration" / pose);
+  io::WriteJson(root / "calibration" / "target.json",
+                io::TargetToJson(CalibrationTarget::Reference()));
+  m.calibration_images = 2;
+  m.calibration_target = "calibration/target.json";
+  WriteManifest(root / "scan.json", m);
+  const ScanFolder scan = ScanFolder::Open(root);
+  EXPECT_FALSE(scan.stereo());
+  EXPECT_EQ(scan.calibration_images(), (std::vector<std::string>{"000", "001"}));
+  EXPECT_EQ(ManifestFromJson(io::ReadJson(root / "scan.json"), "scan.json").cameras, 1);
+  EXPECT_NE(DescribePath(root).find("one camera + projector"), std::string::npos);
+  // A right camera in a one-camera scan, or a board pose count that disagrees: named errors.
+  fs::create_directories(root / "views" / "001" / "right");
+  ExpectError([&] { ScanFolder::Open(root); }, {"001", "right", "'cameras': 1"});
+  fs::remove_all(root / "views" / "001" / "right");
+  fs::remove_all(root / "calibration" / "001");
+  ExpectError([&] { ScanFolder::Open(root); }, {"calibration", "1 board pose folders", "says 2"});
+  // Two-camera manifests are written without the key, as before; other counts are refused.
+  EXPECT_FALSE(ManifestToJson(ScanManifest()).contains("cameras"));
+  nlohmann::json j = ManifestToJson(m);
+  j["cameras"] = 3;
+  ExpectError([&] { ManifestFromJson(j, "s.json"); }, {"s.json", "cameras"});
+}
+
 TEST(ScanFolder, ErrorsNameTheFileThatDisagrees) {
   test::TempDir dir;
   {

@@ -396,7 +396,7 @@ void CheckOpenCvFileBounds(const fs::path& path) {
   size_t line_begin = 0;  // first byte of the line's content
   bool line_key = false;  // a ':' outside quotes ending the key
   const auto end_line = [&](size_t end) {
-    if (!yaml || line_flow > 0 || line_key || dashes > 0) return;
+    if (!yaml || line_flow > 0) return;
     const std::string_view l = std::string_view(text).substr(line_begin, end - line_begin);
     const size_t b = l.find_first_not_of(" \t\r");
     if (b == std::string_view::npos) return;
@@ -405,10 +405,18 @@ void CheckOpenCvFileBounds(const fs::path& path) {
       return content.rfind(marker, 0) == 0 &&
              content.find_first_not_of(" \t\r", marker.size()) == std::string_view::npos;
     };
-    // Directives only at the top, document markers alone on their line (a "---- ." or a closing
-    // bracket without its opening one sent OpenCV's parser into an endless loop too).
-    if (content[0] == '#' || (content.rfind("%YAML", 0) == 0 && line == 1) || is("---") ||
-        is("...") || is("-") || content[0] == '[' || content[0] == '{') {
+    // Document markers alone on their line, directives only at the top: "---- ." and
+    // "--- - value" sent OpenCV's parser into endless loops too (fuzz_opencv).
+    if ((content.rfind("---", 0) == 0 && !is("---")) ||
+        (content.rfind("...", 0) == 0 && !is("..."))) {
+      fail(line, "a document marker ('---' or '...') must stand alone on its line");
+    }
+    if (content[0] == '%' && !(content.rfind("%YAML", 0) == 0 && line == 1)) {
+      fail(line, "a directive other than '%YAML' on the first line");
+    }
+    if (line_key || dashes > 0) return;
+    if (content[0] == '#' || content[0] == '%' || is("---") || is("...") || is("-") ||
+        content[0] == '[' || content[0] == '{') {
       return;
     }
     fail(line, "a value on a line of its own, outside a key, a '- ' item or brackets");

@@ -212,6 +212,9 @@ TEST(OpenCvCalibration, BareValueLineIsAnErrorNotAnEndlessLoop) {
   std::ofstream(f) << "%YAML:1.\n---- .\n]\n";
   EXPECT_NE(ErrorOf([&] { ReadOpenCvCalibration({f}); }).find("loop.yml: line 2:"),
             std::string::npos);
+  std::ofstream(f) << "%YAML:1.0\n--- - a[0 ]\n";
+  EXPECT_NE(ErrorOf([&] { ReadOpenCvCalibration({f}); }).find("line 2: a document marker"),
+            std::string::npos);
   std::ofstream(f) << "%YAML:1.0\na: 1 ]\n";
   EXPECT_NE(ErrorOf([&] { ReadOpenCvCalibration({f}); }).find("line 2: ']' closes no bracket"),
             std::string::npos);

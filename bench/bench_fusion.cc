@@ -268,6 +268,13 @@ int main(int argc, char** argv) {
                "Print where the views' errors are (border, viewing angle, modulation, residual)");
   app.add_flag("--no-peers", no_peers, "Skip voxel, TSDF and Poisson-on-concatenation");
   app.add_flag("--no-mesh", no_mesh, "Skip meshing");
+  fusion::FusionOptions options;
+  app.add_option("--lateral-sigma", options.lateral_sigma,
+                 "Fusion: member weight width beside the centre's normal line, spacings")
+      ->capture_default_str();
+  app.add_option("--spacing-factor", options.spacing_factor,
+                 "Fusion: neighbourhood radius, spacings")
+      ->capture_default_str();
   bool no_cgal = false;
   app.add_flag("--no-cgal", no_cgal, "Skip CGAL's Poisson (the meshing peer)");
   CLI11_PARSE(app, argc, argv);
@@ -349,7 +356,6 @@ int main(int argc, char** argv) {
   const eval::MeshDistance truth(simulator.scene().CombinedMesh());
 
   // Ours.
-  fusion::FusionOptions options;
   options.registration_rms_mm = std::max(0.01, trans_err_mm);
   const double mem_before = util::CurrentMemoryGiB();
   ResetPeak();

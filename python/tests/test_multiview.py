@@ -10,7 +10,8 @@ import pytest
 import fringe
 from conftest import RIG_SCALE, SENSOR_NOISE_DN, run_cli
 
-TIMING_KEYS = {"seconds", "time_s", "poisson_s", "total_s"}
+TIMING_KEYS = {"seconds", "time_s", "poisson_s", "total_s", "prepare_s", "overlap_s", "candidates_s",
+               "cluster_s", "output_s"}
 # A coarse Poisson octree keeps the meshing to about a second (depth 10, the default, takes
 # ~35 s on these views on the 2-core CI machine).
 POISSON_DEPTH = 6

@@ -131,6 +131,10 @@ bool DiscOf(const ViewGrid& grid, const Eigen::Vector3f& p_in_world, float radiu
   return std::isfinite(d->col) && std::isfinite(d->row) && std::isfinite(d->radius_px);
 }
 
+// A pixel bound clamped to [-1, n] in float before the conversion (a disc far outside the frame
+// must not overflow the int).
+int Clamped(float x, int n) { return static_cast<int>(std::clamp(x, -1.f, static_cast<float>(n))); }
+
 // Calls f(slot, squared distance) for every slot of the grid in the disc around p that `keep`
 // accepts and whose point lies within radius_mm of p, row by row (a deterministic order), until
 // f returns false.
@@ -148,13 +152,14 @@ void ForEachNear(const ViewGrid& grid, const Eigen::Vector3f& p_in_world, float 
   }
   PixelDisc d;
   if (!DiscOf(grid, p_in_world, radius_mm, &d)) return;
-  const int r0 = std::max(0, static_cast<int>(std::ceil(d.row - d.radius_px)));
-  const int r1 = std::min(grid.height - 1, static_cast<int>(std::floor(d.row + d.radius_px)));
+  const int r0 = std::max(0, Clamped(std::ceil(d.row - d.radius_px), grid.height));
+  const int r1 = std::min(grid.height - 1, Clamped(std::floor(d.row + d.radius_px), grid.height));
   for (int r = r0; r <= r1; ++r) {
     const float dr = static_cast<float>(r) - d.row;
     const float half = std::sqrt(std::max(0.f, d.radius_px * d.radius_px - dr * dr));
-    const int c0 = std::max(0, static_cast<int>(std::ceil(d.col - half)));
-    const int c1 = std::min(grid.width - 1, static_cast<int>(std::floor(d.col + half)));
+    const int c0 = std::max(0, Clamped(std::ceil(d.col - half), grid.width));
+    const int c1 = std::min(grid.width - 1, Clamped(std::floor(d.col + half), grid.width));
+    if (c0 > c1) continue;  // the disc's row lies beside the frame
     const uint32_t row = static_cast<uint32_t>(r) * static_cast<uint32_t>(grid.width);
     for (uint32_t s = row + c0; s <= row + c1; ++s) {
       if (!keep(s)) continue;

@@ -275,6 +275,48 @@ TEST(Fusion, MixedPixelsBesideAHoleDoNotSurviveWhereAnotherViewSawThePlace) {
   EXPECT_GE(r.summary.absorbed + r.summary.absorbed_clusters + r.summary.unassigned, mixed);
 }
 
+TEST(Fusion, ViewsOverlappingInOneQuadrantAreSearchedInsideTheFrameOnly) {
+  // Two synthetic 40 x 40 pinhole grids of a plane (0.5 mm spacing at 100 mm), the second
+  // shifted by half a frame in x and y: most points of the first project beside or above the
+  // second's frame (pixel discs clamped to it; a disc beside the frame on row 0 once wrapped
+  // the slot range), a quadrant overlaps.
+  constexpr int kSize = 40;
+  constexpr double kSpacingMm = 0.5, kDepthMm = 100;
+  auto grid = [&](uint64_t seed) {
+    OrganizedPointCloud g(kSize, kSize, true, true, true);
+    std::mt19937_64 rng(seed);
+    std::normal_distribution<double> noise(0, 0.01);
+    for (int r = 0; r < kSize; ++r) {
+      for (int c = 0; c < kSize; ++c) {
+        const size_t i = g.index(c, r);
+        const Eigen::Vector3d ray((c - 19.5) * kSpacingMm / kDepthMm,
+                                  (r - 19.5) * kSpacingMm / kDepthMm, 1);
+        g.cloud.points[i] = ray * (kDepthMm + noise(rng));
+        g.cloud.normals[i] = Eigen::Vector3d(0, 0, -1);
+        g.cloud.quality[i] = 60.f;
+        g.cloud.intensity[i] = 128.f;
+        g.valid[i] = 1;
+      }
+    }
+    return g;
+  };
+  const double shift_mm = kSize / 2 * kSpacingMm;
+  const std::vector<FusionView> views = {
+      {"a", grid(1), Rigid3d()},
+      {"b", grid(2), Rigid3d(Eigen::Quaterniond::Identity(), {shift_mm, shift_mm, 0})}};
+  const FusionResult r = FuseViews(views);
+  SCOPED_TRACE(r.summary.BriefReport());
+  ASSERT_EQ(r.summary.status, FusionStatus::kOk);
+  // The overlapping quadrant (20 x 20 slots of each view) plus the points within the radius
+  // (2 spacings) of its edges.
+  EXPECT_GE(r.summary.overlap_points, 2 * 20 * 20);
+  EXPECT_LE(r.summary.overlap_points, 2 * 23 * 23);
+  EXPECT_LT(r.summary.max_fit_error_px, 0.01);
+  EXPECT_EQ(
+      r.summary.overlap_points + r.summary.passed_through + r.summary.absorbed + r.summary.trimmed,
+      r.summary.input_points);
+}
+
 TEST(Fusion, DeterministicAndIndependentOfThreadCount) {
   const StereoRig rig = TestRig();
   const sim::Renderer renderer(sim::MakeSphereScene(30), rig);

@@ -23,8 +23,9 @@ void AddScanCommand(CLI::App& app) {
       "markers, register, fuse and mesh; writes the clouds, poses, marker map, fused cloud, "
       "mesh, summary.json and report.html (docs/scan-folder.md)");
   sub->add_option("project", a->project,
-                  "Scan folder: scheme.json, views/NNN/{left,right}/, and rig.json or "
-                  "calibration/ board images")
+                  "Scan folder: scheme.json, views/NNN/{left,right}/ (left/ only for a camera + "
+                  "projector scan, scan.json \"cameras\": 1), and rig.json or calibration/ "
+                  "board images")
       ->required();
   sub->add_option("--out", a->out,
                   "Output folder (written atomically; an existing one is replaced only when "

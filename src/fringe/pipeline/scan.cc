@@ -126,7 +126,8 @@ Calibration ResolveCalibration(const scan::ScanFolder& folder, const phase::Patt
   const CalibrationTarget target = folder.ReadTarget();
   util::LogInfo("scan: calibrating from " + cal_dir.string());
   if (!folder.stereo()) {
-    calib::ProjectorFolderCalibration cal = calib::CalibrateProjectorFolder(cal_dir, target);
+    calib::ProjectorFolderCalibration cal =
+        calib::CalibrateProjectorFolder(cal_dir, target, options.projector_calibration);
     if (!cal.ok()) {
       throw Error(StrCat("scan: ", cal_dir.string(),
                          ": camera + projector calibration failed: ", cal.message()));
@@ -934,6 +935,7 @@ void ScanOptions::Check() const {
                     "OpenCV intrinsics and extrinsics go together");
   util::CheckOption(calib.empty() || opencv_intrinsics.empty(), "ScanOptions", "calib",
                     calib.string(), "give a rig JSON or OpenCV files, not both");
+  projector_calibration.Check();
   reconstruction.Check();
   registration.Check();
   fusion.Check();

@@ -40,6 +40,7 @@
 #include <string>
 #include <vector>
 
+#include "fringe/calib/projector_folder.h"
 #include "fringe/fusion/fuse.h"
 #include "fringe/fusion/mesh.h"
 #include "fringe/geometry/stereo_rig.h"
@@ -56,6 +57,8 @@ struct ScanOptions {
   std::filesystem::path opencv_intrinsics, opencv_extrinsics;
   // Leave out views that fail and finish with the others (status kPartial) instead of failing.
   bool keep_going = false;
+  // Camera + projector scans calibrated here from calibration/KKK/ pose folders.
+  calib::ProjectorFolderOptions projector_calibration;
   // Views reconstructed at the same time, [1, 64]: each holds its two image stacks (24 images
   // of 1.3 Mpx: ~60 MB for 8-bit) while it is decoded; 2 keeps both cores busy on this machine.
   int views_in_flight = 2;

@@ -27,6 +27,7 @@
 #include "fringe/registration/registration_io.h"
 #include "fringe/scan/scan_folder.h"
 #include "fringe/scan/truth.h"
+#include "fringe/sim/projector_board.h"
 #include "fringe/sim/scan.h"
 #include "fringe/util/error.h"
 #include "fringe/util/files.h"
@@ -257,6 +258,43 @@ TEST_F(ScanTest, CameraProjectorScanMatchesTheTruth) {
   // The rig written is the one used: a camera and its projector.
   EXPECT_TRUE(io::ReadRig(out / "rig.json").projector.has_value());
   EXPECT_NE(util::ReadTextFile(out / "report.html").find("projector"), std::string::npos);
+}
+
+TEST_F(ScanTest, CameraProjectorScanCalibratesFromItsBoardPoseFolders) {
+  // No rig.json: the camera and projector are calibrated from calibration/KKK/ (board image and
+  // both fringe directions per pose, as `fringe calibrate` reads them), 6 poses at half size.
+  const fs::path scan = CameraProjectorScan(CopyOfScan("camera-projector-calib"));
+  fs::remove(scan / "rig.json");
+  const StereoRig rig = scan::ScanFolder::Open(scan).ReadTruthRig();
+  sim::ProjectorCalibrationFolderOptions so;
+  so.poses.count = 6;
+  so.poses.seed = 5;
+  so.fringes.supersampling = 1;
+  sim::WriteProjectorCalibrationFolder(rig, CalibrationTarget::Reference(), scan / "calibration",
+                                       so);
+  nlohmann::json manifest = io::ReadJson(scan / "scan.json");
+  manifest["calibration_images"] = 6;
+  manifest["calibration_target"] = "calibration/target.json";
+  io::WriteJson(scan / "scan.json", manifest);
+  ScanOptions o = TestOptions();
+  o.projector_calibration.features.window_radius_px = 10;  // half resolution
+  o.write_report = false;
+  const fs::path out = tmp_ / "out";
+  const ScanSummary s = RunScan(scan, out, o);
+  std::cout << s.BriefReport() << "\n";
+  EXPECT_EQ(s.views_ok, 3);
+  EXPECT_NE(s.calibration_source.find("camera + projector"), std::string::npos);
+  EXPECT_GT(s.calibration_rms_left_px, 0);
+  EXPECT_GT(s.calibration_rms_projector_px, 0);
+  const StereoRig est = io::ReadRig(out / "rig.json");
+  ASSERT_TRUE(est.projector.has_value());
+  // The calibrated projector is the true one (the bounds of calib/projector_test at this size).
+  EXPECT_LT(std::abs(est.projector->fx - rig.projector->fx) / rig.projector->fx, 3e-4);
+  EXPECT_LT((est.projector_from_left.translation() - rig.projector_from_left.translation()).norm(),
+            0.1);
+  EXPECT_LT(s.pose_rot_err_deg, kMaxRotErrDeg);
+  EXPECT_LT(s.pose_trans_err_mm, kMaxTransErrMmCameraProjector);
+  EXPECT_LT(s.fused_rms_mm, kMaxFusedRmsMm);
 }
 
 TEST_F(ScanTest, CameraProjectorScanWithoutProjectorCalibrationFailsNamingTheRig) {

@@ -392,9 +392,10 @@ void CheckOpenCvFileBounds(const fs::path& path) {
   // own below an indented mapping sends OpenCV's YAML parser into an endless loop (timeout found
   // by fuzz_opencv: " r: 1", "n0", "-"); OpenCV never writes such lines, so they are refused.
   const bool yaml = first == std::string::npos || text[first] != '<';
-  int line_flow = 0;      // bracket depth at the start of the line
-  size_t line_begin = 0;  // first byte of the line's content
-  bool line_key = false;  // a ':' outside quotes ending the key
+  int line_flow = 0;               // bracket depth at the start of the line
+  size_t line_begin = 0;           // first byte of the line's content
+  bool line_key = false;           // a ':' outside quotes ending the key
+  std::vector<int> block_columns;  // columns of the open block levels, outermost first
   const auto end_line = [&](size_t end) {
     if (!yaml || line_flow > 0) return;
     const std::string_view l = std::string_view(text).substr(line_begin, end - line_begin);
@@ -413,6 +414,23 @@ void CheckOpenCvFileBounds(const fs::path& path) {
     }
     if (content[0] == '%' && !(content.rfind("%YAML", 0) == 0 && line == 1)) {
       fail(line, "a directive other than '%YAML' on the first line");
+    }
+    // Block indentation: top-level keys in the first column, and a line indented less than the
+    // one before it must return to an enclosing level. An indented top level or a dedent to a
+    // column no block opened is what sent OpenCV's parser into its endless loops.
+    const int column = static_cast<int>(b);
+    if (content[0] != '#' && content[0] != '%' && !is("---") && !is("...")) {
+      if (block_columns.empty()) {
+        if (column != 0) fail(line, "the top-level keys must start in the first column");
+        block_columns.push_back(0);
+      } else if (column > block_columns.back()) {
+        block_columns.push_back(column);
+      } else {
+        while (block_columns.back() > column) block_columns.pop_back();
+        if (block_columns.back() != column) {
+          fail(line, "indentation returns to a column no enclosing block started at");
+        }
+      }
     }
     if (line_key || dashes > 0) return;
     if (content[0] == '#' || content[0] == '%' || is("---") || is("...") || is("-") ||
@@ -455,7 +473,7 @@ void CheckOpenCvFileBounds(const fs::path& path) {
     line_start = false;
     // "- " opens a nested block sequence, also several on one line ("key: - - - 1").
     if (c == '-' && i + 1 < text.size() && text[i + 1] == ' ' &&
-        (i == 0 || text[i - 1] == ' ' || text[i - 1] == ':' || text[i - 1] == '\n')) {
+        (i == 0 || text[i - 1] == ' ' || text[i - 1] == '\n')) {
       if (++dashes > util::kMaxNestingDepth) fail(line, "YAML sequences nested too deeply");
       continue;
     }

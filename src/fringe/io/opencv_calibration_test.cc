@@ -205,6 +205,9 @@ TEST(OpenCvCalibration, BareValueLineIsAnErrorNotAnEndlessLoop) {
   test::TempDir dir;
   const fs::path f = dir / "loop.yml";
   std::ofstream(f) << "%YAML:1.0\n r: 1\nn0\n-";
+  EXPECT_NE(ErrorOf([&] { ReadOpenCvCalibration({f}); }).find("loop.yml: line 2: the top-level"),
+            std::string::npos);
+  std::ofstream(f) << "%YAML:1.0\nr: 1\nn0\n-";
   const std::string error = ErrorOf([&] { ReadOpenCvCalibration({f}); });
   EXPECT_NE(error.find("loop.yml: line 3: a value on a line of its own"), std::string::npos)
       << error;
@@ -214,6 +217,12 @@ TEST(OpenCvCalibration, BareValueLineIsAnErrorNotAnEndlessLoop) {
             std::string::npos);
   std::ofstream(f) << "%YAML:1.0\n--- - a[0 ]\n";
   EXPECT_NE(ErrorOf([&] { ReadOpenCvCalibration({f}); }).find("line 2: a document marker"),
+            std::string::npos);
+  std::ofstream(f) << "%YAML:1.0\n      cols: 3\n   dt: d\n";
+  EXPECT_NE(ErrorOf([&] { ReadOpenCvCalibration({f}); }).find("line 2: the top-level keys"),
+            std::string::npos);
+  std::ofstream(f) << "%YAML:1.0\nM1: !!opencv-matrix\n      rows: 3\n   cols: 3\n";
+  EXPECT_NE(ErrorOf([&] { ReadOpenCvCalibration({f}); }).find("line 4: indentation returns"),
             std::string::npos);
   std::ofstream(f) << "%YAML:1.0\na: 1 ]\n";
   EXPECT_NE(ErrorOf([&] { ReadOpenCvCalibration({f}); }).find("line 2: ']' closes no bracket"),

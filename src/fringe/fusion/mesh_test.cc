@@ -44,6 +44,16 @@ const FusionResult& FusedSphere() {
   return fused;
 }
 
+// Vertices of a mesh of the origin-centred sphere whose normal points towards the centre
+// (outward normals point away from it).
+int InwardNormals(const MeshResult& m) {
+  int inward = 0;
+  for (size_t i = 0; i < m.mesh.NumVertices(); ++i) {
+    inward += m.mesh.normals[i].dot(m.mesh.vertices[i]) < 0;
+  }
+  return inward;
+}
+
 Eigen::Vector2d RadialErrorRmsMax(const PointCloud& vertices) {
   double sum_sq = 0, max_abs = 0;
   for (const auto& p : vertices.points) {
@@ -79,12 +89,7 @@ TEST(Mesh, FusedSphereIsWatertightAndWithinToleranceOfTheSphere) {
   const Eigen::Vector2d err = RadialErrorRmsMax(VertexCloud(m));
   EXPECT_LT(err[0], kRmsTolMm);
   EXPECT_LT(err[1], kMaxTolMm);
-  // Outward normals: the vertex normal points away from the centre.
-  int inward = 0;
-  for (size_t i = 0; i < m.mesh.NumVertices(); ++i) {
-    inward += m.mesh.normals[i].dot(m.mesh.vertices[i]) < 0;
-  }
-  EXPECT_EQ(inward, 0);
+  EXPECT_EQ(InwardNormals(m), 0);
 }
 
 TEST(Mesh, CgalPoissonOfTheFusedSphereIsWatertightAndWithinToleranceOfTheSphere) {
@@ -107,11 +112,7 @@ TEST(Mesh, CgalPoissonOfTheFusedSphereIsWatertightAndWithinToleranceOfTheSphere)
   const Eigen::Vector2d err = RadialErrorRmsMax(VertexCloud(m));
   EXPECT_LT(err[0], kRmsTolMm);
   EXPECT_LT(err[1], kMaxTolMm);
-  int inward = 0;
-  for (size_t i = 0; i < m.mesh.NumVertices(); ++i) {
-    inward += m.mesh.normals[i].dot(m.mesh.vertices[i]) < 0;
-  }
-  EXPECT_EQ(inward, 0);
+  EXPECT_EQ(InwardNormals(m), 0);
 }
 
 TEST(Mesh, WatertightClosesTheMeshOfAnOpenScan) {

@@ -767,10 +767,10 @@ std::string RejectionNotes(const DecodeSummary& sum, bool threshold_given) {
                            threshold_given ? "given" : sum.noise.message, ")"));
   }
   if (rejected > 0 && sum.rejected_saturated > rejected / 2) {
-    notes.push_back(
-        StrCat("most rejected pixels are saturated in a phase-shift image",
-               sum.exposures.empty() ? "" : " in every exposure", ": lower the exposure or add ",
-               sum.exposures.empty() ? "one" : "a shorter one"));
+    notes.push_back(StrCat("most rejected pixels are saturated in a phase-shift image",
+                           sum.exposures.empty() ? "" : " in every exposure",
+                           ": lower the exposure or add ",
+                           sum.exposures.empty() ? "one" : "a shorter one"));
   }
   std::string message;
   for (const auto& n : notes) message += (message.empty() ? "" : "; ") + n;
@@ -1116,8 +1116,8 @@ DecodeResult DecodeExposures(const PatternScheme& scheme,
   // The notes on the combination's counts (e.g. saturated in every exposure), then what each
   // exposure gave.
   const std::string notes = RejectionNotes(sum, options.min_modulation_dn > 0);
-  sum.message = StrCat(notes, notes.empty() ? "" : "; ", stacks.size(), " exposures combined (",
-                       parts, ")");
+  sum.message =
+      StrCat(notes, notes.empty() ? "" : "; ", stacks.size(), " exposures combined (", parts, ")");
   sum.time_ms = timer.ElapsedMs();
   return out;
 }

@@ -9,6 +9,7 @@
 #include <limits>
 #include <opencv2/imgproc.hpp>
 
+#include "fringe/geometry/grid_projection.h"
 #include "fringe/util/error.h"
 #include "fringe/util/timer.h"
 
@@ -34,21 +35,9 @@ struct Points {
 // Neighbour search through the organized grids. Every view is a camera's pixel grid, so the
 // points of a view within a radius of a point p lie in a small pixel window around p's
 // projection into that view: a fixed cost per view instead of a tree descent over all points.
-// The projection is fitted to the grid itself (column and row as cubic polynomials of the
-// normalized coordinates x/z, y/z in the view's sensor frame: a pinhole with the radial and
-// tangential distortion of the camera that measured it); its largest error over the grid's
-// points widens every window, so a window holds every point of the view within the radius.
-// A view whose grid has too few points for the fit is searched point by point.
-constexpr int kMonomials = 10;
-using Poly = Eigen::Matrix<double, kMonomials, 1>;
-
-template <class T>
-Eigen::Matrix<T, kMonomials, 1> Monomials(T u, T v) {
-  Eigen::Matrix<T, kMonomials, 1> m;
-  m << T(1), u, v, u * u, u * v, v * v, u * u * u, u * u * v, u * v * v, v * v * v;
-  return m;
-}
-
+// The projection is fitted to the grid itself (GridProjection); its largest error over the
+// grid's points widens every window, so a window holds every point of the view within the
+// radius. A view whose grid has too few points for the fit is searched point by point.
 struct ViewGrid {
   int width = 0, height = 0;
   std::vector<int32_t> point;  // per slot: the usable point (index into Points) or kNone
@@ -59,76 +48,16 @@ struct ViewGrid {
   Eigen::Matrix3f sensor_from_world_r = Eigen::Matrix3f::Identity();
   Eigen::Vector3f sensor_from_world_t = Eigen::Vector3f::Zero();
   Eigen::Vector3f origin_in_world = Eigen::Vector3f::Zero();  // the sensor's origin
-  Eigen::Matrix<float, kMonomials, 1> col_poly, row_poly;
-  float fit_err_px = 0;
+  GridProjection projection;
   bool fitted = false;
 };
 
-// Fits the grid's projection from its valid points (sensor frame). Returns the largest error
-// over all of them, px; NaN when too few points for a fit (the view is then searched point by
-// point).
-double FitProjection(const OrganizedPointCloud& g, ViewGrid* grid) {
-  constexpr size_t kMinPoints = 100, kMaxSamples = 40000;
-  std::vector<uint32_t> slots;
-  for (size_t i = 0; i < g.valid.size(); ++i) {
-    if (g.valid[i] && g.cloud.points[i].z() > 0) slots.push_back(static_cast<uint32_t>(i));
-  }
-  if (slots.size() < kMinPoints) return std::numeric_limits<double>::quiet_NaN();
-  const size_t stride = std::max<size_t>(1, slots.size() / kMaxSamples);
-  const size_t n = (slots.size() + stride - 1) / stride;
-  Eigen::MatrixXd a(n, kMonomials);
-  Eigen::MatrixXd b(n, 2);
-  for (size_t k = 0; k < n; ++k) {
-    const uint32_t s = slots[k * stride];
-    const Eigen::Vector3d& p = g.cloud.points[s];
-    a.row(static_cast<Eigen::Index>(k)) = Monomials(p.x() / p.z(), p.y() / p.z()).transpose();
-    b(static_cast<Eigen::Index>(k), 0) = static_cast<double>(s % static_cast<uint32_t>(g.width));
-    b(static_cast<Eigen::Index>(k), 1) = static_cast<double>(s / static_cast<uint32_t>(g.width));
-  }
-  const Eigen::MatrixXd x = a.colPivHouseholderQr().solve(b);
-  if (!x.allFinite()) return std::numeric_limits<double>::infinity();
-  const Poly col = x.col(0), row = x.col(1);
-  grid->col_poly = col.cast<float>();
-  grid->row_poly = row.cast<float>();
-  // The largest error over every valid point (the fit saw a subsample).
-  std::vector<double> err(slots.size());
-  tbb::parallel_for(size_t{0}, slots.size(), [&](size_t k) {
-    const Eigen::Vector3d& p = g.cloud.points[slots[k]];
-    const Poly m = Monomials(p.x() / p.z(), p.y() / p.z());
-    const double dc = col.dot(m) - static_cast<double>(slots[k] % static_cast<uint32_t>(g.width));
-    const double dr = row.dot(m) - static_cast<double>(slots[k] / static_cast<uint32_t>(g.width));
-    err[k] = std::hypot(dc, dr);
-  });
-  return *std::max_element(err.begin(), err.end());
-}
-
-// The pixel disc of `grid` that holds every slot whose point can lie within radius_mm of p
-// (centre col/row, radius px); false when there is none (p behind the camera).
-struct PixelDisc {
-  float col, row, radius_px;
-};
+// The pixel disc of `grid` that holds every slot whose point can lie within radius_mm of p;
+// false when there is none (p behind the camera).
 bool DiscOf(const ViewGrid& grid, const Eigen::Vector3f& p_in_world, float radius_mm,
-            PixelDisc* d) {
+            GridProjection::Disc* d) {
   const Eigen::Vector3f x = grid.sensor_from_world_r * p_in_world + grid.sensor_from_world_t;
-  if (x.z() <= radius_mm) return false;
-  const float u = x.x() / x.z(), v = x.y() / x.z();
-  const Eigen::Matrix<float, kMonomials, 1> m = Monomials(u, v);
-  Eigen::Matrix<float, kMonomials, 1> mu, mv;  // derivatives of the monomials by u and v
-  mu << 0, 1, 0, 2 * u, v, 0, 3 * u * u, 2 * u * v, v * v, 0;
-  mv << 0, 0, 1, 0, u, 2 * v, 0, u * u, 2 * u * v, 3 * v * v;
-  // The projection's Jacobian and its largest singular value.
-  const float a = grid.col_poly.dot(mu), b = grid.col_poly.dot(mv);
-  const float c = grid.row_poly.dot(mu), e = grid.row_poly.dot(mv);
-  const float t = a * a + b * b + c * c + e * e, det = a * e - b * c;
-  const float sigma = std::sqrt(0.5f * (t + std::sqrt(std::max(0.f, t * t - 4 * det * det))));
-  // A point q within radius R of p has normalized coordinates within
-  // R (1 + |(u, v)|) / (z - R) of p's: sigma (+ 5 % for its change across the disc) bounds the
-  // distance of q's projection, the fit error that of q's slot from its projection.
-  const float duv = radius_mm * (1 + std::sqrt(u * u + v * v)) / (x.z() - radius_mm);
-  d->col = grid.col_poly.dot(m);
-  d->row = grid.row_poly.dot(m);
-  d->radius_px = 1.05f * sigma * duv + grid.fit_err_px;
-  return std::isfinite(d->col) && std::isfinite(d->row) && std::isfinite(d->radius_px);
+  return grid.projection.DiscOf(x, radius_mm, d);
 }
 
 // A pixel bound clamped to [-1, n] in float before the conversion (a disc far outside the frame
@@ -150,7 +79,7 @@ void ForEachNear(const ViewGrid& grid, const Eigen::Vector3f& p_in_world, float 
     }
     return;
   }
-  PixelDisc d;
+  GridProjection::Disc d;
   if (!DiscOf(grid, p_in_world, radius_mm, &d)) return;
   const int r0 = std::max(0, Clamped(std::ceil(d.row - d.radius_px), grid.height));
   const int r1 = std::min(grid.height - 1, Clamped(std::floor(d.row + d.radius_px), grid.height));
@@ -539,7 +468,8 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
       grid.sensor_from_world_r = sensor_from_world.rotation_matrix().cast<float>();
       grid.sensor_from_world_t = sensor_from_world.translation().cast<float>();
       grid.origin_in_world = views[v].world_from_sensor.translation().cast<float>();
-      const double fit_err_px = FitProjection(g, &grid);
+      grid.projection = GridProjection::Fit(g);
+      const double fit_err_px = grid.projection.fit_error_px();
       if (fit_err_px > options.max_fit_error_px) {
         return Fail(std::move(result), FusionStatus::kBadView,
                     util::StrCat("view '", views[v].name,
@@ -549,9 +479,10 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
                                  " px; fusion needs the organized cloud as "
                                  "reconstructed, in its sensor frame)"));
       }
-      grid.fitted = std::isfinite(fit_err_px);
-      grid.fit_err_px = grid.fitted ? static_cast<float>(fit_err_px) : 0.f;
-      s.max_fit_error_px = std::max(s.max_fit_error_px, static_cast<double>(grid.fit_err_px));
+      grid.fitted = grid.projection.fitted();
+      s.max_fit_error_px =
+          std::max(s.max_fit_error_px,
+                   grid.fitted ? static_cast<double>(static_cast<float>(fit_err_px)) : 0.0);
     }
   }
   s.prepare_s = timer.ElapsedSeconds();

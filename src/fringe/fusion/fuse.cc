@@ -44,6 +44,10 @@ struct ViewGrid {
   // Per slot: the usable point's world position (NaN where none: the distance tests read one
   // contiguous array).
   std::vector<Eigen::Vector3f> pos;
+  // Per slot: the usable point's normal and weight (read beside pos for every neighbour found:
+  // slot order keeps them as local as the positions, no indirection through `point`).
+  std::vector<Eigen::Vector3f> nrm;
+  std::vector<float> weight;
   std::vector<uint32_t> usable_slots;  // slots holding a usable point (point-by-point search)
   Eigen::Matrix3f sensor_from_world_r = Eigen::Matrix3f::Identity();
   Eigen::Vector3f sensor_from_world_t = Eigen::Vector3f::Zero();
@@ -143,13 +147,6 @@ double Median(std::vector<float> v) {
   if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
   std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
   return v[v.size() / 2];
-}
-
-// True when point a outranks point b as a cluster centre.
-bool Outranks(const Points& pts, uint32_t a, uint32_t b) {
-  if (pts.weight[a] != pts.weight[b]) return pts.weight[a] > pts.weight[b];
-  if (pts.view[a] != pts.view[b]) return pts.view[a] < pts.view[b];
-  return a < b;
 }
 
 FusionResult Fail(FusionResult r, FusionStatus status, std::string message) {
@@ -458,10 +455,14 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
       grid.point.assign(g.valid.size(), kNone);
       grid.pos.assign(g.valid.size(),
                       Eigen::Vector3f::Constant(std::numeric_limits<float>::quiet_NaN()));
+      grid.nrm.assign(g.valid.size(), Eigen::Vector3f::Zero());
+      grid.weight.assign(g.valid.size(), 0.f);
       for (; k < pts.size() && pts.view[k] == v; ++k) {
         if (!pts.usable[k]) continue;
         grid.point[pts.grid[k]] = static_cast<int32_t>(k);
         grid.pos[pts.grid[k]] = pts.pos[k];
+        grid.nrm[pts.grid[k]] = pts.nrm[k];
+        grid.weight[pts.grid[k]] = pts.weight[k];
         grid.usable_slots.push_back(pts.grid[k]);
       }
       const Rigid3d sensor_from_world = views[v].world_from_sensor.Inverse();
@@ -499,52 +500,64 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
   // candidate search below looks in).
   std::vector<uint64_t> near_views(pts.size(), 0);
   const bool all_views = views.size() > 64;
-  tbb::parallel_for(
-      tbb::blocked_range<size_t>(0, pts.size(), 1024),
-      [&](const tbb::blocked_range<size_t>& range) {
-        for (size_t i = range.begin(); i != range.end(); ++i) {
-          if (!pts.usable[i]) continue;
-          const float r = pts.radius_mm[i];
-          const float rho_sq = pts.seed_radius_mm[i] * pts.seed_radius_mm[i];
-          const Eigen::Vector3f p = pts.pos[i];
-          const Eigen::Vector3f n = pts.nrm[i];
-          bool overlap = false, seed = true, better = false, outranked = false;
-          uint64_t near = 0;
-          const bool border = pts.border[i] < options.border_trim_px;
-          for (size_t v = 0; v < views.size(); ++v) {
-            if (v == pts.view[i]) continue;
-            // Normals face their sensor: a view that sees p's side from behind by more than
-            // the compatibility angle has no compatible point there (only a border point
-            // needs the others: `better`).
-            if (!border && n.dot((grids[v].origin_in_world - p).normalized()) < -sin_max) {
-              continue;
-            }
-            ForEachNear(
-                grids[v], p, r, [](uint32_t) { return true; },
-                [&](uint32_t slot, float dist_sq) {
-                  const int32_t j = grids[v].point[slot];
-                  if (v < 64) near |= uint64_t{1} << v;
-                  better = better || pts.weight[j] > pts.weight[i];
-                  if (n.dot(pts.nrm[j]) < cos_max) return true;
-                  overlap = true;
-                  if (Outranks(pts, static_cast<uint32_t>(j), static_cast<uint32_t>(i))) {
-                    outranked = true;
-                    if (dist_sq <= rho_sq) seed = false;
-                  }
-                  // Settled (an overlap point outranked within its seed radius; this
-                  // view's bit set): the rest of this view changes nothing.
-                  return seed;
-                });
-          }
-          near_views[i] = near;
-          if (overlap) {
-            flags[i] = static_cast<uint8_t>((seed ? (kOverlap | kSeed) : kOverlap) |
-                                            (outranked ? kOutranked : 0));
-          } else if (better && border) {
-            flags[i] = kAbsorbed;
-          }
-        }
-      });
+  // Blocks of consecutive points, and within a block view by view: the windows of a block's
+  // points in one other view cover a few of its grid rows, which stay in the cache while the
+  // block's points read them (point by point over all views, every view's rows would compete).
+  // Every flag is an OR (or AND) over the views: the order changes nothing.
+  constexpr size_t kBlock = 2048;
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, pts.size(), kBlock),
+                    [&](const tbb::blocked_range<size_t>& range) {
+                      struct State {
+                        bool overlap = false, seed = true, better = false, outranked = false;
+                      };
+                      std::vector<State> state(range.size());
+                      for (size_t v = 0; v < views.size(); ++v) {
+                        const ViewGrid& grid = grids[v];
+                        for (size_t i = range.begin(); i != range.end(); ++i) {
+                          if (!pts.usable[i] || v == pts.view[i]) continue;
+                          State& st = state[i - range.begin()];
+                          const Eigen::Vector3f p = pts.pos[i];
+                          const Eigen::Vector3f n = pts.nrm[i];
+                          const bool border = pts.border[i] < options.border_trim_px;
+                          // Normals face their sensor: a view that sees p's side from behind by
+                          // more than the compatibility angle has no compatible point there (only a
+                          // border point needs the others: `better`).
+                          if (!border && n.dot((grid.origin_in_world - p).normalized()) < -sin_max)
+                            continue;
+                          const float w = pts.weight[i];
+                          ForEachNear(
+                              grid, p, pts.radius_mm[i], [](uint32_t) { return true; },
+                              [&](uint32_t slot, float dist_sq) {
+                                if (v < 64) near_views[i] |= uint64_t{1} << v;
+                                // Settled (an overlap point outranked within its seed radius): only
+                                // this view's bit was missing.
+                                if (st.overlap && !st.seed) return false;
+                                const float wj = grid.weight[slot];
+                                st.better = st.better || wj > w;
+                                if (n.dot(grid.nrm[slot]) < cos_max) return true;
+                                st.overlap = true;
+                                // Outranks(j, i): weight, then view index (v != the point's view).
+                                if (wj > w || (wj == w && v < pts.view[i])) {
+                                  st.outranked = true;
+                                  if (dist_sq <= pts.seed_radius_mm[i] * pts.seed_radius_mm[i])
+                                    st.seed = false;
+                                }
+                                return true;
+                              });
+                        }
+                      }
+                      for (size_t i = range.begin(); i != range.end(); ++i) {
+                        const State& st = state[i - range.begin()];
+                        const bool border = pts.border[i] < options.border_trim_px;
+                        if (st.overlap) {
+                          flags[i] =
+                              static_cast<uint8_t>((st.seed ? (kOverlap | kSeed) : kOverlap) |
+                                                   (st.outranked ? kOutranked : 0));
+                        } else if (st.better && border) {
+                          flags[i] = kAbsorbed;
+                        }
+                      }
+                    });
 
   std::vector<uint32_t> seeds;
   std::vector<uint8_t> in_overlap(pts.size(), 0);
@@ -599,31 +612,43 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
     for (size_t c = 0; c < nc; ++c) {
       seed_at[pts.view[seeds[c]]][pts.grid[seeds[c]]] = static_cast<int32_t>(c);
     }
-    tbb::parallel_for(
-        tbb::blocked_range<size_t>(0, pts.size(), 1024),
-        [&](const tbb::blocked_range<size_t>& range) {
-          std::vector<std::pair<float, int32_t>> found;
-          for (size_t i = range.begin(); i != range.end(); ++i) {
-            if (!in_overlap[i]) continue;
-            const float r = pts.radius_mm[i] + static_cast<float>(max_travel_mm);
-            const Eigen::Vector3f p = pts.pos[i];
-            found.clear();
-            for (size_t v = 0; v < views.size(); ++v) {
-              if (v != pts.view[i] && !all_views && !(near_views[i] >> v & 1)) continue;
-              const std::vector<int32_t>& seed_of = seed_at[v];
-              ForEachNear(
-                  grids[v], p, r, [&](uint32_t slot) { return seed_of[slot] != kNone; },
-                  [&](uint32_t slot, float dist_sq) {
-                    found.emplace_back(dist_sq, seed_of[slot]);
-                    return true;
-                  });
-            }
-            const size_t keep = std::min<size_t>(found.size(), kCandidates);
-            std::partial_sort(found.begin(), found.begin() + static_cast<std::ptrdiff_t>(keep),
-                              found.end());
-            for (size_t k = 0; k < keep; ++k) candidates[i * kCandidates + k] = found[k].second;
-          }
-        });
+    // Blocks of points, view by view (as the overlap search); each point keeps its kCandidates
+    // nearest seeds sorted by (distance, centre index) as they are found: the same list as
+    // sorting all of them, whatever the order of the views.
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, pts.size(), kBlock),
+                      [&](const tbb::blocked_range<size_t>& range) {
+                        using Found = std::pair<float, int32_t>;
+                        std::vector<Found> best(range.size() * kCandidates);
+                        std::vector<uint8_t> n_best(range.size(), 0);
+                        const float travel = static_cast<float>(max_travel_mm);
+                        for (size_t v = 0; v < views.size(); ++v) {
+                          const std::vector<int32_t>& seed_of = seed_at[v];
+                          for (size_t i = range.begin(); i != range.end(); ++i) {
+                            if (!in_overlap[i]) continue;
+                            if (v != pts.view[i] && !all_views && !(near_views[i] >> v & 1))
+                              continue;
+                            Found* list = &best[(i - range.begin()) * kCandidates];
+                            uint8_t& n = n_best[i - range.begin()];
+                            ForEachNear(
+                                grids[v], pts.pos[i], pts.radius_mm[i] + travel,
+                                [&](uint32_t slot) { return seed_of[slot] != kNone; },
+                                [&](uint32_t slot, float dist_sq) {
+                                  const Found f(dist_sq, seed_of[slot]);
+                                  if (n == kCandidates && !(f < list[kCandidates - 1])) return true;
+                                  int k = n < kCandidates ? n++ : kCandidates - 1;
+                                  for (; k > 0 && f < list[k - 1]; --k) list[k] = list[k - 1];
+                                  list[k] = f;
+                                  return true;
+                                });
+                          }
+                        }
+                        for (size_t i = range.begin(); i != range.end(); ++i) {
+                          const Found* list = &best[(i - range.begin()) * kCandidates];
+                          for (int k = 0; k < n_best[i - range.begin()]; ++k) {
+                            candidates[i * kCandidates + k] = list[k].second;
+                          }
+                        }
+                      });
   }
   s.candidates_s = stage.ElapsedSeconds();
   stage.Restart();

@@ -1,7 +1,9 @@
 #include "fringe/fusion/fuse.h"
 
+#include <sys/resource.h>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <cstdio>
 
 #include <algorithm>
 #include <atomic>
@@ -149,6 +151,156 @@ double Median(std::vector<float> v) {
   return v[v.size() / 2];
 }
 
+// Candidate centres (FuseViews, step 3): for every overlap point i, the k nearest seeds (by
+// seed distance, then centre index) within radius_mm[i] + travel_mm, of any view, into
+// candidates[i * k ...] (kNone-padded).
+// The seeds are splatted into every view's grid: each seed projected by the view's fitted
+// projection into a bucket of its nearest slot (clamped to the frame). A point then reads the
+// buckets of its OWN view within the pixel disc of its search radius (plus the rounding and
+// clamping slack): one disc per point instead of one per view, and only the slots holding seeds.
+// Points of a view without a fitted projection (or whose disc fails) search every view's seeds
+// slot by slot (ForEachNear).
+void FindCandidates(const Points& pts, const std::vector<ViewGrid>& grids,
+                    const std::vector<uint8_t>& in_overlap, const std::vector<uint32_t>& seeds,
+                    float travel_mm, int k_max, std::vector<int32_t>* candidates) {
+  constexpr int kMaxCandidates = 16;
+  if (k_max < 1 || k_max > kMaxCandidates) throw Error("FindCandidates: k_max out of range");
+  const size_t n_views = grids.size(), nc = seeds.size();
+  using Found = std::pair<float, int32_t>;
+  // Keeps the k_max smallest (distance, centre) pairs in ascending order: the same list as
+  // sorting all of them, whatever the order they come in.
+  auto insert = [k_max](Found* list, uint8_t* n, const Found& f) {
+    if (*n == k_max && !(f < list[k_max - 1])) return;
+    int k = *n < k_max ? (*n)++ : k_max - 1;
+    for (; k > 0 && f < list[k - 1]; --k) list[k] = list[k - 1];
+    list[k] = f;
+  };
+  // Each point's disc in its own view; per view the largest radius plus slack (seeds projecting
+  // farther outside the frame can be near no point of the view).
+  std::vector<GridProjection::Disc> disc(pts.size());
+  std::vector<uint8_t> has_disc(pts.size(), 0);
+  tbb::parallel_for(size_t{0}, pts.size(), [&](size_t i) {
+    if (!in_overlap[i] || !grids[pts.view[i]].fitted) return;
+    const ViewGrid& g = grids[pts.view[i]];
+    GridProjection::Disc d;
+    if (!DiscOf(g, pts.pos[i], pts.radius_mm[i] + travel_mm, &d)) return;
+    // Seeds sit in the bucket of their rounded, frame-clamped projection: rounding moves them
+    // by at most 0.71 px; clamping moves no seed farther from a place inside the frame, and the
+    // disc's centre lies within `out` of the frame.
+    const float out = std::hypot(d.col - std::clamp(d.col, 0.f, g.width - 1.f),
+                                 d.row - std::clamp(d.row, 0.f, g.height - 1.f));
+    d.radius_px += 0.71f + 2 * out;
+    disc[i] = d;
+    has_disc[i] = 1;
+  });
+
+  std::vector<float> reach_px(n_views, 0);
+  for (size_t i = 0; i < pts.size(); ++i) {
+    if (has_disc[i]) reach_px[pts.view[i]] = std::max(reach_px[pts.view[i]], disc[i].radius_px);
+  }
+  // Buckets per view: counting sort of the seeds by slot (ascending centre index per slot).
+  // A bucket entry: the seed's position and centre index (read together).
+  struct Entry {
+    Eigen::Vector3f pos;
+    int32_t centre;
+  };
+  std::vector<std::vector<uint32_t>> bucket_start(n_views);
+  std::vector<std::vector<Entry>> bucket(n_views);
+  {
+    std::vector<int32_t> slot_of(nc * n_views, kNone);
+    tbb::parallel_for(size_t{0}, nc, [&](size_t c) {
+      for (size_t v = 0; v < n_views; ++v) {
+        const ViewGrid& g = grids[v];
+        if (!g.fitted || reach_px[v] <= 0) continue;
+        const Eigen::Vector3f x = g.sensor_from_world_r * pts.pos[seeds[c]] + g.sensor_from_world_t;
+        Eigen::Vector2f cr;
+        if (!g.projection.Project(x, &cr)) continue;
+        const float col = std::clamp(cr.x(), 0.f, g.width - 1.f);
+        const float row = std::clamp(cr.y(), 0.f, g.height - 1.f);
+        if (std::hypot(cr.x() - col, cr.y() - row) > reach_px[v] + 1) continue;
+        slot_of[c * n_views + v] =
+            static_cast<int32_t>(g.width * std::lround(row) + std::lround(col));
+      }
+    });
+    for (size_t v = 0; v < n_views; ++v) {
+      if (!grids[v].fitted || reach_px[v] <= 0) continue;
+      std::vector<uint32_t>& start = bucket_start[v];
+      start.assign(grids[v].pos.size() + 1, 0);
+      for (size_t c = 0; c < nc; ++c) {
+        if (slot_of[c * n_views + v] != kNone) ++start[slot_of[c * n_views + v] + 1];
+      }
+      for (size_t k = 0; k + 1 < start.size(); ++k) start[k + 1] += start[k];
+      bucket[v].resize(start.back());
+      std::vector<uint32_t> fill(start.begin(), start.end() - 1);
+      for (size_t c = 0; c < nc; ++c) {
+        const int32_t slot = slot_of[c * n_views + v];
+        if (slot != kNone)
+          bucket[v][fill[slot]++] = Entry{pts.pos[seeds[c]], static_cast<int32_t>(c)};
+      }
+    }
+  }
+
+  std::vector<int32_t> seed_at;  // for the slot-by-slot fallback: per view, per slot
+  std::vector<size_t> seed_at_start(n_views + 1, 0);
+  for (size_t v = 0; v < n_views; ++v)
+    seed_at_start[v + 1] = seed_at_start[v] + grids[v].pos.size();
+  const bool any_fallback = [&] {
+    for (size_t i = 0; i < pts.size(); ++i) {
+      if (in_overlap[i] && !has_disc[i]) return true;
+    }
+    return false;
+  }();
+  if (any_fallback) {
+    seed_at.assign(seed_at_start.back(), kNone);
+    for (size_t c = 0; c < nc; ++c) {
+      seed_at[seed_at_start[pts.view[seeds[c]]] + pts.grid[seeds[c]]] = static_cast<int32_t>(c);
+    }
+  }
+  tbb::parallel_for(
+      tbb::blocked_range<size_t>(0, pts.size(), 2048),
+      [&](const tbb::blocked_range<size_t>& range) {
+        Found list[kMaxCandidates];
+        for (size_t i = range.begin(); i != range.end(); ++i) {
+          if (!in_overlap[i]) continue;
+          uint8_t n = 0;
+          const Eigen::Vector3f p = pts.pos[i];
+          const float r = pts.radius_mm[i] + travel_mm, r_sq = r * r;
+          if (has_disc[i]) {
+            const ViewGrid& g = grids[pts.view[i]];
+            const std::vector<uint32_t>& start = bucket_start[pts.view[i]];
+            const std::vector<Entry>& entries = bucket[pts.view[i]];
+            const GridProjection::Disc& d = disc[i];
+            const int r0 = std::max(0, Clamped(std::ceil(d.row - d.radius_px), g.height));
+            const int r1 =
+                std::min(g.height - 1, Clamped(std::floor(d.row + d.radius_px), g.height));
+            for (int row = r0; row <= r1; ++row) {
+              const float dr = static_cast<float>(row) - d.row;
+              const float half = std::sqrt(std::max(0.f, d.radius_px * d.radius_px - dr * dr));
+              const int c0 = std::max(0, Clamped(std::ceil(d.col - half), g.width));
+              const int c1 = std::min(g.width - 1, Clamped(std::floor(d.col + half), g.width));
+              if (c0 > c1) continue;
+              const size_t base = static_cast<size_t>(row) * static_cast<size_t>(g.width);
+              for (uint32_t m = start[base + c0]; m < start[base + c1 + 1]; ++m) {
+                const float dist_sq = (entries[m].pos - p).squaredNorm();
+                if (dist_sq <= r_sq) insert(list, &n, Found(dist_sq, entries[m].centre));
+              }
+            }
+          } else {
+            for (size_t v = 0; v < n_views; ++v) {
+              const int32_t* seed_of = &seed_at[seed_at_start[v]];
+              ForEachNear(
+                  grids[v], p, r, [&](uint32_t slot) { return seed_of[slot] != kNone; },
+                  [&](uint32_t slot, float dist_sq) {
+                    insert(list, &n, Found(dist_sq, seed_of[slot]));
+                    return true;
+                  });
+            }
+          }
+          for (int k = 0; k < n; ++k) (*candidates)[i * k_max + k] = list[k].second;
+        }
+      });
+}
+
 FusionResult Fail(FusionResult r, FusionStatus status, std::string message) {
   r.summary.status = status;
   r.summary.message = std::move(message);
@@ -222,6 +374,8 @@ void FusionOptions::Check() const {
   util::CheckOption(max_iterations >= 1 && max_iterations <= 100, kName, "max_iterations",
                     max_iterations, "must be in [1, 100]");
   util::CheckOption(convergence_mm > 0, kName, "convergence_mm", convergence_mm, "must be > 0");
+  util::CheckOption(max_moving_fraction >= 0 && max_moving_fraction < 1, kName,
+                    "max_moving_fraction", max_moving_fraction, "must be in [0, 1)");
   util::CheckOption(modulation_half_dn > 0, kName, "modulation_half_dn", modulation_half_dn,
                     "must be > 0");
   util::CheckOption(residual_half_px > 0, kName, "residual_half_px", residual_half_px,
@@ -265,7 +419,8 @@ std::string FusionSummary::BriefReport() const {
       passed_through, " passed through, ", unassigned, " unassigned and ", absorbed,
       " border points and ", absorbed_clusters, " one-view clusters absorbed by better points, ",
       trimmed, " lone border points trimmed, ", disagreeing_clusters, " kept their best view), ",
-      iterations, " iterations (last max shift ", last_max_shift_mm, " mm), spacing ",
+      iterations, " iterations (", converged ? "converged" : "not converged", ", ", moving_centres,
+      " centres still moving, last max shift ", last_max_shift_mm, " mm), spacing ",
       median_spacing_mm, " mm, ", time_s, " s");
   if (!message.empty()) s += ": " + message;
   return s;
@@ -287,6 +442,8 @@ nlohmann::json SummaryToJson(const FusionSummary& s) {
           {"fused_points", s.fused_points},
           {"iterations", s.iterations},
           {"last_max_shift_mm", s.last_max_shift_mm},
+          {"moving_centres", s.moving_centres},
+          {"converged", s.converged},
           {"median_spacing_mm", s.median_spacing_mm},
           {"max_fit_error_px", s.max_fit_error_px},
           {"time_s", s.time_s},
@@ -337,10 +494,13 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
                                "' has no normals (reconstruct with normals, or estimate them)"));
     }
     total += static_cast<int64_t>(valid);
-    spacing[v] = GridSpacing(g);
-    border[v] = BorderDistancePx(g, options.min_border_hole_px);
-    median_spacing[v] = Median(spacing[v]);
   }
+  // Per view, independent: in parallel (the border transform is serial within a view).
+  tbb::parallel_for(size_t{0}, views.size(), [&](size_t v) {
+    spacing[v] = GridSpacing(views[v].cloud);
+    border[v] = BorderDistancePx(views[v].cloud, options.min_border_hole_px);
+    median_spacing[v] = Median(spacing[v]);
+  });
   s.input_points = total;
   if (total == 0) {
     return Fail(std::move(result), FusionStatus::kEmptyInput, "no valid point in any view");
@@ -446,8 +606,11 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
   // The views' grids for the neighbour search.
   std::vector<ViewGrid> grids(views.size());
   {
-    size_t k = 0;
-    for (size_t v = 0; v < views.size(); ++v) {
+    // The points are in view order: view v's are [view_start[v], view_start[v + 1]).
+    std::vector<size_t> view_start(views.size() + 1, 0);
+    for (size_t k = 0; k < pts.size(); ++k) ++view_start[pts.view[k] + 1];
+    for (size_t v = 0; v < views.size(); ++v) view_start[v + 1] += view_start[v];
+    tbb::parallel_for(size_t{0}, views.size(), [&](size_t v) {
       const OrganizedPointCloud& g = views[v].cloud;
       ViewGrid& grid = grids[v];
       grid.width = g.width;
@@ -457,7 +620,7 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
                       Eigen::Vector3f::Constant(std::numeric_limits<float>::quiet_NaN()));
       grid.nrm.assign(g.valid.size(), Eigen::Vector3f::Zero());
       grid.weight.assign(g.valid.size(), 0.f);
-      for (; k < pts.size() && pts.view[k] == v; ++k) {
+      for (size_t k = view_start[v]; k < view_start[v + 1]; ++k) {
         if (!pts.usable[k]) continue;
         grid.point[pts.grid[k]] = static_cast<int32_t>(k);
         grid.pos[pts.grid[k]] = pts.pos[k];
@@ -470,7 +633,10 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
       grid.sensor_from_world_t = sensor_from_world.translation().cast<float>();
       grid.origin_in_world = views[v].world_from_sensor.translation().cast<float>();
       grid.projection = GridProjection::Fit(g);
-      const double fit_err_px = grid.projection.fit_error_px();
+      grid.fitted = grid.projection.fitted();
+    });
+    for (size_t v = 0; v < views.size(); ++v) {
+      const double fit_err_px = grids[v].projection.fit_error_px();
       if (fit_err_px > options.max_fit_error_px) {
         return Fail(std::move(result), FusionStatus::kBadView,
                     util::StrCat("view '", views[v].name,
@@ -480,13 +646,13 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
                                  " px; fusion needs the organized cloud as "
                                  "reconstructed, in its sensor frame)"));
       }
-      grid.fitted = grid.projection.fitted();
       s.max_fit_error_px =
           std::max(s.max_fit_error_px,
-                   grid.fitted ? static_cast<double>(static_cast<float>(fit_err_px)) : 0.0);
+                   grids[v].fitted ? static_cast<double>(static_cast<float>(fit_err_px)) : 0.0);
     }
   }
   s.prepare_s = timer.ElapsedSeconds();
+
   util::Timer stage;
 
   // 1 + 2: overlap and initial centres: each point against the other views' points in the
@@ -496,14 +662,12 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
   // kOutranked: a compatible point of another view within the radius outranks this one.
   constexpr uint8_t kOverlap = 1, kSeed = 2, kAbsorbed = 4, kOutranked = 8;
   std::vector<uint8_t> flags(pts.size(), 0);
-  // Per point: bit v set when view v (< 64) has a point within its radius (the views the
-  // candidate search below looks in).
-  std::vector<uint64_t> near_views(pts.size(), 0);
-  const bool all_views = views.size() > 64;
   // Blocks of consecutive points, and within a block view by view: the windows of a block's
   // points in one other view cover a few of its grid rows, which stay in the cache while the
   // block's points read them (point by point over all views, every view's rows would compete).
-  // Every flag is an OR (or AND) over the views: the order changes nothing.
+  // Every flag is an OR (or AND) over the views: the order changes nothing. A point outranked
+  // within its seed radius by a compatible point is settled (an overlap point, no seed): the
+  // remaining views are not searched for it.
   constexpr size_t kBlock = 2048;
   tbb::parallel_for(tbb::blocked_range<size_t>(0, pts.size(), kBlock),
                     [&](const tbb::blocked_range<size_t>& range) {
@@ -516,6 +680,7 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
                         for (size_t i = range.begin(); i != range.end(); ++i) {
                           if (!pts.usable[i] || v == pts.view[i]) continue;
                           State& st = state[i - range.begin()];
+                          if (st.overlap && !st.seed) continue;  // settled
                           const Eigen::Vector3f p = pts.pos[i];
                           const Eigen::Vector3f n = pts.nrm[i];
                           const bool border = pts.border[i] < options.border_trim_px;
@@ -528,10 +693,7 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
                           ForEachNear(
                               grid, p, pts.radius_mm[i], [](uint32_t) { return true; },
                               [&](uint32_t slot, float dist_sq) {
-                                if (v < 64) near_views[i] |= uint64_t{1} << v;
-                                // Settled (an overlap point outranked within its seed radius): only
-                                // this view's bit was missing.
-                                if (st.overlap && !st.seed) return false;
+                                if (st.overlap && !st.seed) return false;  // settled
                                 const float wj = grid.weight[slot];
                                 st.better = st.better || wj > w;
                                 if (n.dot(grid.nrm[slot]) < cos_max) return true;
@@ -571,6 +733,7 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
     result.overlap[v].assign(views[v].cloud.valid.size(), 0);
   for (size_t k = 0; k < pts.size(); ++k) result.overlap[pts.view[k]][pts.grid[k]] = in_overlap[k];
   s.overlap_s = stage.ElapsedSeconds();
+
   stage.Restart();
 
   // 3: clustering. Centres start at the seeds and move along their normals only.
@@ -588,12 +751,9 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
   // Candidate centres of every overlap point, found once: centres move along their normals by
   // noise and registration error, a fraction of a spacing; each centre's total travel from its
   // seed is bounded (half a median spacing + the registration term, at most the seed radius: a
-  // cluster that would travel farther is no surface
-  // estimate anymore), so the centres within a point's radius at any iteration are among those
-  // whose seeds lie within radius + the largest travel. They are looked for in the point's own
-  // view and in the views with a point within its radius (a centre of a view without one
-  // would have to travel into the radius; the views that measured the place have centres
-  // there). Of those the kCandidates nearest are kept (ordered by seed distance, then index:
+  // cluster that would travel farther is no surface estimate anymore), so the centres within a
+  // point's radius at any iteration are among those whose seeds lie within radius + the largest
+  // travel. Of those the kCandidates nearest are kept (ordered by seed distance, then index:
   // deterministic); the iterations then assign among them without a search.
   constexpr int kCandidates = 8;
   // Travel: noise and registration error (half a median spacing + the registration term is
@@ -606,51 +766,10 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
     max_travel_mm = std::max(max_travel_mm, static_cast<double>(travel_mm[c]));
   }
   std::vector<int32_t> candidates(pts.size() * kCandidates, kNone);
-  {
-    std::vector<std::vector<int32_t>> seed_at(views.size());  // per view and slot: the centre
-    for (size_t v = 0; v < views.size(); ++v) seed_at[v].assign(grids[v].point.size(), kNone);
-    for (size_t c = 0; c < nc; ++c) {
-      seed_at[pts.view[seeds[c]]][pts.grid[seeds[c]]] = static_cast<int32_t>(c);
-    }
-    // Blocks of points, view by view (as the overlap search); each point keeps its kCandidates
-    // nearest seeds sorted by (distance, centre index) as they are found: the same list as
-    // sorting all of them, whatever the order of the views.
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, pts.size(), kBlock),
-                      [&](const tbb::blocked_range<size_t>& range) {
-                        using Found = std::pair<float, int32_t>;
-                        std::vector<Found> best(range.size() * kCandidates);
-                        std::vector<uint8_t> n_best(range.size(), 0);
-                        const float travel = static_cast<float>(max_travel_mm);
-                        for (size_t v = 0; v < views.size(); ++v) {
-                          const std::vector<int32_t>& seed_of = seed_at[v];
-                          for (size_t i = range.begin(); i != range.end(); ++i) {
-                            if (!in_overlap[i]) continue;
-                            if (v != pts.view[i] && !all_views && !(near_views[i] >> v & 1))
-                              continue;
-                            Found* list = &best[(i - range.begin()) * kCandidates];
-                            uint8_t& n = n_best[i - range.begin()];
-                            ForEachNear(
-                                grids[v], pts.pos[i], pts.radius_mm[i] + travel,
-                                [&](uint32_t slot) { return seed_of[slot] != kNone; },
-                                [&](uint32_t slot, float dist_sq) {
-                                  const Found f(dist_sq, seed_of[slot]);
-                                  if (n == kCandidates && !(f < list[kCandidates - 1])) return true;
-                                  int k = n < kCandidates ? n++ : kCandidates - 1;
-                                  for (; k > 0 && f < list[k - 1]; --k) list[k] = list[k - 1];
-                                  list[k] = f;
-                                  return true;
-                                });
-                          }
-                        }
-                        for (size_t i = range.begin(); i != range.end(); ++i) {
-                          const Found* list = &best[(i - range.begin()) * kCandidates];
-                          for (int k = 0; k < n_best[i - range.begin()]; ++k) {
-                            candidates[i * kCandidates + k] = list[k].second;
-                          }
-                        }
-                      });
-  }
+  FindCandidates(pts, grids, in_overlap, seeds, static_cast<float>(max_travel_mm), kCandidates,
+                 &candidates);
   s.candidates_s = stage.ElapsedSeconds();
+
   stage.Restart();
   // Iterations. A point's assignment can change only when one of its candidate centres moved
   // in the last iteration, a centre's update only when its membership changed or it moved: a
@@ -666,6 +785,7 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
   std::vector<Eigen::Vector3f> new_normal(centre_n);
   std::vector<uint8_t> evaluate(nc, 0);
   std::vector<float> shift(nc, 0.f);
+  s.converged = nc == 0;
   for (int it = 0; it < options.max_iterations && nc > 0; ++it) {
     tbb::parallel_for(tbb::blocked_range<size_t>(0, pts.size(), 4096),
                       [&](const tbb::blocked_range<size_t>& range) {
@@ -825,10 +945,20 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
     });
     s.iterations = it + 1;
     s.last_max_shift_mm = *std::max_element(shift.begin(), shift.end());
+    // Converged when (almost) every centre has settled: a few dozen centres on edges can
+    // alternate between two memberships for many iterations, by micrometres, and change
+    // nothing measurable (docs/fusion.md).
+    int64_t moving = 0;
+    for (size_t c = 0; c < nc; ++c) moving += shift[c] >= options.convergence_mm;
+    s.moving_centres = moving;
+    s.converged =
+        static_cast<double>(moving) <= options.max_moving_fraction * static_cast<double>(nc);
+    if (s.converged) break;
     if (std::find(moved.begin(), moved.end(), 1) == moved.end()) break;
   }
   // The last update moved the centres; the membership of that update defines the clusters.
   s.cluster_s = stage.ElapsedSeconds();
+
   stage.Restart();
 
   // Output: centres with members, then the passed-through points.
@@ -904,6 +1034,7 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
                       : std::string());
   }
   s.output_s = stage.ElapsedSeconds();
+
   s.time_s = timer.ElapsedSeconds();
   return result;
 }

@@ -15,13 +15,14 @@
 //      each centre moves to the quality-weighted mean of its members ALONG ITS NORMAL (the
 //      centre keeps the best view's tangential position: no lateral smearing of ribs,
 //      engravings or edges, while the layers of all views collapse onto one), its normal
-//      becomes the weighted mean normal; until no centre moves more than
-//      convergence_mm or max_iterations. Each view's surface is evaluated on the centre's normal
-//      line (member tangent planes, members beside the line weighted by a Gaussian), and views
-//      combine by weight however many members each has. Where the views disagree far more than
-//      they do elsewhere (max_disagreement times the median, i.e. beyond noise and registration
-//      error: an edge or a detail the normals blur), the centre keeps its seed view's
-//      measurement instead of an average that would round the edge.
+//      becomes the weighted mean normal; until at most max_moving_fraction of the centres
+//      moved by convergence_mm or more in an iteration (converged), or max_iterations. Each
+//      view's surface is evaluated on the centre's normal line (member tangent planes, members
+//      beside the line weighted by a Gaussian), and views combine by weight however many members
+//      each has. Where the views disagree far more than they do elsewhere (max_disagreement times
+//      the median, i.e. beyond noise and registration error: an edge or a detail the normals blur),
+//      the centre keeps its seed view's measurement instead of an average that would round the
+//      edge.
 //   Points outside overlaps pass through unchanged; overlap points no centre reaches are dropped
 //   (they are no centre because a better compatible point of another view lies within their
 //   seed radius), so is a cluster that gathered only its own view's points while a better
@@ -48,10 +49,14 @@
 //
 // Neighbour search through the organized grids: a point's neighbours in another view lie in a
 // small pixel window around its projection into that view's grid (the projection is fitted to
-// the grid's own points: a camera's pixel grid, with its distortion; the window is widened by
-// the fit's largest error, so no neighbour within the radius is missed). The cost per point is
-// a fixed number of slot reads per view instead of a k-d tree descent over all points; the
-// work runs in parallel over points.
+// the grid's own points, geometry/grid_projection.h: a camera's pixel grid, with its
+// distortion; the window is widened by the fit's largest error, so no neighbour within the
+// radius is missed). The cost per point is a fixed number of slot reads per view instead of a
+// k-d tree descent over all points; the work runs in parallel over blocks of points, view by
+// view (a block's windows stay in the cache), and a point outranked within its seed radius
+// stops searching. The candidate centres of a point are found in its OWN view's grid: every
+// seed is projected once into every view's grid (a bucket per slot), so a point reads one
+// window instead of one per view.
 // Clustering iterations only revisit what changed: a point's assignment when one of its
 // candidate centres moved, a centre when its membership changed or it moved; a centre whose
 // update is below convergence_mm with unchanged members settles.
@@ -95,8 +100,11 @@ struct FusionOptions {
   // A cluster whose views' surfaces differ by more than max_disagreement times the median
   // difference over all clusters keeps its seed view's point (edges, fine detail), > 1.
   double max_disagreement = 4;
-  int max_iterations = 10;         // clustering iterations, [1, 100]
-  double convergence_mm = 1e-3;    // stop when no centre moves more, > 0
+  int max_iterations = 10;       // clustering iterations, [1, 100]
+  double convergence_mm = 1e-3;  // a centre moving less has settled, > 0
+  // Converged when at most this fraction of the centres still moves (>= convergence_mm) in an
+  // iteration, [0, 1); 0: every centre must settle.
+  double max_moving_fraction = 1e-3;
   double modulation_half_dn = 10;  // B0 of the modulation weight, DN, > 0
   double residual_half_px = 0.5;   // residual0 of the residual weight, px, > 0
   double min_cos_view = 0.1;       // viewing-angle cosine floor of the weight, (0, 1]
@@ -146,6 +154,8 @@ struct FusionSummary {
   int64_t disagreeing_clusters = 0;  // kept their seed view's point (last iteration)
   int64_t fused_points = 0;          // output size
   int iterations = 0;
+  bool converged = false;        // see FusionOptions::max_moving_fraction
+  int64_t moving_centres = 0;    // centres that moved >= convergence_mm in the last iteration
   double last_max_shift_mm = 0;  // largest centre move of the last iteration
   double median_spacing_mm = 0;  // over all views
   double max_fit_error_px = 0;   // largest error of the grids' fitted projections

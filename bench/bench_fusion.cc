@@ -2,9 +2,13 @@
 //
 // Simulated multi-view scan of the demo part (sim::ScanSimulator, >= 8 views, read noise sigma
 // DN), every view reconstructed from its fringe images with the true rig (ViewReconstructor),
-// placed by its TRUE pose perturbed by a registration-like error (seeded random rotation and
-// translation of the given sizes: the registration module had not landed when this was
-// written). The same views are then fused by
+// its markers detected in its textures (DetectViewMarkers), and the views registered by the
+// registration module (RegisterViews: markers, global adjustment, multi-view ICP; the truth's
+// free gauge fixed by the registration's world view), the fusion's registration term set to
+// the ICP's final RMS as `fringe scan` does. --registration injected places the views by their
+// TRUE poses perturbed by a seeded registration-like error instead (--rot-err-deg,
+// --trans-err-mm; registration term max(0.01, trans error)). pose_rot_err_deg and
+// pose_centroid_err_mm: the poses' largest errors. The same views are then fused by
 //   ours      fusion::FuseViews (adaptive-neighbourhood mean clustering);
 //   concat    plain concatenation;
 //   voxel     Open3D VoxelDownSample of the concatenation, the voxel tuned (bisection) to give
@@ -27,7 +31,8 @@
 //                             same figures of CGAL's Poisson on the same fused cloud;
 //   points, time_s (fusion), mesh_time_s, peak_mem_gib (peak RSS growth during fusion).
 //
-// Usage: bench_fusion [--json] [--views 8] [--scale 0.5] [--noise 1.5] [--rot-err-deg 0.005]
+// Usage: bench_fusion [--json] [--views 8] [--scale 0.5] [--noise 1.5]
+//                     [--registration module|injected] [--rot-err-deg 0.005]
 //                     [--trans-err-mm 0.01] [--poisson-depth 10] [--no-peers] [--no-mesh]
 //                     [--no-cgal] [--cache DIR] [--diagnose]
 #include <sys/resource.h>
@@ -57,6 +62,8 @@
 #include "fringe/fusion/mesh.h"
 #include "fringe/io/json.h"
 #include "fringe/io/ply.h"
+#include "fringe/registration/markers.h"
+#include "fringe/registration/register_views.h"
 #include "fringe/sim/demo_part.h"
 #include "fringe/sim/scan.h"
 #include "fringe/stereo/reconstruct_view.h"
@@ -250,6 +257,13 @@ int main(int argc, char** argv) {
   app.add_option("--scale", scale, "Rig resolution scale (1: 1280x1024 cameras)")
       ->capture_default_str();
   app.add_option("--noise", noise_dn, "Camera read noise, DN")->capture_default_str();
+  std::string registration_mode = "module";
+  app.add_option("--registration", registration_mode,
+                 "How the views are placed: 'module' (RegisterViews on the views' clouds and the "
+                 "markers detected in their textures) or 'injected' (true poses perturbed by "
+                 "--rot-err-deg and --trans-err-mm)")
+      ->check(CLI::IsMember({"module", "injected"}))
+      ->capture_default_str();
   app.add_option("--rot-err-deg", rot_err_deg, "Injected registration rotation error per view")
       ->capture_default_str();
   app.add_option("--trans-err-mm", trans_err_mm, "Injected registration translation error")
@@ -279,6 +293,7 @@ int main(int argc, char** argv) {
   app.add_flag("--no-cgal", no_cgal, "Skip CGAL's Poisson (the meshing peer)");
   CLI11_PARSE(app, argc, argv);
   peers = !no_peers;
+  const bool injected = registration_mode == "injected";
   mesh = !no_mesh;
   const bool cgal = !no_cgal;
 
@@ -294,17 +309,15 @@ int main(int argc, char** argv) {
   scan.render.sensor.read_noise_dn = noise_dn;
   const sim::ScanSimulator simulator(rig, scan);
   const stereo::ViewReconstructor reconstructor(rig, simulator.scheme());
-  std::mt19937_64 rng(util::MixSeed(seed, 12));
-  std::normal_distribution<double> gauss(0, 1);
   std::vector<fusion::FusionView> views;
+  std::vector<std::vector<registration::ViewMarker>> markers(views_n);
   util::Timer sim_timer;
   double reconstruct_s = 0;
-  const nlohmann::json params = {{"views", views_n},
-                                 {"scale", scale},
-                                 {"noise", noise_dn},
-                                 {"rot_err_deg", rot_err_deg},
-                                 {"trans_err_mm", trans_err_mm},
-                                 {"seed", seed}};
+  // The cache keeps what the simulation and reconstruction give: the views' clouds and the
+  // markers detected in their textures (not the poses: they come from the registration or the
+  // injected error below).
+  const nlohmann::json params = {
+      {"views", views_n}, {"scale", scale}, {"noise", noise_dn}, {"seed", seed}, {"format", 2}};
   const std::filesystem::path cache_dir(cache);
   // Cached views are read back as written (float PLY), so that every run fuses the same input.
   auto load_cache = [&] {
@@ -312,13 +325,9 @@ int main(int argc, char** argv) {
     if (cached["params"] != params) return;
     views.clear();
     for (int v = 0; v < views_n; ++v) {
-      const std::vector<double> m =
-          io::GetNumbers(cached["poses"], std::to_string(v).c_str(), 12, "cached poses");
-      Eigen::Matrix<double, 3, 4> world_from_sensor;
-      for (int k = 0; k < 12; ++k) world_from_sensor(k / 4, k % 4) = m[k];
-      views.push_back({std::to_string(v),
-                       io::ReadOrganizedPly(cache_dir / (std::to_string(v) + ".ply")),
-                       Rigid3d::FromMatrix(world_from_sensor)});
+      const std::string stem = (cache_dir / std::to_string(v)).string();
+      views.push_back({std::to_string(v), io::ReadOrganizedPly(stem + ".ply"), Rigid3d()});
+      markers[v] = registration::ReadViewMarkers(stem + ".markers.json");
     }
   };
   if (!cache.empty() && std::filesystem::exists(cache_dir / "views.json")) load_cache();
@@ -328,27 +337,89 @@ int main(int argc, char** argv) {
     stereo::ViewReconstruction rec =
         reconstructor.Reconstruct(images.left.images, images.right.images);
     reconstruct_s += t.ElapsedSeconds();
-    // A registration-like error: random axis, rotation about the view's cloud, translation.
-    const Eigen::Vector3d axis = Eigen::Vector3d(gauss(rng), gauss(rng), gauss(rng)).normalized();
-    const Eigen::Vector3d dir = Eigen::Vector3d(gauss(rng), gauss(rng), gauss(rng)).normalized();
-    const Rigid3d error =
-        v == 0 ? Rigid3d()
-               : Rigid3d::FromAxisAngle(axis, rot_err_deg * M_PI / 180, trans_err_mm * dir);
-    views.push_back({std::to_string(v), std::move(rec.cloud), error * simulator.view_poses()[v]});
+    markers[v] =
+        registration::DetectViewMarkers(rig, rec.texture_left, rec.texture_right, rec.cloud)
+            .markers;
+    views.push_back({std::to_string(v), std::move(rec.cloud), Rigid3d()});
   }
   const double sim_s = sim_timer.ElapsedSeconds();
   if (!cache.empty() && !std::filesystem::exists(cache_dir / "views.json")) {
     std::filesystem::create_directories(cache_dir);
-    nlohmann::json poses;
     for (int v = 0; v < views_n; ++v) {
-      io::WritePly(cache_dir / (std::to_string(v) + ".ply"), views[v].cloud);
-      const Eigen::Matrix<double, 3, 4> m = views[v].world_from_sensor.ToMatrix3x4();
-      std::vector<double> row;
-      for (int k = 0; k < 12; ++k) row.push_back(m(k / 4, k % 4));
-      poses[std::to_string(v)] = row;
+      const std::string stem = (cache_dir / std::to_string(v)).string();
+      io::WritePly(stem + ".ply", views[v].cloud);
+      registration::WriteViewMarkers(stem + ".markers.json", markers[v]);
     }
-    io::WriteJson(cache_dir / "views.json", {{"params", params}, {"poses", poses}});
+    io::WriteJson(cache_dir / "views.json", {{"params", params}});  // last: the cache is whole
     load_cache();
+  }
+
+  // Poses.
+  const std::vector<Rigid3d>& truth_poses = simulator.view_poses();
+  double register_s = 0, registration_rms_mm = 0;
+  std::string registration_report;
+  if (injected) {
+    // A registration-like error: random axis, rotation about the view's origin, translation.
+    std::mt19937_64 rng(util::MixSeed(seed, 12));
+    std::normal_distribution<double> gauss(0, 1);
+    for (int v = 0; v < views_n; ++v) {
+      const Eigen::Vector3d axis = Eigen::Vector3d(gauss(rng), gauss(rng), gauss(rng)).normalized();
+      const Eigen::Vector3d dir = Eigen::Vector3d(gauss(rng), gauss(rng), gauss(rng)).normalized();
+      const Rigid3d error =
+          v == 0 ? Rigid3d()
+                 : Rigid3d::FromAxisAngle(axis, rot_err_deg * M_PI / 180, trans_err_mm * dir);
+      views[v].world_from_sensor = error * truth_poses[v];
+    }
+    registration_rms_mm = std::max(0.01, trans_err_mm);
+    registration_report = "true poses + injected error";
+  } else {
+    // The registration module on the views' clouds and detected markers, as `fringe register`.
+    std::vector<registration::RegistrationView> rv(views_n);
+    for (int v = 0; v < views_n; ++v) {
+      rv[v].name = views[v].name;
+      rv[v].cloud = views[v].cloud.Compact();
+      rv[v].markers = markers[v];
+    }
+    util::Timer t;
+    const registration::RegistrationResult r = registration::RegisterViews(rv);
+    register_s = t.ElapsedSeconds();
+    registration_report = r.summary.BriefReport();
+    int world = -1;
+    for (int v = 0; v < views_n; ++v) {
+      if (!r.views[v].placed()) {
+        std::cerr << "bench_fusion: view " << v << " not registered: " << r.views[v].message
+                  << "\n";
+        return 1;
+      }
+      if (r.views[v].path == registration::ViewPath::kWorld) world = v;
+    }
+    if (world < 0) throw Error("bench_fusion: the registration names no world view");
+    // The registration's world is its world view's sensor frame; the truth's gauge is free, so
+    // it is fixed by that view's true pose (as the injected mode leaves view 0 exact).
+    const Rigid3d truth_from_registered =
+        truth_poses[world] * r.views[world].world_from_sensor.Inverse();
+    for (int v = 0; v < views_n; ++v) {
+      views[v].world_from_sensor = truth_from_registered * r.views[v].world_from_sensor;
+    }
+    // The fusion's registration term, as `fringe scan` sets it: the ICP's final RMS.
+    registration_rms_mm =
+        r.summary.icp.levels.empty() ? 0.01 : std::max(0.0, r.summary.icp.levels.back().rms_end_mm);
+  }
+  // The poses' errors: rotation and the displacement of the view's cloud centroid, max.
+  double pose_rot_err_deg = 0, pose_centroid_err_mm = 0;
+  for (int v = 0; v < views_n; ++v) {
+    const Rigid3d e = views[v].world_from_sensor * truth_poses[v].Inverse();
+    const Eigen::AngleAxisd aa(e.rotation_matrix());
+    pose_rot_err_deg = std::max(pose_rot_err_deg, std::abs(aa.angle()) * 180 / M_PI);
+    Eigen::Vector3d c = Eigen::Vector3d::Zero();
+    int64_t n = 0;
+    const OrganizedPointCloud& g = views[v].cloud;
+    for (size_t i = 0; i < g.valid.size(); ++i) {
+      if (g.valid[i]) c += g.cloud.points[i], ++n;
+    }
+    if (n > 0) c /= static_cast<double>(n);
+    const Eigen::Vector3d c_true = truth_poses[v] * c;
+    pose_centroid_err_mm = std::max(pose_centroid_err_mm, (e * c_true - c_true).norm());
   }
   int64_t input_points = 0;
   for (const auto& v : views) input_points += static_cast<int64_t>(v.cloud.NumValid());
@@ -356,7 +427,7 @@ int main(int argc, char** argv) {
   const eval::MeshDistance truth(simulator.scene().CombinedMesh());
 
   // Ours.
-  options.registration_rms_mm = std::max(0.01, trans_err_mm);
+  options.registration_rms_mm = registration_rms_mm;
   const double mem_before = util::CurrentMemoryGiB();
   ResetPeak();
   util::Timer fuse_timer;
@@ -422,9 +493,14 @@ int main(int argc, char** argv) {
       {"scale", scale},
       {"camera", std::to_string(rig.left.width) + "x" + std::to_string(rig.left.height)},
       {"noise_dn", noise_dn},
-      {"registration", "true poses + injected error (registration module not used)"},
-      {"rot_err_deg", rot_err_deg},
-      {"trans_err_mm", trans_err_mm},
+      {"registration", injected ? "injected" : "module"},
+      {"registration_summary", registration_report},
+      {"register_s", register_s},
+      {"registration_rms_mm", registration_rms_mm},
+      {"pose_rot_err_deg", pose_rot_err_deg},
+      {"pose_centroid_err_mm", pose_centroid_err_mm},
+      {"rot_err_deg", injected ? rot_err_deg : 0.0},
+      {"trans_err_mm", injected ? trans_err_mm : 0.0},
       {"input_points", input_points},
       {"points", fused.fused.size()},
       {"fused_rms_mm", s_fused.rms},

@@ -17,9 +17,17 @@
 //    fused_overlap_rms_mm (merged points only), single_view_all_rms_mm and mesh_rms_mm.
 //
 //    Every stage's process CPU time (all threads) is printed beside its wall time (*_cpu_s).
+// 4. --mesh-depths 8,9,10: the scan's fused cloud (OUT/fused.ply) meshed again at each Poisson
+//    depth as the scan meshes it (fusion::MeshPoisson with the scan's mesh options), each
+//    compared with the truth both ways as the scan compares its own mesh
+//    (pipeline::CompareMeshWithTruth): mesh_depth_<d> = {wall_s, cpu_s, poisson_s, vertices,
+//    triangles, rms_mm (vertices to truth), truth_rms_mm (truth where measured to the mesh)}.
+//    The depth the scan chose from the point spacing is its own mesh's (mesh_rms_mm).
+// --rig FILE measures with that rig (e.g. the scan's truth/rig.json) instead of calibrating
+// from the board images: what the calibration's error costs the pose and RMS figures.
 //
 // Usage: bench_pipeline [--json] [--views 8] [--work DIR] [--rig-scale 1] [--poisson-depth 0]
-//                       [--keep] [--scan DIR]
+//                       [--keep] [--scan DIR] [--rig FILE] [--mesh-depths 8,9,10]
 // --scan DIR reuses a scan folder simulated by an earlier run (--keep leaves it in WORK/scan)
 // instead of simulating again (simulate_s is then null).
 #include <CLI/CLI.hpp>
@@ -28,16 +36,59 @@
 #include <iostream>
 #include <nlohmann/json.hpp>
 
+#include "fringe/eval/deviation.h"
+#include "fringe/fusion/mesh.h"
 #include "fringe/io/calibration_io.h"
+#include "fringe/io/json.h"
+#include "fringe/io/ply.h"
 #include "fringe/phase/scheme_presets.h"
 #include "fringe/pipeline/scan.h"
+#include "fringe/scan/scan_folder.h"
 #include "fringe/sim/scan.h"
+#include "fringe/util/error.h"
 #include "fringe/util/log.h"
 #include "fringe/util/memory.h"
 #include "fringe/util/timer.h"
 
 namespace fs = std::filesystem;
 using nlohmann::json;
+
+namespace {
+
+// --mesh-depths: the fused cloud of the result folder `out` (as the scan wrote it: float
+// coordinates) meshed at each depth as the scan meshes it, compared with the truth both ways.
+void MeshSweep(const fs::path& out, const fs::path& scan_dir,
+               const fringe::Rigid3d& truth_from_world, const fringe::fusion::MeshOptions& options,
+               const std::vector<int>& depths, json* j) {
+  using namespace fringe;
+  PointCloud fused = io::ReadPly(out / "fused.ply").cloud;
+  for (Eigen::Vector3d& p : fused.points) p = truth_from_world * p;
+  for (Eigen::Vector3d& n : fused.normals) n = truth_from_world.RotateDirection(n);
+  const eval::MeshDistance truth(scan::ScanFolder::Open(scan_dir).ReadTruthMesh());
+  std::vector<Eigen::Vector3d> measured;
+  for (size_t i = 0; i < fused.size(); i += std::max<size_t>(1, fused.size() / 200000)) {
+    measured.push_back(fused.points[i]);
+  }
+  for (int depth : depths) {
+    fusion::MeshOptions mo = options;
+    mo.poisson_depth = depth;
+    util::Timer wall;
+    util::CpuTimer cpu;
+    const fusion::MeshResult m = fusion::MeshPoisson(fused, mo);
+    json e = {{"wall_s", wall.ElapsedSeconds()},
+              {"cpu_s", cpu.ElapsedSeconds()},
+              {"summary", fusion::SummaryToJson(m.summary)}};
+    if (m.summary.ok()) {
+      const pipeline::MeshTruthFigures f = pipeline::CompareMeshWithTruth(m.mesh, measured, truth);
+      e["rms_mm"] = f.vertices_rms_mm;
+      e["truth_rms_mm"] = f.truth_rms_mm;
+    }
+    (*j)["mesh_depth_" + std::to_string(depth)] = e;
+    util::LogInfo("mesh depth " + std::to_string(depth) + ": " + e.dump());
+  }
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{"bench_pipeline: the whole scanner on the simulated demo scan"};
@@ -58,12 +109,41 @@ int main(int argc, char** argv) {
                  "Scan folder of an earlier run (WORK/scan with --keep) used instead of "
                  "simulating; its rig scale and views are those it was simulated with")
       ->check(CLI::ExistingDirectory);
+  std::string rig_file;
+  app.add_option("--rig", rig_file, "Rig JSON used instead of calibrating from the board images")
+      ->check(CLI::ExistingFile);
+  std::vector<int> mesh_depths;
+  app.add_option("--mesh-depths", mesh_depths,
+                 "Mesh the scan's fused cloud again at these Poisson depths and compare each "
+                 "with the truth both ways")
+      ->delimiter(',')
+      ->check(CLI::Range(5, 14));
+  std::string result_dir;
+  app.add_option("--result", result_dir,
+                 "Result folder of an earlier run with truth (WORK/out with --keep; give its "
+                 "--scan too): only --mesh-depths is run on it, no scan")
+      ->check(CLI::ExistingDirectory);
   CLI11_PARSE(app, argc, argv);
+  options.calib = rig_file;
   using namespace fringe;
   try {
     if (!as_json) util::SetVerbosity(util::Verbosity::kNormal);
     const fs::path dir = work;
     fs::create_directories(dir);
+    if (!result_dir.empty()) {
+      if (reuse_scan.empty() || mesh_depths.empty()) {
+        throw Error("--result needs --scan (the scan folder with the truth) and --mesh-depths");
+      }
+      const json summary = io::ReadJson(fs::path(result_dir) / "summary.json");
+      Eigen::Matrix<double, 3, 4> g;
+      for (int r = 0; r < 3; ++r) {
+        for (int c = 0; c < 4; ++c) g(r, c) = summary.at("truth_from_world").at(r).at(c);
+      }
+      json j = json::object();
+      MeshSweep(result_dir, reuse_scan, Rigid3d::FromMatrix(g), options.mesh, mesh_depths, &j);
+      std::cout << (as_json ? j.dump() : j.dump(2)) << "\n";
+      return 0;
+    }
     const StereoRig rig = sim::ScaledRig(StereoRig::Reference(), rig_scale);
     sim::ScanOptions so;
     so.scene = "demo";
@@ -91,6 +171,10 @@ int main(int argc, char** argv) {
     j["simulate_s"] = simulate_s;
     j["peak_mem_gib"] = util::PeakMemoryGiB();  // the whole process, simulation included
     j["calibration_rms_left_px"] = s.calibration_rms_left_px;
+    if (!mesh_depths.empty()) {
+      if (!s.has_truth) throw Error("--mesh-depths needs a scan folder with truth");
+      MeshSweep(dir / "out", scan_dir, s.truth_from_world, options.mesh, mesh_depths, &j);
+    }
     if (as_json) {
       std::cout << j.dump() << "\n";
     } else {

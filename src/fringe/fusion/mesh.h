@@ -83,7 +83,9 @@ struct MeshSummary {
   bool decimated = false;
   double decimation_rms_mm = 0;  // undecimated vertices to the decimated surface
   double decimation_max_mm = 0;
-  double poisson_s = 0, total_s = 0;
+  // Wall times: input and point spacing, Poisson, trimming (or hole closing) and decimation,
+  // normals and the manifold checks; total.
+  double spacing_s = 0, poisson_s = 0, trim_s = 0, check_s = 0, total_s = 0;
   bool ok() const { return status == MeshStatus::kOk; }
   std::string BriefReport() const;
 };

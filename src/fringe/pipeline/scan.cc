@@ -3,12 +3,14 @@
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_invoke.h>
 #include <tbb/parallel_pipeline.h>
+#include <tbb/task_group.h>
 
 #include <nanoflann.hpp>
 
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <exception>
 #include <iomanip>
 #include <limits>
 #include <map>
@@ -583,7 +585,7 @@ void EvaluateAgainstTruth(const scan::ScanFolder& folder, Model* m, ScanSummary*
   m->display_from_world = true_from_est;  // the truth's world has z up
   const eval::MeshDistance distance(folder.ReadTruthMesh());
   s->pose_rot_err_deg = s->pose_trans_err_mm = 0;
-  std::vector<double> single_all, single_overlap;
+  std::vector<double> single_all, single_overlap, single_overlap_placed;
   for (size_t k = 0; k < n; ++k) {
     if (!use[k]) continue;
     ScanViewSummary& vs = s->views[static_cast<size_t>(m->view_of[k])];
@@ -599,12 +601,18 @@ void EvaluateAgainstTruth(const scan::ScanFolder& folder, Model* m, ScanSummary*
     s->pose_rot_err_deg = std::max(s->pose_rot_err_deg, vs.rot_err_deg);
     s->pose_trans_err_mm = std::max(s->pose_trans_err_mm, vs.trans_err_mm);
     // The sensor alone: the view's points by their true pose (sampled, grid order), and which
-    // of them fusion found in an overlap (the grid slots of the fusion view).
-    PointCloud sample;
+    // of them fusion found in an overlap (the grid slots of the fusion view); the same points
+    // as fusion got them, by the estimated pose mapped by G (as bench_fusion measures the
+    // single views: by the poses it fuses with).
+    PointCloud sample, sample_placed;
     std::vector<size_t> ids = Stride(cloud.size(), 100000);
-    for (size_t i : ids) sample.points.push_back(true_pose[k] * cloud.points[i]);
-    std::vector<double> d;
+    for (size_t i : ids) {
+      sample.points.push_back(true_pose[k] * cloud.points[i]);
+      sample_placed.points.push_back(placed * cloud.points[i]);
+    }
+    std::vector<double> d, d_placed;
     eval::DeviationFromMesh(sample, distance, {}, &d);
+    eval::DeviationFromMesh(sample_placed, distance, {}, &d_placed);
     vs.truth_rms_mm = Rms(d);
     single_all.insert(single_all.end(), d.begin(), d.end());
     const int f = m->fusion_of[k];
@@ -618,12 +626,15 @@ void EvaluateAgainstTruth(const scan::ScanFolder& folder, Model* m, ScanSummary*
         if (valid[g]) in_overlap.push_back(overlap[g]);
       }
       for (size_t j = 0; j < ids.size(); ++j) {
-        if (ids[j] < in_overlap.size() && in_overlap[ids[j]]) single_overlap.push_back(d[j]);
+        if (ids[j] >= in_overlap.size() || !in_overlap[ids[j]]) continue;
+        single_overlap.push_back(d[j]);
+        single_overlap_placed.push_back(d_placed[j]);
       }
     }
   }
   s->single_view_all_rms_mm = Rms(single_all);
-  s->single_view_rms_mm = Rms(single_overlap);
+  s->single_view_rms_mm = Rms(single_overlap_placed);
+  s->single_view_sensor_rms_mm = Rms(single_overlap);
   m->view_deviation_mm.assign(n, cv::Mat());
   for (size_t k = 0; k < n; ++k) {
     if (!use[k]) continue;
@@ -632,12 +643,12 @@ void EvaluateAgainstTruth(const scan::ScanFolder& folder, Model* m, ScanSummary*
                          distance, kPictureWidthPx);
   }
   // Fused cloud and mesh, moved into the truth's world by the gauge.
+  PointCloud fused_sample;
   {
-    PointCloud sample;
     std::vector<size_t> ids = Stride(m->fused.fused.size(), 800000);
-    for (size_t i : ids) sample.points.push_back(true_from_est * m->fused.fused.points[i]);
+    for (size_t i : ids) fused_sample.points.push_back(true_from_est * m->fused.fused.points[i]);
     std::vector<double> d;
-    eval::DeviationFromMesh(sample, distance, {}, &d);
+    eval::DeviationFromMesh(fused_sample, distance, {}, &d);
     s->fused_rms_mm = Rms(d);
     std::vector<double> merged;
     for (size_t j = 0; j < ids.size(); ++j) {
@@ -646,13 +657,18 @@ void EvaluateAgainstTruth(const scan::ScanFolder& folder, Model* m, ScanSummary*
     s->fused_overlap_rms_mm = Rms(merged);
   }
   {
-    PointCloud vertices;
-    for (const Eigen::Vector3d& q : m->mesh.mesh.vertices) {
-      vertices.points.push_back(true_from_est * q);
+    TriangleMesh mesh = m->mesh.mesh;
+    mesh.Transform(true_from_est);
+    std::vector<Eigen::Vector3d> measured;
+    for (size_t i : Stride(fused_sample.size(), 200000)) {
+      measured.push_back(fused_sample.points[i]);
     }
-    eval::DeviationFromMesh(vertices, distance, {}, &m->mesh_deviation_mm);
-    s->mesh_rms_mm = Rms(m->mesh_deviation_mm);
+    MeshTruthFigures f = CompareMeshWithTruth(mesh, measured, distance);
+    s->mesh_rms_mm = f.vertices_rms_mm;
+    s->mesh_truth_rms_mm = f.truth_rms_mm;
+    m->mesh_deviation_mm = std::move(f.vertex_deviation_mm);
   }
+  s->truth_from_world = true_from_est;
 }
 
 // After a stage: without keep_going (or when no view is left) any failed view fails the scan,
@@ -799,11 +815,15 @@ ReportSection ModelSection(const ScanSummary& s, const Model& m) {
     ReportTable t;
     t.caption = "Against the truth (simulated scan; fused cloud and mesh placed by the gauge)";
     t.header = {"figure", "mm"};
-    t.rows = {{"single-view RMS in the overlaps (true poses)", Fixed(s.single_view_rms_mm, 4)},
+    t.rows = {{"single-view RMS in the overlaps (as fused: estimated poses)",
+               Fixed(s.single_view_rms_mm, 4)},
+              {"single-view RMS in the overlaps (true poses: the sensor alone)",
+               Fixed(s.single_view_sensor_rms_mm, 4)},
               {"single-view RMS, all points (true poses)", Fixed(s.single_view_all_rms_mm, 4)},
               {"fused RMS (all points)", Fixed(s.fused_rms_mm, 4)},
               {"fused RMS (points merged from 2+ views)", Fixed(s.fused_overlap_rms_mm, 4)},
               {"mesh vertices RMS", Fixed(s.mesh_rms_mm, 4)},
+              {"truth (where measured) to the mesh, RMS", Fixed(s.mesh_truth_rms_mm, 4)},
               {"max pose rotation error, deg", Fixed(s.pose_rot_err_deg, 4)},
               {"max pose centroid displacement", Fixed(s.pose_trans_err_mm, 4)}};
     sec.tables.push_back(t);
@@ -927,6 +947,30 @@ Report BuildReport(const fs::path& project, const ScanSummary& s, const Calibrat
 
 }  // namespace
 
+MeshTruthFigures CompareMeshWithTruth(const TriangleMesh& mesh_in_truth,
+                                      const std::vector<Eigen::Vector3d>& measured_in_truth,
+                                      const eval::MeshDistance& truth) {
+  MeshTruthFigures f;
+  PointCloud vertices;
+  vertices.points = mesh_in_truth.vertices;
+  f.vertices_rms_mm = eval::DeviationFromMesh(vertices, truth, {}, &f.vertex_deviation_mm).rms_mm;
+  if (mesh_in_truth.triangles.empty()) return f;
+  const double max_mm = eval::DeviationOptions().max_distance_mm;
+  std::vector<Eigen::Vector3d> closest(measured_in_truth.size(),
+                                       Eigen::Vector3d::Constant(std::nan("")));
+  tbb::parallel_for(size_t{0}, measured_in_truth.size(), [&](size_t i) {
+    Eigen::Vector3d q;
+    if (std::isfinite(truth.SignedDistance(measured_in_truth[i], max_mm, &q))) closest[i] = q;
+  });
+  PointCloud surface;
+  for (const Eigen::Vector3d& q : closest) {
+    if (q.allFinite()) surface.points.push_back(q);
+  }
+  const eval::MeshDistance mesh(mesh_in_truth);
+  f.truth_rms_mm = eval::DeviationFromMesh(surface, mesh).rms_mm;
+  return f;
+}
+
 void ScanOptions::Check() const {
   util::CheckOption(views_in_flight >= 1 && views_in_flight <= 64, "ScanOptions", "views_in_flight",
                     views_in_flight, "must be in [1, 64]");
@@ -1007,8 +1051,10 @@ json ScanSummary::FiguresJson() const {
           {"fused_rms_mm", figure(fused_rms_mm)},
           {"single_view_rms_mm", figure(single_view_rms_mm)},
           {"fused_overlap_rms_mm", figure(fused_overlap_rms_mm)},
+          {"single_view_sensor_rms_mm", figure(single_view_sensor_rms_mm)},
           {"single_view_all_rms_mm", figure(single_view_all_rms_mm)},
-          {"mesh_rms_mm", figure(mesh_rms_mm)}};
+          {"mesh_rms_mm", figure(mesh_rms_mm)},
+          {"mesh_truth_rms_mm", figure(mesh_truth_rms_mm)}};
 }
 
 json ScanSummary::ToJson() const {
@@ -1021,6 +1067,12 @@ json ScanSummary::ToJson() const {
   j["clusters"] = clusters;
   j["mesh_watertight"] = mesh_watertight;
   j["has_truth"] = has_truth;
+  if (has_truth) {
+    const Eigen::Matrix<double, 3, 4> g = truth_from_world.ToMatrix3x4();
+    j["truth_from_world"] = {{g(0, 0), g(0, 1), g(0, 2), g(0, 3)},
+                             {g(1, 0), g(1, 1), g(1, 2), g(1, 3)},
+                             {g(2, 0), g(2, 1), g(2, 2), g(2, 3)}};
+  }
   j["registration"] = registration;
   j["fusion"] = fusion;
   j["mesh"] = meshing;
@@ -1188,22 +1240,8 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
     HandleFailures(project, out, options.keep_going, &s);
     std::vector<std::string> placed_names;
     std::vector<Rigid3d> placed_poses;
-    fs::create_directories(dir / "registered");
     m.fusion_of.assign(m.inputs.size(), -1);
     std::vector<fusion::FusionView> fusion_views;
-    // The organized clouds moved into the world, so that `fringe fuse OUT` can re-run fusion
-    // from OUT/poses.json and OUT/registered/ (it moves them back by the inverse poses): one
-    // view per task (a moved copy of its grid each), every file its own.
-    tbb::parallel_for(size_t{0}, m.inputs.size(), [&](size_t k) {
-      const registration::ViewRegistration& r = m.registration.views[k];
-      if (!r.placed()) return;
-      OrganizedPointCloud world = results[static_cast<size_t>(m.view_of[k])].cloud;
-      registration::TransformGrid(r.world_from_sensor, &world);
-      io::WritePly(dir / "registered" / (r.name + ".ply"), world,
-                   io::PlyFormat::kBinaryLittleEndian,
-                   {StrCat("fringe scan: view ", r.name,
-                           " registered, world frame (the first view's sensor frame), mm")});
-    });
     for (size_t k = 0; k < m.inputs.size(); ++k) {
       const registration::ViewRegistration& r = m.registration.views[k];
       if (!r.placed()) continue;
@@ -1239,60 +1277,89 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
     s.fused_points = fs_.fused_points;
     s.overlap_points = fs_.overlap_points;
     s.clusters = fs_.clusters;
-    io::WritePly(dir / "fused.ply", m.fused.fused, io::PlyFormat::kBinaryLittleEndian,
-                 {"fringe scan: fused views, world frame (the first view's sensor frame), mm; "
-                  "intensity = texture, quality = weighted modulation"});
-    fusion_views.clear();  // the grids are no longer needed
     s.fuse_s = timer.ElapsedSeconds();
     s.fuse_cpu_s = cpu.ElapsedSeconds();
     progress.Advance();
+
+    // Poisson runs on one thread (Open3D's OpenMP threads give other vertices from run to run,
+    // docs/benchmarks.md), so the files that need no mesh are written meanwhile on the other
+    // cores: fused.ply, and registered/ (the organized clouds moved into the world, so that
+    // `fringe fuse OUT` can re-run fusion from OUT/poses.json and OUT/registered/; one view per
+    // task), and the report's residuals are computed. mesh_s is the wall time of all together.
+    // The report's residuals (before and after ICP), marker residuals and display frame.
+    const auto report_residuals = [&] {
+      std::vector<const PointCloud*> placed_clouds;
+      std::vector<Rigid3d> adjusted, final_poses;
+      for (size_t k = 0; k < m.inputs.size(); ++k) {
+        const registration::ViewRegistration& r = m.registration.views[k];
+        if (!r.placed()) continue;
+        placed_clouds.push_back(&m.inputs[k].cloud);
+        adjusted.push_back(r.path == registration::ViewPath::kMarkers ||
+                                   r.path == registration::ViewPath::kWorld
+                               ? r.world_from_sensor_adjusted
+                               : r.world_from_sensor);
+        final_poses.push_back(r.world_from_sensor);
+        for (const registration::MapMarker& mk : m.registration.map) {
+          for (const auto& sighting : mk.sightings) {
+            if (static_cast<size_t>(sighting.view) != k) continue;
+            const auto& vm = m.inputs[k].markers[static_cast<size_t>(sighting.view_marker)];
+            m.marker_residuals_mm.push_back(
+                (r.world_from_sensor * vm.centre_in_sensor - mk.centre_in_world).norm());
+          }
+        }
+      }
+      m.display_from_world = DisplayFromViews(final_poses);
+      if (options.write_report) {
+        m.residual_threshold_mm =
+            rs.icp.levels.empty() ? 1.0 : std::max(rs.icp.levels.front().threshold_start_mm, 0.05);
+        m.residuals_adjusted_mm =
+            OverlapResiduals(placed_clouds, adjusted, m.residual_threshold_mm);
+        m.residuals_final_mm =
+            OverlapResiduals(placed_clouds, final_poses, m.residual_threshold_mm);
+      }
+    };
     timer.Restart();
     cpu.Restart();
-    m.mesh = fusion::MeshPoisson(m.fused.fused, options.mesh);
+    {
+      tbb::task_group meshing;
+      meshing.run([&] {
+        m.mesh = fusion::MeshPoisson(m.fused.fused, options.mesh);
+        if (!m.mesh.summary.ok()) return;
+        tbb::parallel_invoke([&] { fusion::WriteMeshFile(dir / "mesh.ply", m.mesh); },
+                             [&] { fusion::WriteMeshFile(dir / "mesh.stl", m.mesh); });
+      });
+      std::exception_ptr failure;
+      try {
+        io::WritePly(dir / "fused.ply", m.fused.fused, io::PlyFormat::kBinaryLittleEndian,
+                     {"fringe scan: fused views, world frame (the first view's sensor frame), "
+                      "mm; intensity = texture, quality = weighted modulation"});
+        fs::create_directories(dir / "registered");
+        tbb::parallel_for(size_t{0}, fusion_views.size(), [&](size_t f) {
+          OrganizedPointCloud world = fusion_views[f].cloud;
+          registration::TransformGrid(fusion_views[f].world_from_sensor, &world);
+          io::WritePly(dir / "registered" / (fusion_views[f].name + ".ply"), world,
+                       io::PlyFormat::kBinaryLittleEndian,
+                       {StrCat("fringe scan: view ", fusion_views[f].name,
+                               " registered, world frame (the first view's sensor frame), mm")});
+        });
+        report_residuals();
+      } catch (...) {
+        failure = std::current_exception();
+      }
+      meshing.wait();  // rethrows the meshing's exception
+      if (failure) std::rethrow_exception(failure);
+    }
+    fusion_views.clear();  // the grids are no longer needed
     const fusion::MeshSummary& ms = m.mesh.summary;
     s.meshing = fusion::SummaryToJson(ms);
     if (!ms.ok()) throw stage_failed("mesh", fusion::ToString(ms.status), ms.message);
     s.mesh_vertices = ms.vertices;
     s.mesh_triangles = ms.triangles;
     s.mesh_watertight = ms.watertight;
-    tbb::parallel_invoke([&] { fusion::WriteMeshFile(dir / "mesh.ply", m.mesh); },
-                         [&] { fusion::WriteMeshFile(dir / "mesh.stl", m.mesh); });
     s.mesh_s = timer.ElapsedSeconds();
     s.mesh_cpu_s = cpu.ElapsedSeconds();
     progress.Advance();
 
-    // Residuals for the report (before and after ICP) and the display frame: report time.
-    timer.Restart();
-    cpu.Restart();
-    std::vector<const PointCloud*> placed_clouds;
-    std::vector<Rigid3d> adjusted, final_poses;
-    for (size_t k = 0; k < m.inputs.size(); ++k) {
-      const registration::ViewRegistration& r = m.registration.views[k];
-      if (!r.placed()) continue;
-      placed_clouds.push_back(&m.inputs[k].cloud);
-      adjusted.push_back(r.path == registration::ViewPath::kMarkers ||
-                                 r.path == registration::ViewPath::kWorld
-                             ? r.world_from_sensor_adjusted
-                             : r.world_from_sensor);
-      final_poses.push_back(r.world_from_sensor);
-      for (const registration::MapMarker& mk : m.registration.map) {
-        for (const auto& sighting : mk.sightings) {
-          if (static_cast<size_t>(sighting.view) != k) continue;
-          const auto& vm = m.inputs[k].markers[static_cast<size_t>(sighting.view_marker)];
-          m.marker_residuals_mm.push_back(
-              (r.world_from_sensor * vm.centre_in_sensor - mk.centre_in_world).norm());
-        }
-      }
-    }
-    m.display_from_world = DisplayFromViews(final_poses);
-    if (options.write_report) {
-      m.residual_threshold_mm =
-          rs.icp.levels.empty() ? 1.0 : std::max(rs.icp.levels.front().threshold_start_mm, 0.05);
-      m.residuals_adjusted_mm = OverlapResiduals(placed_clouds, adjusted, m.residual_threshold_mm);
-      m.residuals_final_mm = OverlapResiduals(placed_clouds, final_poses, m.residual_threshold_mm);
-    }
-    s.report_s = timer.ElapsedSeconds();
-    s.report_cpu_s = cpu.ElapsedSeconds();
     s.total_s = total.ElapsedSeconds();
     s.total_cpu_s = total_cpu.ElapsedSeconds();
     // 5. Truth (simulated scans): not part of a real scan, timed apart.

@@ -169,9 +169,17 @@ TEST_F(ScanTest, WholeChainMatchesTheTruth) {
   EXPECT_LT(s.fused_overlap_rms_mm, kFusedOverSingleOverlap * s.single_view_rms_mm);
   EXPECT_LT(s.fused_rms_mm, kMaxFusedRmsMm);
   EXPECT_LT(s.mesh_rms_mm, kMaxMeshRmsMm);
+  EXPECT_LT(s.mesh_truth_rms_mm, kMaxMeshRmsMm);  // the truth where measured, to the mesh
+  // The single views as fused (estimated poses) and by the sensor alone (true poses) agree to
+  // the registration error.
+  EXPECT_LT(std::abs(s.single_view_rms_mm - s.single_view_sensor_rms_mm), kMaxTransErrMm);
   PointCloud fused = io::ReadPly(out / "fused.ply").cloud;
   EXPECT_EQ(static_cast<int64_t>(fused.size()), s.fused_points);
   const Rigid3d truth_from_world = true_0 * poses.at("000").Inverse();
+  // The summary's gauge (fitted over all views) and view 000's differ by the registration error.
+  const Eigen::Vector3d at_part = true_0 * Eigen::Vector3d(0, 0, 400);
+  EXPECT_LT((s.truth_from_world * (truth_from_world.Inverse() * at_part) - at_part).norm(),
+            3 * kMaxTransErrMm);
   for (auto& p : fused.points) p = truth_from_world * p;
   EXPECT_LT(eval::DeviationFromMesh(fused, distance).rms_mm, kMaxFusedRmsMm);
   const TriangleMesh mesh = io::ReadMesh(out / "mesh.ply");

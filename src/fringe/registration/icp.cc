@@ -1,5 +1,6 @@
 #include "fringe/registration/icp.h"
 
+#include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
 #include <Eigen/Dense>
@@ -28,6 +29,23 @@ void IcpOptions::Check() const {
                     "max_normal_angle_deg", max_normal_angle_deg, "must be in (0, 180]");
   util::CheckOption(min_overlap_fraction >= 0 && min_overlap_fraction < 1, o,
                     "min_overlap_fraction", min_overlap_fraction, "must be in [0, 1)");
+  util::CheckOption(projective_from_level >= 0, o, "projective_from_level", projective_from_level,
+                    "must be >= 0");
+  util::CheckOption(projective_window_px >= 0, o, "projective_window_px", projective_window_px,
+                    "must be >= 0");
+  util::CheckOption(max_grid_fit_error_px > 0, o, "max_grid_fit_error_px", max_grid_fit_error_px,
+                    "must be > 0");
+}
+
+ViewGrid IndexViewGrid(const OrganizedPointCloud& grid_in_sensor) {
+  grid_in_sensor.CheckConsistent();
+  ViewGrid g;
+  g.projection = GridProjection::Fit(grid_in_sensor);
+  g.slot_of_point.reserve(grid_in_sensor.NumValid());
+  for (size_t i = 0; i < grid_in_sensor.valid.size(); ++i) {
+    if (grid_in_sensor.valid[i]) g.slot_of_point.push_back(static_cast<uint32_t>(i));
+  }
+  return g;
 }
 
 const char* ToString(IcpStatus s) {
@@ -48,10 +66,10 @@ std::string IcpSummary::BriefReport() const {
     s += StrCat("; level ", l.level, " (", l.points_per_view, " pts/view): ", l.iterations, " it",
                 l.converged ? "" : " (not converged)", ", threshold ", l.threshold_start_mm, " -> ",
                 l.threshold_end_mm, " mm, rms ", l.rms_start_mm, " -> ", l.rms_end_mm, " mm, ",
-                l.correspondences, " pairs of points over ", l.overlapping_pairs, " view pairs, ",
-                l.degenerate_directions, " degenerate directions, last step ",
-                l.last_step_rotation_deg, " deg / ", l.last_step_translation_mm, " mm (",
-                l.last_step_sigmas, " sigma)");
+                l.correspondences, " pairs of points over ", l.overlapping_pairs, " view pairs (",
+                l.projective_pairs, " projective), ", l.degenerate_directions,
+                " degenerate directions, last step ", l.last_step_rotation_deg, " deg / ",
+                l.last_step_translation_mm, " mm (", l.last_step_sigmas, " sigma)");
   }
   if (!message.empty()) s += ": " + message;
   return s;
@@ -98,13 +116,60 @@ struct PreparedView {
   PointsAdaptor data;             // usable points, sensor frame
   std::vector<Vector3d> normals;  // unit, sensor frame
   std::vector<uint32_t> order;    // seeded random order of the usable points
-  std::unique_ptr<KdTree> tree;
+  std::unique_ptr<KdTree> tree;   // built when some level searches this view by k-d tree
+  // Projective association (a grid that fits): the usable point of every slot (-1: none).
+  const GridProjection* projection = nullptr;
+  std::vector<int32_t> point_of_slot;
+
+  // Index of the usable point nearest to q (sensor frame) within sqrt(radius_sq): exact, k-d.
+  int32_t NearestByTree(const Vector3d& q, double radius_sq) const {
+    NearestWithin rs(radius_sq);
+    tree->findNeighbors(rs, q.data(), nanoflann::SearchParams());
+    return rs.found ? static_cast<int32_t>(rs.index) : -1;
+  }
+  // The same among the points of the (2w + 1)^2 slots around q's projection (row by row, the
+  // first of equal distances: deterministic).
+  int32_t NearestByProjection(const Vector3d& q, int w, double radius_sq) const {
+    Eigen::Vector2f cr;
+    if (!projection->Project(q.cast<float>(), &cr)) return -1;
+    const int width = projection->width(), height = projection->height();
+    const float c0 = std::round(cr.x()), r0 = std::round(cr.y());
+    if (!(c0 >= -w && c0 < width + w && r0 >= -w && r0 < height + w)) return -1;
+    const int c = static_cast<int>(c0), r = static_cast<int>(r0);
+    const int rb = std::max(0, r - w), re = std::min(height - 1, r + w);
+    const int cb = std::max(0, c - w), ce = std::min(width - 1, c + w);
+    int32_t best = -1;
+    double best_d2 = radius_sq;
+    for (int y = rb; y <= re; ++y) {
+      const int32_t* row = point_of_slot.data() + static_cast<size_t>(y) * width;
+      for (int x = cb; x <= ce; ++x) {
+        const int32_t j = row[x];
+        if (j < 0) continue;
+        const double d2 = (data.pts[j] - q).squaredNorm();
+        if (d2 < best_d2) {
+          best_d2 = d2;
+          best = j;
+        }
+      }
+    }
+    return best;
+  }
 };
 
+// A correspondence: usable point k of the source view, point idx of the target view, and the
+// point-to-plane residual (idx < 0: none). The world positions are recomputed from the indices
+// where needed (storing them tripled the memory the search loop streams through).
+struct Match {
+  int32_t k = 0, idx = -1;
+  double r = 0;
+};
+// A kept pair in the world frame.
 struct Corr {
-  int v = -1, u = -1;  // source view, target view
-  Vector3d p_world = Vector3d::Zero(), q_world = Vector3d::Zero(), n_world = Vector3d::Zero();
-  double r = 0;  // point-to-plane residual
+  Vector3d p_world, q_world, n_world;
+};
+struct PairMatches {
+  int v = -1, u = -1;         // source view, target view
+  size_t begin = 0, end = 0;  // range in the iteration's kept matches
 };
 
 // Normal-space sampling (Rusinkiewicz & Levoy, "Efficient variants of the ICP algorithm",
@@ -166,17 +231,52 @@ IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& o
     result.summary.message = "fewer than two views";
     return result;
   }
-  // Prepare: usable points, seeded order, k-d trees.
+  for (int i = 0; i < nv; ++i) {
+    const IcpView& v = views[i];
+    if (v.cloud == nullptr) throw Error(StrCat("RefineMultiView: view ", i, " has no cloud"));
+    if (!v.cloud->has_normals()) {
+      throw Error(StrCat("RefineMultiView: view ", i, " has no normals (estimate them first)"));
+    }
+    if (v.grid == nullptr) continue;
+    const size_t slots =
+        static_cast<size_t>(v.grid->projection.width()) * v.grid->projection.height();
+    if (v.grid->slot_of_point.size() != v.cloud->size()) {
+      throw Error(StrCat("RefineMultiView: view ", i, "'s grid lists ",
+                         v.grid->slot_of_point.size(), " slots for ", v.cloud->size(), " points"));
+    }
+    for (uint32_t s : v.grid->slot_of_point) {
+      if (s >= slots) {
+        throw Error(StrCat("RefineMultiView: view ", i, "'s grid has slot ", s, " outside its ",
+                           v.grid->projection.width(), "x", v.grid->projection.height(), " grid"));
+      }
+    }
+  }
+  const int levels = static_cast<int>(options.points_per_level.size());
+  const auto projective_view = [&](const IcpView& v) {
+    return v.grid != nullptr && v.grid->projection.fitted() &&
+           v.grid->projection.fit_error_px() <= options.max_grid_fit_error_px &&
+           options.projective_from_level < levels;
+  };
+  // Prepare: usable points, seeded order, k-d trees where a level searches by tree.
   std::vector<PreparedView> prep(nv);
   tbb::parallel_for(0, nv, [&](int i) {
     const PointCloud* c = views[i].cloud;
-    if (c == nullptr) return;
     PreparedView& pv = prep[i];
+    const bool projective = projective_view(views[i]);
+    if (projective) {
+      pv.projection = &views[i].grid->projection;
+      pv.point_of_slot.assign(static_cast<size_t>(pv.projection->width()) * pv.projection->height(),
+                              -1);
+    }
     for (size_t k = 0; k < c->size(); ++k) {
       if (k >= c->normals.size()) break;
       const Vector3d& p = c->points[k];
       const Vector3d& n = c->normals[k];
       if (!p.allFinite() || !n.allFinite() || std::abs(n.norm() - 1) > 1e-3) continue;
+      if (projective) {
+        pv.point_of_slot[views[i].grid->slot_of_point[k]] =
+            static_cast<int32_t>(pv.data.pts.size());
+      }
       pv.data.pts.push_back(p);
       pv.normals.push_back(n);
     }
@@ -189,16 +289,12 @@ IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& o
       std::mt19937_64 rng(order_seed);
       std::shuffle(pv.order.begin(), pv.order.end(), rng);
     }
-    if (!pv.data.pts.empty()) {
+    const bool needs_tree = !projective || options.projective_from_level > 0;
+    if (needs_tree && !pv.data.pts.empty()) {
       pv.tree = std::make_unique<KdTree>(3, pv.data, nanoflann::KDTreeSingleIndexAdaptorParams(16));
     }
   });
   for (int i = 0; i < nv; ++i) {
-    if (views[i].cloud == nullptr)
-      throw Error(StrCat("RefineMultiView: view ", i, " has no cloud"));
-    if (!views[i].cloud->has_normals()) {
-      throw Error(StrCat("RefineMultiView: view ", i, " has no normals (estimate them first)"));
-    }
     if (prep[i].data.pts.size() < 10) {
       throw Error(StrCat("RefineMultiView: view ", i, " has ", prep[i].data.pts.size(),
                          " points with normals; at least 10 are needed"));
@@ -215,110 +311,178 @@ IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& o
   }
   std::vector<Rigid3d>& pose = result.world_from_sensor;
   const double cos_max = std::cos(options.max_normal_angle_deg * M_PI / 180);
+  // Buffers reused by every iteration (a fresh vector per pair and iteration was page faults).
+  std::vector<Match> found, kept;
+  std::vector<PairMatches> pairs;
+  std::vector<double> dist;
+  std::vector<Corr> corr_buffer;
   // One iteration at the schedule's sample count and threshold: associate every view's samples
   // with every other view, one simultaneous step of all free views.
   const auto iterate = [&](int points, double threshold, IcpLevelReport* rep) {
     IcpIteration out;
-    std::vector<Corr> corr;
-    int pairs_used = 0;
+    kept.clear();
+    pairs.clear();
+    int projective_pairs = 0;
     std::vector<std::vector<double>> overlap(nv, std::vector<double>(nv, 0.0));
+    const bool projective_level = rep->level >= options.projective_from_level;
     for (int v = 0; v < nv; ++v) {
       const PreparedView& sv = prep[v];
       const int ns = std::min<int>(points, static_cast<int>(sv.order.size()));
       for (int u = 0; u < nv; ++u) {
         if (u == v || (block[v] < 0 && block[u] < 0)) continue;
-        const Rigid3d u_from_v = pose[u].Inverse() * pose[v];
+        if (block[v] < 0 && !options.sample_fixed_views) continue;
+        // Rotation matrices: a quaternion rotates a vector at several times the cost.
+        const Rigid3d u_from_v_pose = pose[u].Inverse() * pose[v];
+        const Matrix3d r_uv = u_from_v_pose.rotation_matrix();
+        const Vector3d t_uv = u_from_v_pose.translation();
         // Neighbours are searched within the larger of the threshold and the first one: the
         // threshold bounds the point-to-plane distance, which falls below the sampling
         // spacing long before the Euclidean neighbour distance does.
         const double search = std::max(threshold, options.initial_threshold_mm);
         const double search_sq = search * search;
         const PreparedView& tv = prep[u];
-        std::vector<Corr> found(ns);
-        tbb::parallel_for(0, ns, [&](int s) {
-          const uint32_t k = sv.order[s];
-          const Vector3d q = u_from_v * sv.data.pts[k];
-          NearestWithin rs(search_sq);
-          tv.tree->findNeighbors(rs, q.data(), nanoflann::SearchParams());
-          Corr& c = found[s];
-          if (!rs.found) return;
-          const uint32_t idx = rs.index;
-          const Vector3d& nt = tv.normals[idx];
-          if (u_from_v.RotateDirection(sv.normals[k]).dot(nt) < cos_max) return;
-          c.v = v;
-          c.u = u;
-          c.p_world = pose[v] * sv.data.pts[k];
-          c.q_world = pose[u] * tv.data.pts[idx];
-          c.n_world = pose[u].RotateDirection(nt);
-          c.r = c.n_world.dot(c.p_world - c.q_world);
-          if (std::abs(c.r) > threshold) c.v = -1;
-        });
-        std::vector<Corr> kept;
-        for (Corr& c : found) {
-          if (c.v >= 0) kept.push_back(c);
+        const bool projective = projective_level && tv.projection != nullptr;
+        const int w = options.projective_window_px;
+        found.resize(ns);
+        tbb::parallel_for(
+            tbb::blocked_range<int>(0, ns, 256), [&](const tbb::blocked_range<int>& rg) {
+              for (int s = rg.begin(); s != rg.end(); ++s) {
+                Match& m = found[s];
+                m.idx = -1;
+                const uint32_t k = sv.order[s];
+                const Vector3d q = r_uv * sv.data.pts[k] + t_uv;
+                const int32_t idx = projective ? tv.NearestByProjection(q, w, search_sq)
+                                               : tv.NearestByTree(q, search_sq);
+                if (idx < 0) continue;
+                const Vector3d& nt = tv.normals[idx];
+                if ((r_uv * sv.normals[k]).dot(nt) < cos_max) continue;
+                // Point-to-plane distance in the target's frame (the same in the world's).
+                const double r = nt.dot(q - tv.data.pts[idx]);
+                if (std::abs(r) > threshold) continue;
+                m.k = static_cast<int32_t>(k);
+                m.idx = idx;
+                m.r = r;
+              }
+            });
+        const size_t begin = kept.size();
+        for (const Match& m : found) {
+          if (m.idx >= 0) kept.push_back(m);
         }
-        if (kept.size() < std::max<size_t>(3, options.min_overlap_fraction * ns)) continue;
+        const size_t n_kept = kept.size() - begin;
+        if (n_kept < std::max<size_t>(3, options.min_overlap_fraction * ns)) {
+          kept.resize(begin);
+          continue;
+        }
         // Trim the worst distances of this pair.
-        std::vector<double> d;
-        for (const Corr& c : kept) d.push_back(std::abs(c.r));
-        const size_t keep_n = std::max<size_t>(3, std::floor(options.trim_fraction * d.size()));
-        if (keep_n < d.size()) {
-          std::nth_element(d.begin(), d.begin() + (keep_n - 1), d.end());
-          const double cut = d[keep_n - 1];
-          std::vector<Corr> trimmed;
-          for (const Corr& c : kept) {
-            if (std::abs(c.r) <= cut && trimmed.size() < keep_n) trimmed.push_back(c);
+        const size_t keep_n = std::max<size_t>(3, std::floor(options.trim_fraction * n_kept));
+        if (keep_n < n_kept) {
+          dist.clear();
+          for (size_t i = begin; i < kept.size(); ++i) dist.push_back(std::abs(kept[i].r));
+          std::nth_element(dist.begin(), dist.begin() + (keep_n - 1), dist.end());
+          const double cut = dist[keep_n - 1];
+          size_t out_i = begin;
+          for (size_t i = begin; i < kept.size(); ++i) {
+            if (std::abs(kept[i].r) <= cut && out_i - begin < keep_n) kept[out_i++] = kept[i];
           }
-          kept.swap(trimmed);
+          kept.resize(out_i);
         }
-        overlap[v][u] = static_cast<double>(kept.size()) / ns;
-        ++pairs_used;
-        corr.insert(corr.end(), kept.begin(), kept.end());
+        overlap[v][u] = static_cast<double>(kept.size() - begin) / ns;
+        projective_pairs += projective;
+        pairs.push_back({v, u, begin, kept.size()});
       }
     }
-    if (corr.empty()) return out;
+    if (kept.empty()) return out;
     out.overlap = true;
+    // World positions and normals of the kept pairs (the lever arms need the centroid first).
+    std::vector<Corr>& corr = corr_buffer;
+    corr.resize(kept.size());
+    for (const PairMatches& pm : pairs) {
+      const Matrix3d rv = pose[pm.v].rotation_matrix(), ru = pose[pm.u].rotation_matrix();
+      const Vector3d tv = pose[pm.v].translation(), tu = pose[pm.u].translation();
+      const PreparedView &sv = prep[pm.v], &dv = prep[pm.u];
+      tbb::parallel_for(tbb::blocked_range<size_t>(pm.begin, pm.end, 1024),
+                        [&](const tbb::blocked_range<size_t>& rg) {
+                          for (size_t i = rg.begin(); i != rg.end(); ++i) {
+                            const Match& m = kept[i];
+                            corr[i].p_world = rv * sv.data.pts[m.k] + tv;
+                            corr[i].q_world = ru * dv.data.pts[m.idx] + tu;
+                            corr[i].n_world = ru * dv.normals[m.idx];
+                          }
+                        });
+    }
     double ss = 0;
     Vector3d centroid = Vector3d::Zero();
-    out.residuals_mm.reserve(corr.size());
-    for (const Corr& c : corr) {
-      ss += c.r * c.r;
-      centroid += c.p_world;
-      out.residuals_mm.push_back(c.r);
+    out.residuals_mm.reserve(kept.size());
+    for (size_t i = 0; i < kept.size(); ++i) {
+      ss += kept[i].r * kept[i].r;
+      centroid += corr[i].p_world;
+      out.residuals_mm.push_back(kept[i].r);
     }
-    centroid /= static_cast<double>(corr.size());
-    out.rms_mm = std::sqrt(ss / corr.size());
+    centroid /= static_cast<double>(kept.size());
+    out.rms_mm = std::sqrt(ss / kept.size());
     rep->points_per_view = points;
-    rep->correspondences = static_cast<int>(corr.size());
-    rep->overlapping_pairs = pairs_used;
+    rep->correspondences = static_cast<int>(kept.size());
+    rep->overlapping_pairs = static_cast<int>(pairs.size());
+    rep->projective_pairs = projective_pairs;
     result.overlap = overlap;
-    // Normal equations over the free views (serial sum: thread-count independent).
+    // Normal equations over the free views, summed per view pair over fixed chunks in parallel,
+    // the chunks added in order: the same sums for any thread count.
     const int dim = 6 * nfree;
     Eigen::MatrixXd H = Eigen::MatrixXd::Zero(dim, dim);
     Eigen::VectorXd g = Eigen::VectorXd::Zero(dim);
-    for (const Corr& c : corr) {
-      Eigen::Matrix<double, 6, 1> jv, ju;
-      jv << (c.p_world - centroid).cross(c.n_world), c.n_world;
-      ju << -(c.q_world - centroid).cross(c.n_world), -c.n_world;
-      const int bv = block[c.v], bu = block[c.u];
-      if (bv >= 0) {
-        H.block<6, 6>(6 * bv, 6 * bv) += jv * jv.transpose();
-        g.segment<6>(6 * bv) += jv * c.r;
-      }
-      if (bu >= 0) {
-        H.block<6, 6>(6 * bu, 6 * bu) += ju * ju.transpose();
-        g.segment<6>(6 * bu) += ju * c.r;
-      }
-      if (bv >= 0 && bu >= 0) {
-        H.block<6, 6>(6 * bv, 6 * bu) += jv * ju.transpose();
-        H.block<6, 6>(6 * bu, 6 * bv) += ju * jv.transpose();
+    double lever_sq = 0;
+    using Mat6 = Eigen::Matrix<double, 6, 6>;
+    using Vec6 = Eigen::Matrix<double, 6, 1>;
+    struct Sums {
+      Mat6 hvv = Mat6::Zero(), huu = Mat6::Zero(), hvu = Mat6::Zero();
+      Vec6 gv = Vec6::Zero(), gu = Vec6::Zero();
+      double lever_sq = 0;
+    };
+    constexpr size_t kChunk = 4096;
+    for (const PairMatches& pm : pairs) {
+      const int bv = block[pm.v], bu = block[pm.u];
+      const size_t chunks = (pm.end - pm.begin + kChunk - 1) / kChunk;
+      std::vector<Sums> sums(chunks);
+      tbb::parallel_for(size_t{0}, chunks, [&](size_t ch) {
+        Sums& su = sums[ch];
+        const size_t e = std::min(pm.end, pm.begin + (ch + 1) * kChunk);
+        for (size_t i = pm.begin + ch * kChunk; i < e; ++i) {
+          const Corr& c = corr[i];
+          const double r = kept[i].r;
+          Vec6 jv, ju;
+          jv << (c.p_world - centroid).cross(c.n_world), c.n_world;
+          ju << -(c.q_world - centroid).cross(c.n_world), -c.n_world;
+          if (bv >= 0) {
+            su.hvv.noalias() += jv * jv.transpose();
+            su.gv += jv * r;
+          }
+          if (bu >= 0) {
+            su.huu.noalias() += ju * ju.transpose();
+            su.gu += ju * r;
+          }
+          if (bv >= 0 && bu >= 0) su.hvu.noalias() += jv * ju.transpose();
+          su.lever_sq += (c.p_world - centroid).squaredNorm();
+        }
+      });
+      for (const Sums& su : sums) {
+        if (bv >= 0) {
+          H.block<6, 6>(6 * bv, 6 * bv) += su.hvv;
+          g.segment<6>(6 * bv) += su.gv;
+        }
+        if (bu >= 0) {
+          H.block<6, 6>(6 * bu, 6 * bu) += su.huu;
+          g.segment<6>(6 * bu) += su.gu;
+        }
+        if (bv >= 0 && bu >= 0) {
+          H.block<6, 6>(6 * bv, 6 * bu) += su.hvu;
+          H.block<6, 6>(6 * bu, 6 * bv) += su.hvu.transpose();
+        }
+        lever_sq += su.lever_sq;
       }
     }
     // A plane with a sphere on it leaves rotations about the sphere's vertical unconstrained;
     // noise and edge points would otherwise slide the views along such directions.
-    double lever_sq = 0;
-    for (const Corr& c : corr) lever_sq += (c.p_world - centroid).squaredNorm();
-    const double lever = std::max(1.0, std::sqrt(lever_sq / corr.size()));
+    const double lever = std::max(1.0, std::sqrt(lever_sq / kept.size()));
     const IcpStep step = DegeneracyAwareStep(H, g, lever, options.degeneracy_ratio, out.rms_mm);
     rep->degenerate_directions = step.degenerate;
     out.step_sigmas = step.step_sigmas;

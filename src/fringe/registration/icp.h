@@ -1,10 +1,10 @@
 // Multi-level, multi-view point-to-plane ICP with a shrinking correspondence threshold (thesis
 // capability 3, refinement).
 //
-// All views are refined SIMULTANEOUSLY: in every iteration each view's sample points are
-// associated with every other view's cloud (nearest neighbour in a nanoflann k-d tree built
-// once per view in its sensor frame), and one linear least-squares step moves all free views
-// together (point-to-plane residuals against the target's grid normals, linearised about the
+// All views are refined SIMULTANEOUSLY: in every iteration each free view's sample points (and
+// the fixed views' too with sample_fixed_views) are associated with every other view's cloud
+// (nearest neighbour, see Association below), and one linear least-squares step moves all free
+// views together (point-to-plane residuals against the target's grid normals, linearised about the
 // clouds' common centroid, 6 unknowns per free view). Closed loops of views therefore share
 // the error instead of accumulating it; with two views, one fixed, it is ordinary pairwise ICP.
 //
@@ -20,9 +20,16 @@
 // them) and the convergence test are icp_schedule.h's, the one schedule every ICP of the
 // project runs (AlignToMesh too).
 //
-// Not done: projective association on the organized grid (the k-d tree search is exact and
-// costs ~1 us per point; projection would need the camera model, which fringe register's PLY
-// inputs do not carry, and RegisterViews takes unorganized clouds).
+// Association: a sample is matched with the target view's point nearest to it, either exactly
+// through a nanoflann k-d tree over the target (any cloud), or projectively on the target's
+// organized grid (a view that carries its grid, IcpView::grid): the sample is projected into the
+// target's pixel grid with the projection fitted from the grid itself
+// (geometry/grid_projection.h: no camera model needed) and the nearest of the valid points in
+// the (2w + 1)^2 slots around that position is taken (w = projective_window_px). Projection
+// costs a fixed few slot reads instead of a tree descent and needs no tree; it finds the nearest
+// point only when that point lies inside the window, i.e. once the views are aligned to a few
+// point spacings: it is used from level projective_from_level on (bench_registration measures
+// both; docs/benchmarks.md). The same distance, normal and trimming tests follow either way.
 //
 // Frames: each view's cloud in its own sensor frame; poses world_from_sensor. Millimetres.
 // Deterministic for a seed and independent of the thread count (parallel search, serial sums).
@@ -33,6 +40,7 @@
 #include <string>
 #include <vector>
 
+#include "fringe/geometry/grid_projection.h"
 #include "fringe/geometry/point_cloud.h"
 #include "fringe/geometry/rigid3.h"
 #include "fringe/registration/icp_schedule.h"
@@ -48,13 +56,37 @@ struct IcpOptions : IcpSchedule {
   uint64_t seed = 1;                   // subsampling order
   // Subsample in normal-space order (true) or uniformly at random (false).
   bool normal_space_sampling = true;
+  // Samples are drawn from every view (true) or from the free views only (false): a fixed
+  // view's samples only repeat, in reverse, the constraints the free views' samples already put
+  // on the pair; without them pairwise ICP does half the work (bunny pair: 0.48 -> 0.22 CPU s,
+  // the same pose to 0.002 deg / 0.01 mm; docs/benchmarks.md).
+  bool sample_fixed_views = false;
+  // Projective association (see above) on the levels from this one on, for target views with a
+  // grid; earlier levels and views without a grid use the k-d tree. >= 0 (0: every level; a
+  // value >= the number of levels: never).
+  int projective_from_level = 1;
+  int projective_window_px = 2;  // w: (2w + 1)^2 slots, >= 0
+  // A grid whose projection fits its own points worse than this (px) is searched with the
+  // k-d tree instead (a window that misses the sample's own slot finds a wrong neighbour), > 0.
+  double max_grid_fit_error_px = 0.5;
   void Check() const;
 };
 
+// The organized grid a view's cloud came from, for projective association: its projection,
+// fitted from the grid's points (sensor frame), and the grid slot of every point of the cloud.
+struct ViewGrid {
+  GridProjection projection;
+  std::vector<uint32_t> slot_of_point;  // one per cloud point, < width * height
+};
+// The grid of a view whose cloud is grid_in_sensor.Compact() (the valid slots in grid order).
+ViewGrid IndexViewGrid(const OrganizedPointCloud& grid_in_sensor);
+
 // One view: the cloud (sensor frame, unit normals; points without a finite normal are not used)
 // and its starting pose. Fixed views do not move (with none fixed, view 0 fixes the gauge).
+// `grid` (optional) enables projective association onto this view.
 struct IcpView {
   const PointCloud* cloud = nullptr;
+  const ViewGrid* grid = nullptr;
   Rigid3d world_from_sensor;
   bool fixed = false;
 };
@@ -82,7 +114,8 @@ struct IcpResult {
 // align_to_mesh.h): indices, one per normal bin in turn, seeded random within and across bins.
 std::vector<uint32_t> NormalSpaceOrder(const std::vector<Eigen::Vector3d>& normals, uint64_t seed);
 
-// Throws fringe::Error for bad options, a null or empty cloud, or a cloud without normals.
+// Throws fringe::Error for bad options, a null or empty cloud, a cloud without normals, or a
+// grid whose slots do not fit the cloud or the projection's grid.
 IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& options = {});
 
 // Pairwise convenience: target fixed (view 0), source moved (view 1): the refined

@@ -61,6 +61,7 @@ struct IcpLevelReport {
   int correspondences = 0;                  // at the last iteration
   int overlapping_pairs = 0;                // ordered view pairs used at the last iteration
   int degenerate_directions = 0;            // unconstrained directions left unmoved (last it)
+  int projective_pairs = 0;                 // view pairs associated projectively (last it)
   // The last step: largest rotation and translation of a moved pose, and its size in standard
   // deviations of the estimate (RMS over the moved directions).
   double last_step_rotation_deg = 0, last_step_translation_mm = 0, last_step_sigmas = 0;

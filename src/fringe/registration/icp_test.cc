@@ -77,9 +77,13 @@ TEST(RefineMultiView, ConvergesFromPerturbedPosesOnSimulatedDemoViewsAndTheThres
   orbit.views = 6;
   const std::vector<Rigid3d> truth = sim::OrbitPoses(rig, {0, 0, 25}, orbit);
   std::vector<PointCloud> clouds;
+  std::vector<ViewGrid> grids;
   std::vector<Eigen::Vector3d> centroids;  // sensor frame
   for (int v = 0; v < orbit.views; ++v) {
-    clouds.push_back(testing::SimulateView(rig, scene, truth[v], v).rec.cloud.Compact());
+    const OrganizedPointCloud grid = testing::SimulateView(rig, scene, truth[v], v).rec.cloud;
+    clouds.push_back(grid.Compact());
+    grids.push_back(IndexViewGrid(grid));
+    ASSERT_TRUE(grids.back().projection.fitted()) << "view " << v;
     ASSERT_GT(clouds.back().size(), 10000u) << "view " << v;
     Eigen::Vector3d c = Eigen::Vector3d::Zero();
     for (const auto& p : clouds.back().points) c += p;
@@ -109,33 +113,62 @@ TEST(RefineMultiView, ConvergesFromPerturbedPosesOnSimulatedDemoViewsAndTheThres
   o.points_per_level = {1000, 4000, 12000};
   o.max_iterations_per_level = 12;
   o.initial_threshold_mm = 10;  // 2 deg at the part's ~100 mm lever plus 2 mm
-  const IcpResult r = RefineMultiView(views, o);
-  ASSERT_NE(r.summary.status, IcpStatus::kNoOverlap) << r.summary.BriefReport();
-  double worst_mm = 0;
-  for (int v = 1; v < orbit.views; ++v) {
-    const RigidDifference d = Difference(r.world_from_sensor[v], truth[v]);
-    EXPECT_LT(d.angle_rad * 180 / M_PI, kDemoRotTolDeg) << "view " << v << "\n"
-                                                        << r.summary.BriefReport();
-    EXPECT_LT(centroid_error(r.world_from_sensor[v], v), kDemoCentroidTolMm) << "view " << v;
-    worst_mm = std::max(worst_mm, centroid_error(r.world_from_sensor[v], v));
-  }
-  EXPECT_LT(worst_mm, worst_start_mm / 3);
-  // The threshold schedule: fixed within a level, shrinking from level to level, never below
-  // the noise (the last one is 5 x the 80th percentile of ~0.05 mm residuals).
-  const auto& l = r.summary.levels;
-  ASSERT_EQ(l.size(), 3u);
-  EXPECT_EQ(l[0].threshold_start_mm, o.initial_threshold_mm);
-  EXPECT_LT(l[0].threshold_end_mm, l[0].threshold_start_mm);
-  for (size_t k = 0; k < l.size(); ++k) {
-    EXPECT_LE(l[k].threshold_end_mm, l[k].threshold_start_mm) << "level " << k;
-    if (k > 0) {
-      EXPECT_EQ(l[k].threshold_start_mm, l[k - 1].threshold_end_mm);
+  // The same views with their grids: projective association from level 1 on (level 0 starts
+  // 2 deg / 2 mm off, several pixels, where only the k-d tree finds the nearest points).
+  std::vector<IcpView> with_grids = views;
+  for (int v = 0; v < orbit.views; ++v) with_grids[v].grid = &grids[v];
+  for (const bool projective : {false, true}) {
+    SCOPED_TRACE(projective ? "projective association" : "k-d tree association");
+    const IcpResult r = RefineMultiView(projective ? with_grids : views, o);
+    const int projective_pairs = r.summary.levels.back().projective_pairs;
+    if (projective) {
+      // Every view pair of the fine levels associated on the grid, none of level 0.
+      EXPECT_EQ(r.summary.levels.front().projective_pairs, 0);
+      EXPECT_EQ(projective_pairs, r.summary.levels.back().overlapping_pairs);
+      EXPECT_GT(projective_pairs, 0);
+    } else {
+      EXPECT_EQ(projective_pairs, 0);
     }
+    ASSERT_NE(r.summary.status, IcpStatus::kNoOverlap) << r.summary.BriefReport();
+    double worst_mm = 0;
+    for (int v = 1; v < orbit.views; ++v) {
+      const RigidDifference d = Difference(r.world_from_sensor[v], truth[v]);
+      EXPECT_LT(d.angle_rad * 180 / M_PI, kDemoRotTolDeg) << "view " << v << "\n"
+                                                          << r.summary.BriefReport();
+      EXPECT_LT(centroid_error(r.world_from_sensor[v], v), kDemoCentroidTolMm) << "view " << v;
+      worst_mm = std::max(worst_mm, centroid_error(r.world_from_sensor[v], v));
+    }
+    EXPECT_LT(worst_mm, worst_start_mm / 3);
+    // The threshold schedule: fixed within a level, shrinking from level to level, never below
+    // the noise (the last one is 5 x the 80th percentile of ~0.05 mm residuals).
+    const auto& l = r.summary.levels;
+    ASSERT_EQ(l.size(), 3u);
+    EXPECT_EQ(l[0].threshold_start_mm, o.initial_threshold_mm);
+    EXPECT_LT(l[0].threshold_end_mm, l[0].threshold_start_mm);
+    for (size_t k = 0; k < l.size(); ++k) {
+      EXPECT_LE(l[k].threshold_end_mm, l[k].threshold_start_mm) << "level " << k;
+      if (k > 0) {
+        EXPECT_EQ(l[k].threshold_start_mm, l[k - 1].threshold_end_mm);
+      }
+    }
+    EXPECT_LT(l.back().threshold_end_mm, o.initial_threshold_mm / 10);
+    EXPECT_GT(l.back().threshold_end_mm, 0.1);
+    EXPECT_LT(l.back().rms_end_mm, 0.1);
+    EXPECT_LT(l.back().rms_end_mm, l.front().rms_start_mm / 10);
   }
-  EXPECT_LT(l.back().threshold_end_mm, o.initial_threshold_mm / 10);
-  EXPECT_GT(l.back().threshold_end_mm, 0.1);
-  EXPECT_LT(l.back().rms_end_mm, 0.1);
-  EXPECT_LT(l.back().rms_end_mm, l.front().rms_start_mm / 10);
+}
+
+// Projective association needs a grid that fits its cloud: one slot per point, inside the grid.
+TEST(RefineMultiView, GridThatDoesNotFitItsCloudThrows) {
+  const PointCloud a = WavySurface(Rigid3d(), -40, 20);
+  OrganizedPointCloud grid(10, 10);
+  grid.valid.assign(100, 1);
+  ViewGrid g = IndexViewGrid(grid);  // 100 slots for a cloud of thousands of points
+  IcpView t{&a, &g, Rigid3d(), true};
+  IcpView s{&a, nullptr, Rigid3d(), false};
+  EXPECT_THROW(RefineMultiView({t, s}), Error);
+  g.slot_of_point.assign(a.size(), 100);  // one past the last slot
+  EXPECT_THROW(RefineMultiView({t, s}), Error);
 }
 
 TEST(RefineMultiView, MissingNormalsThrow) {

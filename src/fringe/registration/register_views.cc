@@ -77,6 +77,16 @@ std::string RegistrationSummary::BriefReport() const {
 
 namespace {
 
+// A grid lists one slot inside it per cloud point (RefineMultiView would throw otherwise).
+bool GridFits(const ViewGrid& g, size_t points) {
+  const size_t slots = static_cast<size_t>(g.projection.width()) * g.projection.height();
+  if (g.slot_of_point.size() != points) return false;
+  for (uint32_t s : g.slot_of_point) {
+    if (s >= slots) return false;
+  }
+  return true;
+}
+
 // Normal-space samples measured per marker-free candidate.
 constexpr int kVerifySamples = 5000;
 
@@ -145,6 +155,13 @@ class Registrar {
       if (!in.cloud.has_normals()) {
         vr.path = ViewPath::kBadInput;
         vr.message = "the cloud has no normals (estimate them first)";
+        continue;
+      }
+      if (in.grid && !GridFits(*in.grid, in.cloud.size())) {
+        vr.path = ViewPath::kBadInput;
+        vr.message = StrCat("its grid (", in.grid->slot_of_point.size(), " slots of ",
+                            in.grid->projection.width(), "x", in.grid->projection.height(),
+                            ") does not fit its ", in.cloud.size(), " points");
         continue;
       }
       Vector3d lo, hi;
@@ -418,6 +435,7 @@ class Registrar {
     for (int v : ids) {
       IcpView x;
       x.cloud = &in_[v].cloud;
+      x.grid = in_[v].grid ? &*in_[v].grid : nullptr;
       x.world_from_sensor = r_.views[v].world_from_sensor;
       x.fixed = v == world_;
       iv.push_back(x);

@@ -42,6 +42,9 @@ struct RegistrationView {
   PointCloud cloud;                 // sensor frame, mm, unit normals toward the sensor
   std::vector<ViewMarker> markers;  // sensor frame; empty when the view has none
   std::optional<Rigid3d> initial_world_from_sensor;
+  // The organized grid `cloud` was compacted from (IndexViewGrid), when the view has one: the
+  // ICP then associates projectively onto this view (icp.h).
+  std::optional<ViewGrid> grid;
 };
 
 struct RegistrationOptions {

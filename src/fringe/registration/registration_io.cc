@@ -46,7 +46,9 @@ RegistrationView ReadRegistrationView(const std::filesystem::path& ply, double s
   const io::PlyHeader header = io::ReadPlyHeader(ply);
   std::string note;
   if (header.grid_width > 0 && header.grid_height > 0) {
-    v.cloud = ReadViewGrid(ply, scale_to_mm, &note).Compact();
+    const OrganizedPointCloud grid = ReadViewGrid(ply, scale_to_mm, &note);
+    v.cloud = grid.Compact();
+    v.grid = IndexViewGrid(grid);
   } else {
     v.cloud = io::ReadPly(ply).cloud;
     for (auto& p : v.cloud.points) p *= scale_to_mm;
@@ -175,6 +177,7 @@ json ToJson(const IcpLevelReport& l) {
           {"rms_end_mm", l.rms_end_mm},
           {"correspondences", l.correspondences},
           {"degenerate_directions", l.degenerate_directions},
+          {"projective_pairs", l.projective_pairs},
           {"last_step_rotation_deg", l.last_step_rotation_deg},
           {"last_step_translation_mm", l.last_step_translation_mm},
           {"last_step_sigmas", l.last_step_sigmas},

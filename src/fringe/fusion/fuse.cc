@@ -301,6 +301,66 @@ void FindCandidates(const Points& pts, const std::vector<ViewGrid>& grids,
       });
 }
 
+// Single-coverage smoothing (FusionOptions::smooth_radius_px): a passed-through point has no
+// other view to average with, so it is averaged with its own view's grid neighbours within
+// radius_px (a (2r+1)^2 window) ALONG ITS NORMAL only: it moves by the weighted mean of the
+// neighbours' offsets from its tangent plane (itself counting with offset 0), so it keeps its
+// place on the surface (no lateral smearing) while its depth noise averages down. Edge
+// preserving: neighbours whose normal differs by more than the compatibility angle, or whose
+// offset exceeds 3 noise sigmas (of a difference of two points), do not count, and the others
+// weigh by their point weight times a Gaussian of the offset (sigma = the noise of a
+// difference). The noise sigma is estimated from the data: 1.4826 * the median |offset| of
+// every passed point's right-hand grid neighbour, / sqrt(2). Returns one offset per passed
+// point (mm, along its normal); 0 for points without a usable normal.
+std::vector<float> SingleCoverageOffsets(const Points& pts, const std::vector<ViewGrid>& grids,
+                                         const std::vector<uint32_t>& passed, int radius_px,
+                                         float cos_max, FusionSummary* s) {
+  std::vector<float> offset(passed.size(), 0.f);
+  if (radius_px <= 0 || passed.empty()) return offset;
+  // Noise along the normal from neighbouring pairs.
+  std::vector<float> pair;
+  pair.reserve(passed.size());
+  for (uint32_t k : passed) {
+    if (!pts.usable[k]) continue;
+    const ViewGrid& g = grids[pts.view[k]];
+    const uint32_t slot = pts.grid[k];
+    if ((slot + 1) % static_cast<uint32_t>(g.width) == 0 || g.point[slot + 1] == kNone) continue;
+    if (pts.nrm[k].dot(g.nrm[slot + 1]) < cos_max) continue;
+    pair.push_back(std::abs(pts.nrm[k].dot(g.pos[slot + 1] - pts.pos[k])));
+  }
+  if (pair.size() < 10) return offset;
+  std::nth_element(pair.begin(), pair.begin() + static_cast<std::ptrdiff_t>(pair.size() / 2),
+                   pair.end());
+  const float sigma_pair = 1.4826f * pair[pair.size() / 2];  // of a difference of two points
+  s->single_coverage_noise_mm = sigma_pair / std::sqrt(2.f);
+  if (!(sigma_pair > 0)) return offset;
+  const float limit = 3 * sigma_pair;
+  tbb::parallel_for(size_t{0}, passed.size(), [&](size_t m) {
+    const uint32_t k = passed[m];
+    if (!pts.usable[k]) return;
+    const ViewGrid& g = grids[pts.view[k]];
+    const int col = static_cast<int>(pts.grid[k] % static_cast<uint32_t>(g.width));
+    const int row = static_cast<int>(pts.grid[k] / static_cast<uint32_t>(g.width));
+    const Eigen::Vector3f p = pts.pos[k], n = pts.nrm[k];
+    double sw = std::max(pts.weight[k], 1e-12f), swo = 0;
+    for (int r = std::max(0, row - radius_px); r <= std::min(g.height - 1, row + radius_px); ++r) {
+      for (int c = std::max(0, col - radius_px); c <= std::min(g.width - 1, col + radius_px); ++c) {
+        const size_t slot = static_cast<size_t>(r) * static_cast<size_t>(g.width) + c;
+        if ((r == row && c == col) || g.point[slot] == kNone) continue;
+        if (n.dot(g.nrm[slot]) < cos_max) continue;
+        const float off = n.dot(g.pos[slot] - p);
+        if (!(std::abs(off) <= limit)) continue;
+        const double w = std::max(g.weight[slot], 1e-12f) *
+                         std::exp(-0.5 * (off / sigma_pair) * (off / sigma_pair));
+        sw += w;
+        swo += w * off;
+      }
+    }
+    offset[m] = static_cast<float>(swo / sw);
+  });
+  return offset;
+}
+
 FusionResult Fail(FusionResult r, FusionStatus status, std::string message) {
   r.summary.status = status;
   r.summary.message = std::move(message);
@@ -386,6 +446,8 @@ void FusionOptions::Check() const {
                     border_ramp_px, "must be in [0, 100]");
   util::CheckOption(border_trim_px >= 0 && border_trim_px <= 100, kName, "border_trim_px",
                     border_trim_px, "must be in [0, 100]");
+  util::CheckOption(smooth_radius_px >= 0 && smooth_radius_px <= 10, kName, "smooth_radius_px",
+                    smooth_radius_px, "must be in [0, 10]");
   util::CheckOption(min_border_hole_px >= 1, kName, "min_border_hole_px", min_border_hole_px,
                     "must be >= 1");
   util::CheckOption(max_fit_error_px > 0, kName, "max_fit_error_px", max_fit_error_px,
@@ -445,6 +507,7 @@ nlohmann::json SummaryToJson(const FusionSummary& s) {
           {"moving_centres", s.moving_centres},
           {"converged", s.converged},
           {"median_spacing_mm", s.median_spacing_mm},
+          {"single_coverage_noise_mm", s.single_coverage_noise_mm},
           {"max_fit_error_px", s.max_fit_error_px},
           {"time_s", s.time_s},
           {"prepare_s", s.prepare_s},
@@ -983,7 +1046,7 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
     // A centre that gathered only its own view's points while a better compatible point of
     // another view lies within its radius: that point's cluster represents the place (the
     // seed is typically a mixed pixel off the surface, beyond the others' seed radius).
-    if (distinct == 1 && (flags[seeds[c]] & kOutranked)) {
+    if (distinct == 1 && ((flags[seeds[c]] & kOutranked) || options.drop_one_view_clusters)) {
       ++s.absorbed_clusters;
       continue;
     }
@@ -994,6 +1057,7 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
     result.support.push_back(static_cast<uint16_t>(distinct));
     ++s.clusters;
   }
+  std::vector<uint32_t> passed;
   for (size_t k = 0; k < pts.size(); ++k) {
     if (in_overlap[k] && assign[k] != kNone) continue;
     if (flags[k] & kAbsorbed) {
@@ -1011,11 +1075,18 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
       continue;
     }
     ++s.passed_through;
+    passed.push_back(static_cast<uint32_t>(k));
+  }
+  const std::vector<float> offset =
+      SingleCoverageOffsets(pts, grids, passed, options.smooth_radius_px, cos_max, &s);
+  for (size_t m = 0; m < passed.size(); ++m) {
+    const uint32_t k = passed[m];
     const FusionView& fv = views[pts.view[k]];
     const PointCloud& c = fv.cloud.cloud;
     const uint32_t i = pts.grid[k];
-    out.points.push_back(fv.world_from_sensor * c.points[i]);
-    out.normals.push_back(fv.world_from_sensor.RotateDirection(c.normals[i]));
+    const Eigen::Vector3d n = fv.world_from_sensor.RotateDirection(c.normals[i]);
+    out.points.push_back(fv.world_from_sensor * c.points[i] + static_cast<double>(offset[m]) * n);
+    out.normals.push_back(n);
     out.intensity.push_back(pts.intensity[k]);
     out.quality.push_back(pts.quality[k]);
     result.support.push_back(1);

@@ -1,9 +1,7 @@
 #include "fringe/fusion/fuse.h"
 
-#include <sys/resource.h>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
-#include <cstdio>
 
 #include <algorithm>
 #include <atomic>
@@ -178,12 +176,18 @@ void FindCandidates(const Points& pts, const std::vector<ViewGrid>& grids,
   // Each point's disc in its own view; per view the largest radius plus slack (seeds projecting
   // farther outside the frame can be near no point of the view).
   std::vector<GridProjection::Disc> disc(pts.size());
+  // The disc of the radius without the travel: most points find their k_max nearest seeds in it
+  // (see the query below).
+  std::vector<float> inner_radius_px(pts.size(), 0.f);
   std::vector<uint8_t> has_disc(pts.size(), 0);
   tbb::parallel_for(size_t{0}, pts.size(), [&](size_t i) {
     if (!in_overlap[i] || !grids[pts.view[i]].fitted) return;
     const ViewGrid& g = grids[pts.view[i]];
-    GridProjection::Disc d;
-    if (!DiscOf(g, pts.pos[i], pts.radius_mm[i] + travel_mm, &d)) return;
+    GridProjection::Disc d, inner;
+    if (!DiscOf(g, pts.pos[i], pts.radius_mm[i] + travel_mm, &d) ||
+        !DiscOf(g, pts.pos[i], pts.radius_mm[i], &inner)) {
+      return;
+    }
     // Seeds sit in the bucket of their rounded, frame-clamped projection: rounding moves them
     // by at most 0.71 px; clamping moves no seed farther from a place inside the frame, and the
     // disc's centre lies within `out` of the frame.
@@ -191,6 +195,7 @@ void FindCandidates(const Points& pts, const std::vector<ViewGrid>& grids,
                                  d.row - std::clamp(d.row, 0.f, g.height - 1.f));
     d.radius_px += 0.71f + 2 * out;
     disc[i] = d;
+    inner_radius_px[i] = inner.radius_px + 0.71f + 2 * out;
     has_disc[i] = 1;
   });
 
@@ -264,26 +269,38 @@ void FindCandidates(const Points& pts, const std::vector<ViewGrid>& grids,
           if (!in_overlap[i]) continue;
           uint8_t n = 0;
           const Eigen::Vector3f p = pts.pos[i];
-          const float r = pts.radius_mm[i] + travel_mm, r_sq = r * r;
+          const float r = pts.radius_mm[i] + travel_mm;
           if (has_disc[i]) {
             const ViewGrid& g = grids[pts.view[i]];
             const std::vector<uint32_t>& start = bucket_start[pts.view[i]];
             const std::vector<Entry>& entries = bucket[pts.view[i]];
             const GridProjection::Disc& d = disc[i];
-            const int r0 = std::max(0, Clamped(std::ceil(d.row - d.radius_px), g.height));
-            const int r1 =
-                std::min(g.height - 1, Clamped(std::floor(d.row + d.radius_px), g.height));
-            for (int row = r0; row <= r1; ++row) {
-              const float dr = static_cast<float>(row) - d.row;
-              const float half = std::sqrt(std::max(0.f, d.radius_px * d.radius_px - dr * dr));
-              const int c0 = std::max(0, Clamped(std::ceil(d.col - half), g.width));
-              const int c1 = std::min(g.width - 1, Clamped(std::floor(d.col + half), g.width));
-              if (c0 > c1) continue;
-              const size_t base = static_cast<size_t>(row) * static_cast<size_t>(g.width);
-              for (uint32_t m = start[base + c0]; m < start[base + c1 + 1]; ++m) {
-                const float dist_sq = (entries[m].pos - p).squaredNorm();
-                if (dist_sq <= r_sq) insert(list, &n, Found(dist_sq, entries[m].centre));
+            // The seeds within dist of p (radius_px: a disc holding them all) into the list.
+            auto scan = [&](float radius_px, float dist) {
+              const float dist_sq = dist * dist;
+              const int r0 = std::max(0, Clamped(std::ceil(d.row - radius_px), g.height));
+              const int r1 =
+                  std::min(g.height - 1, Clamped(std::floor(d.row + radius_px), g.height));
+              for (int row = r0; row <= r1; ++row) {
+                const float dr = static_cast<float>(row) - d.row;
+                const float half = std::sqrt(std::max(0.f, radius_px * radius_px - dr * dr));
+                const int c0 = std::max(0, Clamped(std::ceil(d.col - half), g.width));
+                const int c1 = std::min(g.width - 1, Clamped(std::floor(d.col + half), g.width));
+                if (c0 > c1) continue;
+                const size_t base = static_cast<size_t>(row) * static_cast<size_t>(g.width);
+                for (uint32_t m = start[base + c0]; m < start[base + c1 + 1]; ++m) {
+                  const float e_sq = (entries[m].pos - p).squaredNorm();
+                  if (e_sq <= dist_sq) insert(list, &n, Found(e_sq, entries[m].centre));
+                }
               }
+            };
+            // k_max seeds within the radius without the travel are the k_max nearest of all
+            // (every other seed is farther): the same list as the full search, on a disc about
+            // half its area; otherwise the full radius.
+            scan(inner_radius_px[i], pts.radius_mm[i]);
+            if (n < k_max) {
+              n = 0;
+              scan(d.radius_px, r);
             }
           } else {
             for (size_t v = 0; v < n_views; ++v) {

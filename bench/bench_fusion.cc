@@ -289,6 +289,15 @@ int main(int argc, char** argv) {
   app.add_option("--spacing-factor", options.spacing_factor,
                  "Fusion: neighbourhood radius, spacings")
       ->capture_default_str();
+  app.add_option("--smooth-radius", options.smooth_radius_px,
+                 "Fusion: single-coverage smoothing window radius, px (0: off)")
+      ->capture_default_str();
+  app.add_option("--drop-one-view-clusters", options.drop_one_view_clusters,
+                 "Fusion: drop clusters of one view's points (1) or only outranked ones (0)")
+      ->capture_default_str();
+  app.add_option("--border-trim", options.border_trim_px,
+                 "Fusion: single-coverage points this close to a border are trimmed, px")
+      ->capture_default_str();
   bool no_cgal = false;
   app.add_flag("--no-cgal", no_cgal, "Skip CGAL's Poisson (the meshing peer)");
   CLI11_PARSE(app, argc, argv);

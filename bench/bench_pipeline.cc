@@ -27,6 +27,7 @@
 // from the board images: what the calibration's error costs the pose and RMS figures.
 //
 // Usage: bench_pipeline [--json] [--views 8] [--work DIR] [--rig-scale 1] [--poisson-depth 0]
+//                       [--mesh-resolution 0.75]
 //                       [--keep] [--scan DIR] [--rig FILE] [--mesh-depths 8,9,10]
 // --scan DIR reuses a scan folder simulated by an earlier run (--keep leaves it in WORK/scan)
 // instead of simulating again (simulate_s is then null).
@@ -101,7 +102,11 @@ int main(int argc, char** argv) {
   app.add_option("--views", views, "Views around the part")->check(CLI::Range(2, 64));
   app.add_option("--rig-scale", rig_scale, "Camera/projector resolution scale (1: 1280x1024)")
       ->check(CLI::Range(0.1, 1.0));
-  app.add_option("--poisson-depth", options.mesh.poisson_depth, "Poisson octree depth")
+  app.add_option("--poisson-depth", options.mesh.poisson_depth,
+                 "Poisson octree depth (0: from the point spacing and --mesh-resolution)")
+      ->capture_default_str();
+  app.add_option("--mesh-resolution", options.mesh.resolution_mm,
+                 "Wanted mesh resolution, mm (0: as fine as the points allow)")
       ->capture_default_str();
   app.add_option("--work", work, "Work folder (scan and result are written below it)");
   app.add_flag("--keep", keep, "Keep the work folder");

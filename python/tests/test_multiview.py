@@ -11,7 +11,7 @@ import fringe
 from conftest import RIG_SCALE, SENSOR_NOISE_DN, run_cli
 
 TIMING_KEYS = {"seconds", "time_s", "poisson_s", "total_s", "prepare_s", "overlap_s", "candidates_s",
-               "cluster_s", "output_s"}
+               "cluster_s", "output_s", "spacing_s", "trim_s", "check_s"}
 # A coarse Poisson octree keeps the meshing to about a second (depth 10, the default, takes
 # ~35 s on these views on the 2-core CI machine).
 POISSON_DEPTH = 6

@@ -268,8 +268,7 @@ void WriteCentres(const fs::path& path, const FolderCalibration& r,
   util::WriteAtomically(path, [&](const fs::path& tmp) {
     std::ofstream out(tmp, std::ios::binary);
     out << os.str();
-    out.close();
-    if (!out) throw Error(util::StrCat(path.string(), ": write failed"));
+    util::CloseOutput(out, path);
   });
 }
 

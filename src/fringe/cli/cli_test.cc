@@ -10,6 +10,7 @@
 #include <tuple>
 #include <vector>
 
+#include "file_size_limit.h"
 #include "fringe/calib/calibrate_folder.h"
 #include "fringe/cli/run_cli_for_test.h"
 #include "fringe/io/calibration_io.h"
@@ -64,14 +65,20 @@ TEST(Cli, InfoOnPlyAndTruncatedPly) {
   EXPECT_EQ(std::count(err.begin(), err.end(), '\n'), 1) << "one-line error: " << err;
 }
 
-TEST(Cli, ScanKeepGoingExitsWith3AndFailureExitsWith1) {
-  test::TempDir dir;
+// A small scan: quarter-size rig, 2 views of the sphere (truth maps when `truth_maps`).
+void SimulateSmallSphereScan(const std::filesystem::path& scan_dir, bool truth_maps) {
   sim::ScanOptions o;
   o.scene = "sphere";
   o.views = 2;
   o.calibration_images = 0;
   o.render.sensor.supersampling = 1;
-  sim::SimulateScan(sim::ScaledRig(StereoRig::Reference(), 0.25), o, dir / "scan");
+  o.truth_maps = truth_maps;
+  sim::SimulateScan(sim::ScaledRig(StereoRig::Reference(), 0.25), o, scan_dir);
+}
+
+TEST(Cli, ScanKeepGoingExitsWith3AndFailureExitsWith1) {
+  test::TempDir dir;
+  SimulateSmallSphereScan(dir / "scan", true);
   std::filesystem::remove(dir / "scan" / "views" / "001" / "left" / "00.png");
   const std::string rig = (dir / "scan" / "truth" / "rig.json").string();
   const std::string scan = (dir / "scan").string(), out = (dir / "out").string();
@@ -88,6 +95,70 @@ TEST(Cli, ScanKeepGoingExitsWith3AndFailureExitsWith1) {
   EXPECT_NE(stdout_text.find("\"status\": \"partial\""), std::string::npos) << stdout_text;
   EXPECT_TRUE(std::filesystem::exists(dir / "out" / "views" / "000.ply"));
   EXPECT_EQ(RunCli({"--threads", "-1", "scan", scan, "--out", out}), 2);
+}
+
+TEST(Cli, SimulateOneCameraScanThenScanIt) {
+  // `fringe simulate ... --cameras 1 --both-directions --exposures 1,0.5 && fringe scan ...`:
+  // the camera + projector scanner end to end from the CLI (quarter-size rig, 2 views of the
+  // sphere on its marked plate).
+  test::TempDir dir;
+  const std::string scan = (dir / "scan").string(), out = (dir / "out").string();
+  std::string stdout_text, err;
+  ASSERT_EQ(RunCli({"-q", "simulate", "sphere", "--rig-scale", "0.25", "--views", "2", "--cameras",
+                    "1", "--both-directions", "--exposures", "1,0.5", "--calibration-images", "0",
+                    "--supersampling", "1", "--no-truth-maps", "--out", scan},
+                   &stdout_text, &err),
+            0)
+      << err;
+  EXPECT_NE(stdout_text.find("one camera + projector"), std::string::npos) << stdout_text;
+  const scan::ScanFolder folder = scan::ScanFolder::Open(dir / "scan");
+  EXPECT_FALSE(folder.stereo());
+  EXPECT_TRUE(folder.both_directions());
+  EXPECT_TRUE(std::filesystem::exists(dir / "scan/views/001/left/horizontal/e1/00.png"));
+  EXPECT_FALSE(std::filesystem::exists(dir / "scan/views/001/right"));
+  ASSERT_EQ(RunCli({"-q", "scan", scan, "--calib", (dir / "scan/truth/rig.json").string(), "--out",
+                    out, "--poisson-depth", "7", "--no-report"},
+                   &stdout_text, &err),
+            0)
+      << err;
+  const nlohmann::json summary = io::ReadJson(dir / "out" / "summary.json");
+  EXPECT_EQ(summary["mode"].get<std::string>(), "camera-projector");
+  EXPECT_EQ(summary["views_ok"].get<int>(), 2);
+  for (const auto& v : summary["view_results"]) {
+    EXPECT_GT(v["decode_valid_right"].get<double>(), 0.2) << "the horizontal stack is decoded";
+  }
+  // Against the truth: the bounds of the pipeline's camera + projector tests.
+  EXPECT_LT(summary["pose_trans_err_mm"].get<double>(), 0.1);
+  EXPECT_LT(summary["single_view_all_rms_mm"].get<double>(), 0.15);
+  // Both directions need one camera: a usage error.
+  EXPECT_EQ(RunCli({"simulate", "sphere", "--both-directions", "--out", (dir / "stereo").string()},
+                   nullptr, &err),
+            2);
+  EXPECT_NE(err.find("--cameras 1"), std::string::npos) << err;
+}
+
+TEST(Cli, ScanOnAFullDiskExitsWith1NamingTheFileAndTheStage) {
+  // A full disk simulated by a file size limit (tests/file_size_limit.h): 100 kB fit every JSON
+  // file but no view cloud.
+  test::TempDir dir;
+  SimulateSmallSphereScan(dir / "scan", false);
+  const std::string rig = (dir / "scan" / "truth" / "rig.json").string();
+  std::string err;
+  int rc = 0;
+  {
+    const test::FileSizeLimit full(100000);
+    rc = RunCli({"-q", "scan", (dir / "scan").string(), "--calib", rig, "--out",
+                 (dir / "out").string(), "--keep-going"},
+                nullptr, &err);
+  }
+  EXPECT_EQ(rc, 1) << err;
+  EXPECT_NE(err.find("stage 'write'"), std::string::npos) << err;
+  EXPECT_NE(err.find((dir / "out" / "views" / "00").string()), std::string::npos) << err;
+  EXPECT_NE(err.find("File too large"), std::string::npos) << err;
+  EXPECT_FALSE(std::filesystem::exists(dir / "out"));
+  for (const auto& e : std::filesystem::directory_iterator(dir.path())) {
+    EXPECT_EQ(e.path().filename(), "scan") << "left behind: " << e.path();
+  }
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -29,7 +29,11 @@ void AddDemoCommand(CLI::App& app) {
                   "half size keeps the demo short, see README)")
       ->capture_default_str();
   sub->add_option("--poisson-depth", a->options.scan.mesh.poisson_depth,
-                  "Poisson octree depth of the mesh")
+                  "Poisson octree depth of the mesh (0: from the point spacing and "
+                  "--mesh-resolution)")
+      ->capture_default_str();
+  sub->add_option("--mesh-resolution", a->options.scan.mesh.resolution_mm,
+                  "Wanted mesh resolution, mm (0: as fine as the points allow)")
       ->capture_default_str();
   sub->add_option("--seed", a->options.seed, "Random seed")->capture_default_str();
   sub->add_option("--calibration-images", a->options.calibration_images,

@@ -48,8 +48,12 @@ void AddScanCommand(CLI::App& app) {
       ->capture_default_str();
   sub->add_option(
          "--poisson-depth", a->options.mesh.poisson_depth,
-         "Poisson octree depth of the mesh (0: from the point spacing; 10: ~0.3 mm cells on "
-         "300 mm)")
+         "Poisson octree depth of the mesh (0: from the point spacing and --mesh-resolution; "
+         "10: ~0.3 mm cells on 300 mm)")
+      ->capture_default_str();
+  sub->add_option("--mesh-resolution", a->options.mesh.resolution_mm,
+                  "Wanted mesh resolution, mm: the automatic Poisson depth's finest cell is at "
+                  "most this (or 2 point spacings if coarser; 0: as fine as the points allow)")
       ->capture_default_str();
   sub->add_flag(
       "--no-markers", [a](int64_t) { a->options.registration.use_markers = false; },

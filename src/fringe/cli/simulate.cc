@@ -70,6 +70,19 @@ void AddSimulateCommand(CLI::App& app) {
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
   sub->add_flag("--no-noise", a->no_noise, "Noise-free images");
+  sub->add_option("--cameras", a->options.cameras,
+                  "2: stereo views; 1: camera + projector views (left/ only, calibration/ as "
+                  "board pose folders with both fringe directions)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({1, 2}));
+  sub->add_flag("--both-directions", a->options.both_directions,
+                "With --cameras 1: horizontal fringes too (views hold left/vertical/ and "
+                "left/horizontal/; scheme_horizontal.json)");
+  sub->add_option("--exposures", a->options.exposures,
+                  "Exposure factors of every stack, comma separated (e.g. 1,0.3): more than one "
+                  "writes exposure folders e0/, e1/, ...")
+      ->delimiter(',')
+      ->capture_default_str();
   sub->add_flag("!--no-truth-maps", a->options.truth_maps,
                 "Skip the per-view truth maps (they take ~30 MB per view and camera)");
   sub->callback([a, gamma_option] {
@@ -94,6 +107,10 @@ void AddSimulateCommand(CLI::App& app) {
     }
     sim::ScanOptions options = a->options;
     options.scene = a->scene;
+    if (options.both_directions && options.cameras != 1) {
+      throw CLI::ValidationError("--both-directions",
+                                 "needs --cameras 1 (stereo matching uses vertical fringes only)");
+    }
     if (options.views > 0 && rig.projector) {
       options.scheme =
           phase::SchemeFromNameOrFile(a->scheme, rig.projector->width, rig.projector->height);

@@ -1,9 +1,7 @@
 #include "fringe/fusion/fuse.h"
 
-#include <sys/resource.h>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
-#include <cstdio>
 
 #include <algorithm>
 #include <atomic>
@@ -178,12 +176,18 @@ void FindCandidates(const Points& pts, const std::vector<ViewGrid>& grids,
   // Each point's disc in its own view; per view the largest radius plus slack (seeds projecting
   // farther outside the frame can be near no point of the view).
   std::vector<GridProjection::Disc> disc(pts.size());
+  // The disc of the radius without the travel: most points find their k_max nearest seeds in it
+  // (see the query below).
+  std::vector<float> inner_radius_px(pts.size(), 0.f);
   std::vector<uint8_t> has_disc(pts.size(), 0);
   tbb::parallel_for(size_t{0}, pts.size(), [&](size_t i) {
     if (!in_overlap[i] || !grids[pts.view[i]].fitted) return;
     const ViewGrid& g = grids[pts.view[i]];
-    GridProjection::Disc d;
-    if (!DiscOf(g, pts.pos[i], pts.radius_mm[i] + travel_mm, &d)) return;
+    GridProjection::Disc d, inner;
+    if (!DiscOf(g, pts.pos[i], pts.radius_mm[i] + travel_mm, &d) ||
+        !DiscOf(g, pts.pos[i], pts.radius_mm[i], &inner)) {
+      return;
+    }
     // Seeds sit in the bucket of their rounded, frame-clamped projection: rounding moves them
     // by at most 0.71 px; clamping moves no seed farther from a place inside the frame, and the
     // disc's centre lies within `out` of the frame.
@@ -191,6 +195,7 @@ void FindCandidates(const Points& pts, const std::vector<ViewGrid>& grids,
                                  d.row - std::clamp(d.row, 0.f, g.height - 1.f));
     d.radius_px += 0.71f + 2 * out;
     disc[i] = d;
+    inner_radius_px[i] = inner.radius_px + 0.71f + 2 * out;
     has_disc[i] = 1;
   });
 
@@ -264,26 +269,38 @@ void FindCandidates(const Points& pts, const std::vector<ViewGrid>& grids,
           if (!in_overlap[i]) continue;
           uint8_t n = 0;
           const Eigen::Vector3f p = pts.pos[i];
-          const float r = pts.radius_mm[i] + travel_mm, r_sq = r * r;
+          const float r = pts.radius_mm[i] + travel_mm;
           if (has_disc[i]) {
             const ViewGrid& g = grids[pts.view[i]];
             const std::vector<uint32_t>& start = bucket_start[pts.view[i]];
             const std::vector<Entry>& entries = bucket[pts.view[i]];
             const GridProjection::Disc& d = disc[i];
-            const int r0 = std::max(0, Clamped(std::ceil(d.row - d.radius_px), g.height));
-            const int r1 =
-                std::min(g.height - 1, Clamped(std::floor(d.row + d.radius_px), g.height));
-            for (int row = r0; row <= r1; ++row) {
-              const float dr = static_cast<float>(row) - d.row;
-              const float half = std::sqrt(std::max(0.f, d.radius_px * d.radius_px - dr * dr));
-              const int c0 = std::max(0, Clamped(std::ceil(d.col - half), g.width));
-              const int c1 = std::min(g.width - 1, Clamped(std::floor(d.col + half), g.width));
-              if (c0 > c1) continue;
-              const size_t base = static_cast<size_t>(row) * static_cast<size_t>(g.width);
-              for (uint32_t m = start[base + c0]; m < start[base + c1 + 1]; ++m) {
-                const float dist_sq = (entries[m].pos - p).squaredNorm();
-                if (dist_sq <= r_sq) insert(list, &n, Found(dist_sq, entries[m].centre));
+            // The seeds within dist of p (radius_px: a disc holding them all) into the list.
+            auto scan = [&](float radius_px, float dist) {
+              const float dist_sq = dist * dist;
+              const int r0 = std::max(0, Clamped(std::ceil(d.row - radius_px), g.height));
+              const int r1 =
+                  std::min(g.height - 1, Clamped(std::floor(d.row + radius_px), g.height));
+              for (int row = r0; row <= r1; ++row) {
+                const float dr = static_cast<float>(row) - d.row;
+                const float half = std::sqrt(std::max(0.f, radius_px * radius_px - dr * dr));
+                const int c0 = std::max(0, Clamped(std::ceil(d.col - half), g.width));
+                const int c1 = std::min(g.width - 1, Clamped(std::floor(d.col + half), g.width));
+                if (c0 > c1) continue;
+                const size_t base = static_cast<size_t>(row) * static_cast<size_t>(g.width);
+                for (uint32_t m = start[base + c0]; m < start[base + c1 + 1]; ++m) {
+                  const float e_sq = (entries[m].pos - p).squaredNorm();
+                  if (e_sq <= dist_sq) insert(list, &n, Found(e_sq, entries[m].centre));
+                }
               }
+            };
+            // k_max seeds within the radius without the travel are the k_max nearest of all
+            // (every other seed is farther): the same list as the full search, on a disc about
+            // half its area; otherwise the full radius.
+            scan(inner_radius_px[i], pts.radius_mm[i]);
+            if (n < k_max) {
+              n = 0;
+              scan(d.radius_px, r);
             }
           } else {
             for (size_t v = 0; v < n_views; ++v) {
@@ -299,6 +316,66 @@ void FindCandidates(const Points& pts, const std::vector<ViewGrid>& grids,
           for (int k = 0; k < n; ++k) (*candidates)[i * k_max + k] = list[k].second;
         }
       });
+}
+
+// Single-coverage smoothing (FusionOptions::smooth_radius_px): a passed-through point has no
+// other view to average with, so it is averaged with its own view's grid neighbours within
+// radius_px (a (2r+1)^2 window) ALONG ITS NORMAL only: it moves by the weighted mean of the
+// neighbours' offsets from its tangent plane (itself counting with offset 0), so it keeps its
+// place on the surface (no lateral smearing) while its depth noise averages down. Edge
+// preserving: neighbours whose normal differs by more than the compatibility angle, or whose
+// offset exceeds 3 noise sigmas (of a difference of two points), do not count, and the others
+// weigh by their point weight times a Gaussian of the offset (sigma = the noise of a
+// difference). The noise sigma is estimated from the data: 1.4826 * the median |offset| of
+// every passed point's right-hand grid neighbour, / sqrt(2). Returns one offset per passed
+// point (mm, along its normal); 0 for points without a usable normal.
+std::vector<float> SingleCoverageOffsets(const Points& pts, const std::vector<ViewGrid>& grids,
+                                         const std::vector<uint32_t>& passed, int radius_px,
+                                         float cos_max, FusionSummary* s) {
+  std::vector<float> offset(passed.size(), 0.f);
+  if (radius_px <= 0 || passed.empty()) return offset;
+  // Noise along the normal from neighbouring pairs.
+  std::vector<float> pair;
+  pair.reserve(passed.size());
+  for (uint32_t k : passed) {
+    if (!pts.usable[k]) continue;
+    const ViewGrid& g = grids[pts.view[k]];
+    const uint32_t slot = pts.grid[k];
+    if ((slot + 1) % static_cast<uint32_t>(g.width) == 0 || g.point[slot + 1] == kNone) continue;
+    if (pts.nrm[k].dot(g.nrm[slot + 1]) < cos_max) continue;
+    pair.push_back(std::abs(pts.nrm[k].dot(g.pos[slot + 1] - pts.pos[k])));
+  }
+  if (pair.size() < 10) return offset;
+  std::nth_element(pair.begin(), pair.begin() + static_cast<std::ptrdiff_t>(pair.size() / 2),
+                   pair.end());
+  const float sigma_pair = 1.4826f * pair[pair.size() / 2];  // of a difference of two points
+  s->single_coverage_noise_mm = sigma_pair / std::sqrt(2.f);
+  if (!(sigma_pair > 0)) return offset;
+  const float limit = 3 * sigma_pair;
+  tbb::parallel_for(size_t{0}, passed.size(), [&](size_t m) {
+    const uint32_t k = passed[m];
+    if (!pts.usable[k]) return;
+    const ViewGrid& g = grids[pts.view[k]];
+    const int col = static_cast<int>(pts.grid[k] % static_cast<uint32_t>(g.width));
+    const int row = static_cast<int>(pts.grid[k] / static_cast<uint32_t>(g.width));
+    const Eigen::Vector3f p = pts.pos[k], n = pts.nrm[k];
+    double sw = std::max(pts.weight[k], 1e-12f), swo = 0;
+    for (int r = std::max(0, row - radius_px); r <= std::min(g.height - 1, row + radius_px); ++r) {
+      for (int c = std::max(0, col - radius_px); c <= std::min(g.width - 1, col + radius_px); ++c) {
+        const size_t slot = static_cast<size_t>(r) * static_cast<size_t>(g.width) + c;
+        if ((r == row && c == col) || g.point[slot] == kNone) continue;
+        if (n.dot(g.nrm[slot]) < cos_max) continue;
+        const float off = n.dot(g.pos[slot] - p);
+        if (!(std::abs(off) <= limit)) continue;
+        const double w = std::max(g.weight[slot], 1e-12f) *
+                         std::exp(-0.5 * (off / sigma_pair) * (off / sigma_pair));
+        sw += w;
+        swo += w * off;
+      }
+    }
+    offset[m] = static_cast<float>(swo / sw);
+  });
+  return offset;
 }
 
 FusionResult Fail(FusionResult r, FusionStatus status, std::string message) {
@@ -386,6 +463,8 @@ void FusionOptions::Check() const {
                     border_ramp_px, "must be in [0, 100]");
   util::CheckOption(border_trim_px >= 0 && border_trim_px <= 100, kName, "border_trim_px",
                     border_trim_px, "must be in [0, 100]");
+  util::CheckOption(smooth_radius_px >= 0 && smooth_radius_px <= 10, kName, "smooth_radius_px",
+                    smooth_radius_px, "must be in [0, 10]");
   util::CheckOption(min_border_hole_px >= 1, kName, "min_border_hole_px", min_border_hole_px,
                     "must be >= 1");
   util::CheckOption(max_fit_error_px > 0, kName, "max_fit_error_px", max_fit_error_px,
@@ -445,6 +524,7 @@ nlohmann::json SummaryToJson(const FusionSummary& s) {
           {"moving_centres", s.moving_centres},
           {"converged", s.converged},
           {"median_spacing_mm", s.median_spacing_mm},
+          {"single_coverage_noise_mm", s.single_coverage_noise_mm},
           {"max_fit_error_px", s.max_fit_error_px},
           {"time_s", s.time_s},
           {"prepare_s", s.prepare_s},
@@ -983,7 +1063,7 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
     // A centre that gathered only its own view's points while a better compatible point of
     // another view lies within its radius: that point's cluster represents the place (the
     // seed is typically a mixed pixel off the surface, beyond the others' seed radius).
-    if (distinct == 1 && (flags[seeds[c]] & kOutranked)) {
+    if (distinct == 1 && ((flags[seeds[c]] & kOutranked) || options.drop_one_view_clusters)) {
       ++s.absorbed_clusters;
       continue;
     }
@@ -994,6 +1074,7 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
     result.support.push_back(static_cast<uint16_t>(distinct));
     ++s.clusters;
   }
+  std::vector<uint32_t> passed;
   for (size_t k = 0; k < pts.size(); ++k) {
     if (in_overlap[k] && assign[k] != kNone) continue;
     if (flags[k] & kAbsorbed) {
@@ -1011,11 +1092,18 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
       continue;
     }
     ++s.passed_through;
+    passed.push_back(static_cast<uint32_t>(k));
+  }
+  const std::vector<float> offset =
+      SingleCoverageOffsets(pts, grids, passed, options.smooth_radius_px, cos_max, &s);
+  for (size_t m = 0; m < passed.size(); ++m) {
+    const uint32_t k = passed[m];
     const FusionView& fv = views[pts.view[k]];
     const PointCloud& c = fv.cloud.cloud;
     const uint32_t i = pts.grid[k];
-    out.points.push_back(fv.world_from_sensor * c.points[i]);
-    out.normals.push_back(fv.world_from_sensor.RotateDirection(c.normals[i]));
+    const Eigen::Vector3d n = fv.world_from_sensor.RotateDirection(c.normals[i]);
+    out.points.push_back(fv.world_from_sensor * c.points[i] + static_cast<double>(offset[m]) * n);
+    out.normals.push_back(n);
     out.intensity.push_back(pts.intensity[k]);
     out.quality.push_back(pts.quality[k]);
     result.support.push_back(1);

@@ -112,7 +112,15 @@ struct FusionOptions {
   int border_ramp_px = 3;
   // Single-coverage points closer than this to an invalid slot of their view are absorbed by
   // a better point of another view within their radius, else trimmed, px, [0, 100]; 0: never.
-  int border_trim_px = 2;
+  int border_trim_px = 3;
+  // Drop every cluster that gathered only its own view's points (its seed has a compatible
+  // point of another view within its radius, whose cluster represents the place); false: only
+  // those whose seed that point outranks.
+  bool drop_one_view_clusters = true;
+  // Passed-through (single-coverage) points are averaged along their normal with their own
+  // view's compatible grid neighbours within this many pixels (see fuse.cc,
+  // SingleCoverageOffsets), [0, 10]; 0: passed through unchanged.
+  int smooth_radius_px = 1;
   // Invalid regions smaller than this (decoding dropouts inside a surface) make no border, >= 1.
   int min_border_hole_px = 16;
   // A view whose points project to their grid slots with a larger error is refused (kBadView:
@@ -158,7 +166,10 @@ struct FusionSummary {
   int64_t moving_centres = 0;    // centres that moved >= convergence_mm in the last iteration
   double last_max_shift_mm = 0;  // largest centre move of the last iteration
   double median_spacing_mm = 0;  // over all views
-  double max_fit_error_px = 0;   // largest error of the grids' fitted projections
+  // Depth noise of one point along its normal, estimated from the single-coverage points'
+  // grid neighbours (0 when not smoothed), mm.
+  double single_coverage_noise_mm = 0;
+  double max_fit_error_px = 0;  // largest error of the grids' fitted projections
   double time_s = 0;
   // Wall time of the stages (sum ~ time_s): views checked and points gathered with weights and
   // radii; overlap and seeds; candidate centres; clustering iterations; output.

@@ -73,6 +73,8 @@ void MeshOptions::Check() const {
                     "poisson_depth", poisson_depth, "must be 0 (from the cloud) or in [5, 14]");
   util::CheckOption(cell_spacings > 0 && cell_spacings <= 100, kName, "cell_spacings",
                     cell_spacings, "must be in (0, 100]");
+  util::CheckOption(resolution_mm >= 0 && std::isfinite(resolution_mm), kName, "resolution_mm",
+                    resolution_mm, "must be finite and >= 0");
   util::CheckOption(max_auto_depth >= 5 && max_auto_depth <= 14, kName, "max_auto_depth",
                     max_auto_depth, "must be in [5, 14]");
   util::CheckOption(trim_density_quantile >= 0 && trim_density_quantile < 1, kName,
@@ -111,8 +113,9 @@ const char* ToString(MeshStatus s) {
 std::string MeshSummary::BriefReport() const {
   std::string s = util::StrCat(
       "mesh: ", ToString(status), ", ", input_points, " points (spacing ", spacing_mm,
-      " mm) -> depth ", poisson_depth, ": ", poisson_triangles, " Poisson triangles, ",
-      trimmed_vertices, " vertices trimmed -> ", vertices, " vertices, ", triangles, " triangles, ",
+      " mm) -> depth ", poisson_depth, " (", cell_mm, " mm cells): ", poisson_triangles,
+      " Poisson triangles, ", trimmed_vertices, " vertices trimmed -> ", vertices, " vertices, ",
+      triangles, " triangles, ",
       watertight ? std::string("watertight")
                  : util::StrCat("not watertight (", boundary_edges, " boundary edges, ",
                                 non_manifold_edges, " non-manifold edges, ", non_manifold_vertices,
@@ -133,6 +136,7 @@ nlohmann::json SummaryToJson(const MeshSummary& s) {
           {"poisson_triangles", s.poisson_triangles},
           {"library", s.library},
           {"poisson_depth", s.poisson_depth},
+          {"cell_mm", s.cell_mm},
           {"closed_holes", s.closed_holes},
           {"spacing_mm", s.spacing_mm},
           {"trimmed_vertices", s.trimmed_vertices},
@@ -188,12 +192,14 @@ MeshResult MeshPoisson(const PointCloud& cloud, const MeshOptions& options) {
   }
   constexpr double kScale = 1.1;  // Poisson's cube: the bounding box's largest side * 1.1
   s.poisson_depth = options.poisson_depth;
+  const double cube_mm = kScale * (pcd.GetMaxBound() - pcd.GetMinBound()).maxCoeff();
   if (s.poisson_depth == 0) {
-    const double extent_mm = kScale * (pcd.GetMaxBound() - pcd.GetMinBound()).maxCoeff();
-    const double cells = extent_mm / std::max(options.cell_spacings * s.spacing_mm, 1e-9);
+    const double cell_mm = std::max(options.cell_spacings * s.spacing_mm, options.resolution_mm);
+    const double cells = cube_mm / std::max(cell_mm, 1e-9);
     s.poisson_depth = std::clamp(static_cast<int>(std::ceil(std::log2(std::max(cells, 1.0)))), 5,
                                  options.max_auto_depth);
   }
+  s.cell_mm = cube_mm / std::pow(2.0, s.poisson_depth);
   s.library = ToString(options.library);
   s.spacing_s = total.ElapsedSeconds();
   util::Timer timer;
@@ -207,6 +213,7 @@ MeshResult MeshPoisson(const PointCloud& cloud, const MeshOptions& options) {
     internal::IndexedMesh m;
     mesh = std::make_shared<open3d::geometry::TriangleMesh>();
     s.poisson_depth = 0;  // no octree
+    s.cell_mm = 0;
     if (internal::CgalPoisson(pcd.points_, pcd.normals_, s.spacing_mm, &m)) {
       mesh->vertices_ = std::move(m.vertices);
       for (const auto& t : m.triangles) mesh->triangles_.emplace_back(t[0], t[1], t[2]);

@@ -39,8 +39,13 @@ struct MeshOptions {
   // Octree depth, [5, 14]; 0: from the cloud, the shallowest depth whose finest cell is at most
   // cell_spacings median point spacings across the cloud's extent (Poisson's cost grows ~8x per
   // level: a fixed depth is either too coarse for a fine scan or too slow for a coarse one).
+  // The finest cell may also be made coarser by the wanted resolution: with resolution_mm > 0
+  // the depth is the shallowest whose cell is at most max(cell_spacings * spacing,
+  // resolution_mm) (detail finer than the resolution is smoothed; each level less costs ~1/4 of
+  // the time, docs/benchmarks.md). 0: as fine as the points allow.
   int poisson_depth = 0;
   double cell_spacings = 2;  // (0, 100]
+  double resolution_mm = 0;  // >= 0
   int max_auto_depth = 12;   // [5, 14]
   // true: keep the closed Poisson surface, no trimming; holes left where Open3D's surface
   // leaves its bounding cube (an open scan: a plate seen from one side) are closed by CGAL's
@@ -70,6 +75,7 @@ struct MeshSummary {
   int64_t input_points = 0;
   int64_t poisson_triangles = 0;  // before trimming and decimation
   int poisson_depth = 0;          // the depth used
+  double cell_mm = 0;             // its finest cell: the cube's side / 2^depth
   double spacing_mm = 0;          // median nearest-neighbour distance of the cloud
   std::string library;            // "open3d" or "cgal"
   int64_t trimmed_vertices = 0;

@@ -195,6 +195,31 @@ TEST(Mesh, AutomaticDepthFollowsThePointSpacingAndExtent) {
   }
 }
 
+TEST(Mesh, WantedResolutionCoarsensTheAutomaticDepthButNeverRefinesIt) {
+  // The sphere's fused cloud (~0.8 mm spacing: the data allow ~1.6 mm cells). A wanted
+  // resolution of 4 mm makes the finest cell at most 4 mm and more than half that; a wanted
+  // resolution finer than the data allow changes nothing.
+  const FusionResult& fused = FusedSphere();
+  const MeshResult data = MeshPoisson(fused.fused, MeshOptions());
+  MeshOptions coarse_options;
+  coarse_options.resolution_mm = 4;
+  const MeshResult coarse = MeshPoisson(fused.fused, coarse_options);
+  MeshOptions fine_options;
+  fine_options.resolution_mm = 0.1;
+  const MeshResult fine = MeshPoisson(fused.fused, fine_options);
+  for (const MeshResult* m : {&data, &coarse, &fine}) {
+    ASSERT_TRUE(m->summary.ok()) << m->summary.BriefReport();
+  }
+  EXPECT_LE(coarse.summary.cell_mm, coarse_options.resolution_mm);
+  EXPECT_GT(coarse.summary.cell_mm, 0.5 * coarse_options.resolution_mm);
+  EXPECT_LT(coarse.summary.poisson_depth, data.summary.poisson_depth);
+  EXPECT_LT(coarse.summary.triangles, data.summary.triangles);
+  EXPECT_EQ(fine.summary.poisson_depth, data.summary.poisson_depth);
+  MeshOptions bad;
+  bad.resolution_mm = -1;
+  EXPECT_THROW(bad.Check(), Error);
+}
+
 TEST(Mesh, TrimmingKeepsOnlyTheMeasuredPart) {
   // Half a sphere measured: the closing bubble over the other half must go.
   constexpr double kMaxFromDataMm = 4 * 0.9;  // trim_distance_factor * ~spacing

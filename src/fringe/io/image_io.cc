@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <fstream>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -79,14 +80,23 @@ cv::Mat ReadFloatImage(const std::filesystem::path& path, std::optional<cv::Size
 
 void WriteImage(const std::filesystem::path& path, const cv::Mat& image) {
   if (image.empty()) throw Error(StrCat(path.string(), ": refusing to write an empty image"));
+  // Encoded in memory and written with a checked stream: cv::imwrite does not check the final
+  // flush of its file (libpng's and libtiff's last bytes go out at fclose, whose result OpenCV
+  // ignores), so on a full disk it can report success for a truncated file.
+  std::vector<uchar> encoded;
+  bool ok = false;
+  try {
+    ok = cv::imencode(path.extension().string(), image, encoded);
+  } catch (const cv::Exception& e) {
+    throw Error(StrCat(path.string(), ": cannot write image: ", e.what()));
+  }
+  if (!ok) throw Error(StrCat(path.string(), ": cannot write image (unsupported format?)"));
   util::WriteAtomically(path, [&](const std::filesystem::path& tmp) {
-    bool ok = false;
-    try {
-      ok = cv::imwrite(tmp.string(), image);
-    } catch (const cv::Exception& e) {
-      throw Error(StrCat(path.string(), ": cannot write image: ", e.what()));
-    }
-    if (!ok) throw Error(StrCat(path.string(), ": cannot write image (unsupported format?)"));
+    std::ofstream out(tmp, std::ios::binary);
+    if (!out) throw Error(StrCat(path.string(), ": cannot open for writing"));
+    out.write(reinterpret_cast<const char*>(encoded.data()),
+              static_cast<std::streamsize>(encoded.size()));
+    util::CloseOutput(out, path);
   });
 }
 

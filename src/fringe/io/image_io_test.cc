@@ -5,6 +5,7 @@
 #include <fstream>
 #include <opencv2/imgcodecs.hpp>
 
+#include "file_size_limit.h"
 #include "fringe/util/error.h"
 #include "fringe_test.h"
 
@@ -38,6 +39,37 @@ TEST(ImageIo, RoundTrip8And16BitPngTiffAndFloat) {
   }
   WriteImage(dir / "f.tif", imgf);
   EXPECT_EQ(cv::norm(ReadFloatImage(dir / "f.tif"), imgf, cv::NORM_INF), 0);
+}
+
+// A full disk (a file size limit, tests/file_size_limit.h) that cuts the last bytes of a PNG:
+// cv::imwrite returns true for that truncated file (libpng's final bytes go out at an unchecked
+// fclose); WriteImage encodes in memory and checks its own writes, so it fails naming the file
+// and leaves nothing. Float TIFF (the truth maps) the same.
+TEST(ImageIo, FullDiskFailsNamingTheFileAndLeavesNothing) {
+  test::TempDir dir;
+  cv::Mat img8(64, 64, CV_8UC1);
+  cv::randu(img8, 0, 255);
+  cv::Mat imgf;
+  img8.convertTo(imgf, CV_32F);
+  for (const auto& [name, image] : {std::pair<std::string, cv::Mat>{"a.png", img8},
+                                    std::pair<std::string, cv::Mat>{"a.tiff", imgf}}) {
+    std::vector<uchar> encoded;
+    ASSERT_TRUE(cv::imencode(std::filesystem::path(name).extension().string(), image, encoded));
+    const std::filesystem::path path = dir / name;
+    std::string message;
+    {
+      const test::FileSizeLimit limit(encoded.size() - 28);
+      message = test::ErrorOf([&] { WriteImage(path, image); });
+    }
+    EXPECT_NE(message.find(path.string() + ": cannot write: File too large"), std::string::npos)
+        << message;
+    EXPECT_TRUE(std::filesystem::is_empty(dir.path())) << name;
+    const test::FileSizeLimit limit(encoded.size());
+    WriteImage(path, image);
+    const cv::Mat back = image.type() == CV_32F ? ReadFloatImage(path) : ReadGrayImage(path);
+    EXPECT_EQ(cv::norm(back, image, cv::NORM_INF), 0) << name;
+    std::filesystem::remove(path);
+  }
 }
 
 TEST(ImageIo, ColourBecomesGrey) {

@@ -64,8 +64,7 @@ void WriteJson(const std::filesystem::path& path, const json& j) {
     std::ofstream out(tmp);
     // Strings from the user (file names) need not be UTF-8: replace bad bytes, never fail.
     out << j.dump(2, ' ', false, json::error_handler_t::replace) << "\n";
-    out.close();
-    if (!out) throw Error(StrCat(path.string(), ": write failed"));
+    util::CloseOutput(out, path);
   });
 }
 

@@ -213,8 +213,7 @@ void WriteStl(const std::filesystem::path& path, const TriangleMesh& mesh,
       }
     }
     out.write(buf.data(), static_cast<std::streamsize>(buf.size()));
-    out.close();
-    if (!out) throw Error(StrCat(path.string(), ": write failed (disk full?)"));
+    util::CloseOutput(out, path);
   });
 }
 
@@ -237,8 +236,7 @@ void WriteObj(const std::filesystem::path& path, const TriangleMesh& mesh) {
       }
       out << "\n";
     }
-    out.close();
-    if (!out) throw Error(StrCat(path.string(), ": write failed (disk full?)"));
+    util::CloseOutput(out, path);
   });
 }
 

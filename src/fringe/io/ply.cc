@@ -581,8 +581,7 @@ void WritePlyImpl(const std::filesystem::path& path, const PointCloud& cloud,
       }
     }
     out.write(buf.data(), static_cast<std::streamsize>(buf.size()));
-    out.close();
-    if (!out) throw Error(StrCat(path.string(), ": write failed (disk full?)"));
+    util::CloseOutput(out, path);
   });
 }
 

@@ -7,6 +7,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "fringe/io/calibration_io.h"
+#include "fringe/io/image_io.h"
 #include "fringe/util/error.h"
 #include "fringe/util/files.h"
 
@@ -446,9 +447,7 @@ void WritePatternFolder(const std::filesystem::path& dir, const PatternScheme& s
     for (size_t i = 0; i < images.size(); ++i) {
       const auto path = tmp / scheme.image_names[i];
       std::filesystem::create_directories(path.parent_path());
-      if (!cv::imwrite(path.string(), images[i])) {
-        throw Error(StrCat((dir / scheme.image_names[i]).string(), ": cannot write image"));
-      }
+      io::WriteImage(path, images[i]);
     }
     io::WriteJson(tmp / "manifest.json", SchemeToJson(scheme));
   });

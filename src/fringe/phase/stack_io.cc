@@ -15,9 +15,8 @@ namespace {
 
 using util::StrCat;
 
-void Write(const std::filesystem::path& path, const cv::Mat& m) {
-  if (!cv::imwrite(path.string(), m)) throw Error(StrCat(path.string(), ": cannot write image"));
-}
+// Checked writes (io::WriteImage): cv::imwrite can report success for a truncated file.
+void Write(const std::filesystem::path& path, const cv::Mat& m) { io::WriteImage(path, m); }
 
 }  // namespace
 

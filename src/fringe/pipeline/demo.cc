@@ -208,7 +208,11 @@ DemoSummary RunDemo(const DemoOptions& options, const fs::path& out_dir) {
     s.vdi_s = timer.ElapsedSeconds();
     s.total_s = demo_timer.ElapsedSeconds();
     io::WriteJson(dir / "report.json", s.ToJson());
-    std::ofstream(dir / "report.txt") << s.Report();
+    {
+      std::ofstream text(dir / "report.txt");
+      text << s.Report();
+      util::CloseOutput(text, dir / "report.txt");
+    }
   });
   return s;
 }

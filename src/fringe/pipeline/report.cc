@@ -411,8 +411,7 @@ void Report::Write(const std::filesystem::path& path) const {
   util::WriteAtomically(path, [&](const std::filesystem::path& tmp) {
     std::ofstream out(tmp, std::ios::binary);
     out << html;
-    out.flush();
-    if (!out) throw Error(util::StrCat(path.string(), ": cannot write the report"));
+    util::CloseOutput(out, path);
   });
 }
 

@@ -75,6 +75,19 @@ std::string Fixed(double v, int digits) {
   return os.str();
 }
 
+// One write of the scan's output. Its failure (a full disk, a quota, a file size limit) fails
+// the scan whatever keep_going says, with an error naming the stage and the file (the writers
+// name it; util::WriteFolderAtomically shows it inside OUT, not the temporary folder).
+template <class Write>
+void WriteOutput(const char* stage, const fs::path& out, Write&& write) {
+  try {
+    write();
+  } catch (const Error& e) {
+    throw Error(
+        StrCat("scan: stage '", stage, "': ", e.what(), "; nothing was written to ", out.string()));
+  }
+}
+
 // A camera + projector scan needs the projector calibrated as an inverse camera.
 void RequireProjector(const scan::ScanFolder& folder, const Calibration& c) {
   if (folder.stereo() || c.rig.projector) return;
@@ -157,6 +170,17 @@ Calibration ResolveCalibration(const scan::ScanFolder& folder, const phase::Patt
   return c;
 }
 
+// OUT/rig.json: the rig used, with the calibration figures when it was calibrated here.
+void WriteRigOf(const Calibration& c, const fs::path& path) {
+  if (c.folder) {
+    calib::WriteFolderCalibration(path, *c.folder);
+  } else if (c.projector_folder) {
+    io::WriteRig(path, c.rig, {{"calibration", c.projector_folder->CalibrationJson()}});
+  } else {
+    io::WriteRig(path, c.rig);
+  }
+}
+
 cv::Mat GridChannel(const OrganizedPointCloud& cloud, const std::vector<float>* attribute,
                     int axis) {
   cv::Mat m(cloud.height, cloud.width, CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
@@ -234,10 +258,24 @@ std::vector<ReportImage> ViewPictures(const std::string& name, const OrganizedPo
   return out;
 }
 
+// One camera + projector: every scheme's stack (one direction, or vertical and horizontal) at
+// every exposure, arranged as the reconstructor takes them (exposure-major further exposures).
+stereo::ViewStacks ReadOneCameraStacks(const scan::ScanFolder& folder, const std::string& name,
+                                       const std::vector<phase::PatternScheme>& schemes) {
+  std::vector<std::vector<std::vector<cv::Mat>>> stacks =
+      folder.ReadViewStacks(name, scan::Camera::kLeft, schemes);  // [scheme][exposure]
+  stereo::ViewStacks out;
+  for (auto& exposures : stacks) out.left.push_back(std::move(exposures.front()));
+  for (size_t e = 1; e < stacks.front().size(); ++e) {
+    for (auto& exposures : stacks) out.more_left_exposures.push_back(std::move(exposures[e]));
+  }
+  return out;
+}
+
 // Reads, reconstructs and writes one view. Data failures come back in the summary (ok = false,
 // the stage and the reason); nothing is thrown for them so that other views go on.
 ViewResult ProcessView(const scan::ScanFolder& folder, const std::string& name,
-                       const phase::PatternScheme& scheme, const StereoRig& rig,
+                       const std::vector<phase::PatternScheme>& schemes, const StereoRig& rig,
                        const stereo::ViewReconstructor& reconstructor, const ScanOptions& options,
                        const fs::path& out_dir) {
   ViewResult v;
@@ -247,32 +285,36 @@ ViewResult ProcessView(const scan::ScanFolder& folder, const std::string& name,
   std::string stage = "read";
   try {
     util::Timer timer;
-    // One stack or several exposures per camera (phase/stack_io.h); one camera: left only.
-    // The two cameras' PNGs are decoded at the same time (the reads of a stack are serial).
+    // One stack or several exposures per camera (phase/stack_io.h); one camera: left only, one
+    // or both fringe directions. The two cameras' PNGs are decoded at the same time (the reads
+    // of a stack are serial).
+    const phase::PatternScheme& scheme = schemes.front();
     std::vector<std::vector<cv::Mat>> left, right;
+    stereo::ViewStacks one_camera;
     tbb::parallel_invoke(
-        [&] { left = folder.ReadExposureStacks(name, scan::Camera::kLeft, scheme); },
+        [&] {
+          if (folder.stereo()) {
+            left = folder.ReadExposureStacks(name, scan::Camera::kLeft, scheme);
+          } else {
+            one_camera = ReadOneCameraStacks(folder, name, schemes);
+          }
+        },
         [&] {
           if (folder.stereo())
             right = folder.ReadExposureStacks(name, scan::Camera::kRight, scheme);
         });
-    if (!folder.stereo() && left.size() > 1) {
-      throw Error(StrCat(folder.layout().CameraDir(name, scan::Camera::kLeft).string(), ": ",
-                         left.size(),
-                         " exposures: they are combined in stereo scans only (camera + "
-                         "projector views take one stack)"));
-    }
     s.read_s = timer.ElapsedSeconds();
     stage = "reconstruct";
-    stereo::ViewReconstruction rec =
-        folder.stereo() ? reconstructor.Reconstruct(left, right)
-                        : reconstructor.Reconstruct(stereo::ViewStacks{{left.front()}, {}});
+    stereo::ViewReconstruction rec = folder.stereo() ? reconstructor.Reconstruct(left, right)
+                                                     : reconstructor.Reconstruct(one_camera);
     if (rec.summary.ok() && options.write_report) {
-      v.pictures.push_back(
-          PhasePicture(name, left.front(), scheme, options.reconstruction.decode, kPictureWidthPx));
+      v.pictures.push_back(PhasePicture(name,
+                                        folder.stereo() ? left.front() : one_camera.left.front(),
+                                        scheme, options.reconstruction.decode, kPictureWidthPx));
     }
     left.clear();
     right.clear();
+    one_camera = {};
     s.decode_s = rec.summary.decode_s;
     s.reconstruct_s = rec.summary.total_s - rec.summary.decode_s;
     const double pixels = double(rec.cloud.width) * rec.cloud.height;
@@ -298,7 +340,6 @@ ViewResult ProcessView(const scan::ScanFolder& folder, const std::string& name,
                                                          options.markers);
       s.markers = static_cast<int>(markers.markers.size());
       v.markers = std::move(markers.markers);
-      registration::WriteViewMarkers(out_dir / "views" / (name + ".markers.json"), v.markers);
       s.markers_s = timer.ElapsedSeconds();
     }
     v.pictures.push_back(
@@ -306,6 +347,9 @@ ViewResult ProcessView(const scan::ScanFolder& folder, const std::string& name,
                 " measured markers circled"),
          TextureWithMarkers(rec.texture_left, v.markers, rig, 480)});
     stage = "write";
+    if (options.detect_markers) {
+      registration::WriteViewMarkers(out_dir / "views" / (name + ".markers.json"), v.markers);
+    }
     io::WritePly(out_dir / "views" / (name + ".ply"), rec.cloud, io::PlyFormat::kBinaryLittleEndian,
                  {StrCat("fringe scan: view ", name,
                          ", left camera (sensor) frame, mm; quality = fringe modulation (DN)")});
@@ -676,6 +720,7 @@ void EvaluateAgainstTruth(const scan::ScanFolder& folder, Model* m, ScanSummary*
 // keep_going the scan goes on without them and is partial.
 void HandleFailures(const fs::path& project, const fs::path& out, bool keep_going, ScanSummary* s) {
   std::vector<std::string> failed, worked;
+  bool output_failed = false;  // a view's files could not be written: fatal even with keep_going
   s->views_ok = 0;
   s->points = 0;
   for (const ScanViewSummary& v : s->views) {
@@ -686,19 +731,23 @@ void HandleFailures(const fs::path& project, const fs::path& out, bool keep_goin
     } else {
       failed.push_back(
           StrCat("view ", v.name, " failed in stage '", v.failed_stage, "': ", v.message));
+      output_failed = output_failed || v.failed_stage == "write";
     }
   }
   if (failed.empty()) return;
   std::string list;
   for (const std::string& f : failed) list += (list.empty() ? "" : "; ") + f;
-  if (!keep_going || worked.empty()) {
+  if (!keep_going || worked.empty() || output_failed) {
     std::string ok_list;
     for (const std::string& w : worked) ok_list += (ok_list.empty() ? "" : ", ") + w;
     throw Error(StrCat("scan: ", project.string(), ": ", list,
-                       worked.empty() ? std::string("; no view worked")
-                                      : StrCat("; views that worked: ", ok_list,
-                                               " (--keep-going finishes without the failed "
-                                               "ones)"),
+                       worked.empty()  ? std::string("; no view worked")
+                       : output_failed ? StrCat("; views that worked: ", ok_list,
+                                                " (the output could not be written: "
+                                                "--keep-going does not leave such views out)")
+                                       : StrCat("; views that worked: ", ok_list,
+                                                " (--keep-going finishes without the failed "
+                                                "ones)"),
                        "; nothing was written to ", out.string()));
   }
   if (s->message != StrCat(failed.size(), " view(s) left out: ", list)) {
@@ -1122,7 +1171,9 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
   // Inputs are checked before anything is computed: the manifest, the scheme and the views.
   const scan::ScanFolder folder = scan::ScanFolder::Open(project);
   if (!folder.has_views()) throw Error(StrCat("scan: ", project.string(), ": no views"));
-  const phase::PatternScheme scheme = folder.ReadScheme();
+  // One scheme; one camera + projector may have a horizontal one too (both directions).
+  const std::vector<phase::PatternScheme> schemes = folder.ReadSchemes();
+  const phase::PatternScheme& scheme = schemes.front();
   const std::vector<std::string>& names = folder.views();
 
   ScanSummary s;
@@ -1145,15 +1196,11 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
     if (cal.folder) {
       s.calibration_rms_left_px = cal.folder->pair.left.summary.final_rms_px;
       s.calibration_rms_right_px = cal.folder->pair.right.summary.final_rms_px;
-      calib::WriteFolderCalibration(dir / "rig.json", *cal.folder);
     } else if (cal.projector_folder) {
       s.calibration_rms_left_px = cal.projector_folder->LeftCamera().summary.final_rms_px;
       s.calibration_rms_projector_px = cal.projector_folder->camera_projector.projector_rms_px;
-      io::WriteRig(dir / "rig.json", cal.rig,
-                   {{"calibration", cal.projector_folder->CalibrationJson()}});
-    } else {
-      io::WriteRig(dir / "rig.json", cal.rig);
     }
+    WriteOutput("calibrate", out, [&] { WriteRigOf(cal, dir / "rig.json"); });
     s.calibrate_s = timer.ElapsedSeconds();
     s.calibrate_cpu_s = cpu.ElapsedSeconds();
 
@@ -1167,7 +1214,7 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
     const stereo::ViewReconstructor reconstructor =
         folder.stereo() ? stereo::ViewReconstructor(cal.rig, scheme, options.reconstruction)
                         : stereo::MakeCameraProjectorReconstructor(
-                              stereo::CameraProjectorRig::FromLeftCamera(cal.rig), {scheme},
+                              stereo::CameraProjectorRig::FromLeftCamera(cal.rig), schemes,
                               options.reconstruction);
     std::vector<ViewResult> results(names.size());
     {
@@ -1185,7 +1232,7 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
                                          }) &
               tbb::make_filter<size_t, void>(tbb::filter_mode::parallel, [&](size_t i) {
                 results[i] =
-                    ProcessView(folder, names[i], scheme, cal.rig, reconstructor, options, dir);
+                    ProcessView(folder, names[i], schemes, cal.rig, reconstructor, options, dir);
                 progress.Advance();
               }));
     }
@@ -1251,8 +1298,10 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
       m.fusion_of[k] = static_cast<int>(fusion_views.size());
       fusion_views.push_back({r.name, std::move(grid), r.world_from_sensor});
     }
-    registration::WritePoses(dir / "poses.json", placed_names, placed_poses);
-    registration::WriteMarkerMap(dir / "markers.json", m.registration, m.inputs);
+    WriteOutput("register", out, [&] {
+      registration::WritePoses(dir / "poses.json", placed_names, placed_poses);
+      registration::WriteMarkerMap(dir / "markers.json", m.registration, m.inputs);
+    });
     s.register_s = timer.ElapsedSeconds();
     s.register_cpu_s = cpu.ElapsedSeconds();
     progress.Advance();
@@ -1325,22 +1374,28 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
       meshing.run([&] {
         m.mesh = fusion::MeshPoisson(m.fused.fused, options.mesh);
         if (!m.mesh.summary.ok()) return;
-        tbb::parallel_invoke([&] { fusion::WriteMeshFile(dir / "mesh.ply", m.mesh); },
-                             [&] { fusion::WriteMeshFile(dir / "mesh.stl", m.mesh); });
+        WriteOutput("mesh", out, [&] {
+          tbb::parallel_invoke([&] { fusion::WriteMeshFile(dir / "mesh.ply", m.mesh); },
+                               [&] { fusion::WriteMeshFile(dir / "mesh.stl", m.mesh); });
+        });
       });
       std::exception_ptr failure;
       try {
-        io::WritePly(dir / "fused.ply", m.fused.fused, io::PlyFormat::kBinaryLittleEndian,
-                     {"fringe scan: fused views, world frame (the first view's sensor frame), "
-                      "mm; intensity = texture, quality = weighted modulation"});
+        WriteOutput("fuse", out, [&] {
+          io::WritePly(dir / "fused.ply", m.fused.fused, io::PlyFormat::kBinaryLittleEndian,
+                       {"fringe scan: fused views, world frame (the first view's sensor frame), "
+                        "mm; intensity = texture, quality = weighted modulation"});
+        });
         fs::create_directories(dir / "registered");
         tbb::parallel_for(size_t{0}, fusion_views.size(), [&](size_t f) {
           OrganizedPointCloud world = fusion_views[f].cloud;
           registration::TransformGrid(fusion_views[f].world_from_sensor, &world);
-          io::WritePly(dir / "registered" / (fusion_views[f].name + ".ply"), world,
-                       io::PlyFormat::kBinaryLittleEndian,
-                       {StrCat("fringe scan: view ", fusion_views[f].name,
-                               " registered, world frame (the first view's sensor frame), mm")});
+          WriteOutput("register", out, [&] {
+            io::WritePly(dir / "registered" / (fusion_views[f].name + ".ply"), world,
+                         io::PlyFormat::kBinaryLittleEndian,
+                         {StrCat("fringe scan: view ", fusion_views[f].name,
+                                 " registered, world frame (the first view's sensor frame), mm")});
+          });
         });
         report_residuals();
       } catch (...) {
@@ -1391,14 +1446,15 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
     if (options.write_report) {
       timer.Restart();
       cpu.Restart();
-      BuildReport(project, s, cal, results, m).Write(dir / "report.html");
+      const Report report = BuildReport(project, s, cal, results, m);
+      WriteOutput("report", out, [&] { report.Write(dir / "report.html"); });
       const double report_s = timer.ElapsedSeconds(), report_cpu_s = cpu.ElapsedSeconds();
       s.report_s += report_s;
       s.report_cpu_s += report_cpu_s;
       s.total_s += report_s;
       s.total_cpu_s += report_cpu_s;
     }
-    io::WriteJson(dir / "summary.json", s.ToJson());
+    WriteOutput("summary", out, [&] { io::WriteJson(dir / "summary.json", s.ToJson()); });
   });
   return s;
 }

@@ -140,13 +140,33 @@ SurfacePlane FitSurface(const OrganizedPointCloud& cloud, const Vector2d& centre
   return plane;
 }
 
-// Centre uncertainty of a fitted ring in pixels: a circle's centre fitted to N independent
-// points with orthogonal residual sigma is known to sigma * sqrt(2 / N). Edge samples are ~1 px
-// apart while the pre-smoothing and the Sobel kernel spread each pixel's noise over ~4 of them,
-// so N / 4 samples count as independent.
-double CentreSigmaPx(const calib::FeatureObservation& f) {
-  const double n = static_cast<double>(f.outer_edge_px.size() + f.inner_edge_px.size()) / 4;
-  return std::max(f.fit_rms_px, 0.02) * std::sqrt(2.0 / std::max(n, 1.0));
+// Variance of one coordinate of an ellipse's fitted centre, px^2: a circle's centre fitted to N
+// independent points with orthogonal residual sigma is known to sigma * sqrt(2 / N). Edge
+// samples are ~1 px apart while the pre-smoothing and the Sobel kernel spread each pixel's noise
+// over ~4 of them, so N / 4 samples count as independent; sigma is the ellipse's own RMS
+// residual (at least 0.02 px).
+double EllipseCentreVariance(const std::vector<Vector2d>& edge_px, const calib::Ellipse& e) {
+  if (edge_px.empty()) return 0;
+  double ss = 0;
+  for (const Vector2d& p : edge_px) ss += std::pow(e.SignedDistance(p), 2);
+  const double rms = std::max(std::sqrt(ss / static_cast<double>(edge_px.size())), 0.02);
+  const double n = static_cast<double>(edge_px.size()) / 4;
+  return rms * rms * 2.0 / std::max(n, 1.0);
+}
+
+// Centre uncertainty of a fitted ring in pixels (1 sigma per image coordinate). The ring centre
+// is the pole-polar centre of its two ellipses (calib::RingCentre), to first order their centres
+// extrapolated to radius 0: c = (c_inner - q c_outer) / (1 - q), q = (inner/outer radius)^2. The
+// inner ellipse's noise is therefore amplified by 1 / (1 - q) (1.56 for the 0.6 markers) and the
+// outer one's by q / (1 - q). Treating the centre as one circle fitted to all edge points of both
+// ellipses (the model before) predicted 2.2x too small a scatter on the simulated demo scan
+// (bench_registration's marker_sigma_ratio; docs/benchmarks.md).
+double CentreSigmaPx(const calib::FeatureObservation& f, double inner_to_outer_ratio) {
+  const double var_outer = EllipseCentreVariance(f.outer_edge_px, f.outer);
+  if (f.inner_edge_px.empty()) return std::sqrt(var_outer);  // no inner ellipse: its centre
+  const double var_inner = EllipseCentreVariance(f.inner_edge_px, f.inner);
+  const double q = inner_to_outer_ratio * inner_to_outer_ratio;
+  return std::sqrt(var_inner + q * q * var_outer) / (1 - q);
 }
 
 // Stable order (by left image row, then column; ids follow it), counts, status and time.
@@ -279,7 +299,8 @@ ViewMarkers DetectViewMarkers(const StereoRig& rig, const cv::Mat& texture_left,
     m.outer_radius_mm = L.outer.a * m.centre_in_sensor.norm() / rig.left.fx;
     // Covariance of the centre from the image centres' uncertainty (numeric Jacobian of the
     // triangulation, one image coordinate at a time).
-    const double sl = CentreSigmaPx(L), sr = CentreSigmaPx(R);
+    const double sl = CentreSigmaPx(L, options.inner_to_outer_ratio),
+                 sr = CentreSigmaPx(R, options.inner_to_outer_ratio);
     Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
     for (int k = 0; k < 4; ++k) {
       Vector2d lp = m.left_px, rp = m.right_px;
@@ -358,7 +379,7 @@ ViewMarkers DetectViewMarkersOneCamera(const CameraModel& camera, const cv::Mat&
     // Uncertainty: the image centre moved by its sigma in each coordinate (numeric Jacobian of
     // the ray-plane intersection), plus the plane's standard error along its normal (the RMS of
     // the fitted points about it over the square root of their number).
-    const double sigma_px = CentreSigmaPx(ring);
+    const double sigma_px = CentreSigmaPx(ring, options.inner_to_outer_ratio);
     Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
     for (int k = 0; k < 2; ++k) {
       Vector2d px = m.left_px;

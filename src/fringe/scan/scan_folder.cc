@@ -68,6 +68,7 @@ json ManifestToJson(const ScanManifest& m) {
             {"truth", PathOrNull(m.truth)}};
   // Written only for one camera: two-camera manifests stay as they were.
   if (m.cameras != 2) j["cameras"] = m.cameras;
+  if (!m.scheme_horizontal.empty()) j["scheme_horizontal"] = m.scheme_horizontal;
   return j;
 }
 
@@ -85,11 +86,11 @@ ScanManifest ManifestFromJson(const json& j, const std::string& context) {
     }
     // Strict: a misspelt key is an error naming the nearest valid one (issue 10), and every
     // count is a JSON integer in range (4294967936 must not wrap to 640).
-    io::CheckKnownKeys(
-        j,
-        {"format", "version", "generator", "scene", "seed", "views", "image_width", "image_height",
-         "bit_depth", "scheme", "calibration_images", "calibration_target", "truth", "cameras"},
-        context);
+    io::CheckKnownKeys(j,
+                       {"format", "version", "generator", "scene", "seed", "views", "image_width",
+                        "image_height", "bit_depth", "scheme", "calibration_images",
+                        "calibration_target", "truth", "cameras", "scheme_horizontal"},
+                       context);
     constexpr long long kMaxCount = 100000;  // views or board images: far beyond any scan
     constexpr long long kMaxSide = 65536;    // pixels
     ScanManifest m;
@@ -103,6 +104,15 @@ ScanManifest ManifestFromJson(const json& j, const std::string& context) {
     m.bit_depth = static_cast<int>(io::OptionalInteger(j, "bit_depth", 8, 1, 16, context));
     m.cameras = static_cast<int>(io::OptionalInteger(j, "cameras", 2, 1, 2, context));
     m.scheme = OptionalPath(j, "scheme");
+    m.scheme_horizontal =
+        j.contains("scheme_horizontal") ? OptionalPath(j, "scheme_horizontal") : std::string();
+    if (!m.scheme_horizontal.empty() && m.cameras != 1) {
+      throw Error(
+          "'scheme_horizontal' needs 'cameras': 1 (stereo matching uses vertical fringes only)");
+    }
+    if (!m.scheme_horizontal.empty() && m.scheme.empty()) {
+      throw Error("'scheme_horizontal' is set but 'scheme' is null");
+    }
     m.calibration_images =
         static_cast<int>(io::GetInteger(j, "calibration_images", 0, kMaxCount, context));
     m.calibration_target = OptionalPath(j, "calibration_target");
@@ -172,6 +182,15 @@ ScanFolder ScanFolder::Open(const fs::path& root) {
                          IndexName(0), " .. ", IndexName(m.views - 1), ")"));
     }
     util::RequireDirectory(l.CameraDir(s.views_[v], Camera::kLeft), "camera image folder");
+    if (!m.scheme_horizontal.empty()) {
+      for (const phase::FringeDirection d :
+           {phase::FringeDirection::kVertical, phase::FringeDirection::kHorizontal}) {
+        util::RequireDirectory(l.DirectionDir(s.views_[v], Camera::kLeft, d),
+                               StrCat(phase::DirectionName(d),
+                                      "-fringe image folder (scan.json names "
+                                      "scheme_horizontal: both directions)"));
+      }
+    }
     if (m.cameras == 2) {
       util::RequireDirectory(l.CameraDir(s.views_[v], Camera::kRight), "camera image folder");
     } else if (fs::exists(l.CameraDir(s.views_[v], Camera::kRight), ec)) {
@@ -182,6 +201,9 @@ ScanFolder ScanFolder::Open(const fs::path& root) {
     }
   }
   if (!m.scheme.empty()) util::RequireFile(root / m.scheme, "scheme manifest named by scan.json");
+  if (!m.scheme_horizontal.empty()) {
+    util::RequireFile(root / m.scheme_horizontal, "horizontal scheme manifest named by scan.json");
+  }
 
   // Calibration images: the same names for both cameras.
   if (!m.calibration_target.empty())
@@ -225,6 +247,61 @@ phase::PatternScheme ScanFolder::ReadScheme() const {
     throw Error(StrCat(layout_.Manifest().string(), ": the scan has no pattern scheme (no views)"));
   }
   return phase::ReadScheme(root() / manifest_.scheme);
+}
+
+std::vector<phase::PatternScheme> ScanFolder::ReadSchemes() const {
+  std::vector<phase::PatternScheme> schemes = {ReadScheme()};
+  if (!both_directions()) return schemes;
+  schemes.push_back(phase::ReadScheme(root() / manifest_.scheme_horizontal));
+  const phase::FringeDirection expected[] = {phase::FringeDirection::kVertical,
+                                             phase::FringeDirection::kHorizontal};
+  const std::string files[] = {manifest_.scheme, manifest_.scheme_horizontal};
+  for (size_t k = 0; k < 2; ++k) {
+    if (schemes[k].direction != expected[k]) {
+      throw Error(StrCat((root() / files[k]).string(), ": ",
+                         phase::DirectionName(schemes[k].direction),
+                         " fringes, but scan.json names it as the ",
+                         phase::DirectionName(expected[k]), "-fringe scheme"));
+    }
+  }
+  return schemes;
+}
+
+fs::path ScanFolder::StackDir(const std::string& view, Camera camera, size_t k) const {
+  if (!both_directions()) return layout_.CameraDir(view, camera);
+  return layout_.DirectionDir(
+      view, camera,
+      k == 0 ? phase::FringeDirection::kVertical : phase::FringeDirection::kHorizontal);
+}
+
+std::vector<std::vector<std::vector<cv::Mat>>> ScanFolder::ReadViewStacks(
+    const std::string& view, Camera camera,
+    const std::vector<phase::PatternScheme>& schemes) const {
+  if (!std::binary_search(views_.begin(), views_.end(), view)) {
+    throw Error(StrCat(layout_.ViewDir(view).string(), ": no such view in the scan"));
+  }
+  if (schemes.size() != (both_directions() ? 2u : 1u)) {
+    throw Error(StrCat(layout_.ViewDir(view).string(), ": ", schemes.size(),
+                       " schemes for a scan with ", both_directions() ? 2 : 1));
+  }
+  const cv::Size size(manifest_.image_width, manifest_.image_height);
+  std::vector<std::vector<std::vector<cv::Mat>>> out;
+  for (size_t k = 0; k < schemes.size(); ++k) {
+    const fs::path dir = StackDir(view, camera, k);
+    out.push_back(phase::ReadExposureStacks(dir, schemes[k]));
+    for (const auto& images : out.back()) {
+      if (!images.empty() && images[0].size() != size) {
+        throw Error(StrCat(dir.string(), ": images are ", images[0].cols, "x", images[0].rows, ", ",
+                           layout_.Manifest().string(), " says ", size.width, "x", size.height));
+      }
+    }
+    if (out.back().size() != out.front().size()) {
+      throw Error(StrCat(dir.string(), ": ", out.back().size(), " exposures, but ",
+                         StackDir(view, camera, 0).string(), " holds ", out.front().size(),
+                         " (both directions need the same exposures)"));
+    }
+  }
+  return out;
 }
 
 std::vector<std::vector<cv::Mat>> ScanFolder::ReadExposureStacks(

@@ -46,10 +46,18 @@ struct ScanLayout {
 
   std::filesystem::path Manifest() const { return root / "scan.json"; }
   std::filesystem::path Scheme() const { return root / "scheme.json"; }
+  // The horizontal-fringe scheme of a one-camera scan with both directions.
+  std::filesystem::path HorizontalScheme() const { return root / "scheme_horizontal.json"; }
   std::filesystem::path ViewsDir() const { return root / "views"; }
   std::filesystem::path ViewDir(const std::string& view) const { return ViewsDir() / view; }
   std::filesystem::path CameraDir(const std::string& view, Camera camera) const {
     return ViewDir(view) / CameraName(camera);
+  }
+  // One camera, both fringe directions: the stack of one direction, CameraDir / "vertical" or
+  // "horizontal" (phase::DirectionName).
+  std::filesystem::path DirectionDir(const std::string& view, Camera camera,
+                                     phase::FringeDirection direction) const {
+    return CameraDir(view, camera) / phase::DirectionName(direction);
   }
   std::filesystem::path CalibrationDir() const { return root / "calibration"; }
   std::filesystem::path CalibrationDir(Camera camera) const {
@@ -82,7 +90,11 @@ struct ScanManifest {
   // 2: stereo views (left/ and right/); 1: camera + projector views (left/ only), the projector
   // calibrated as an inverse camera. JSON key "cameras", optional (default 2).
   int cameras = 2;
-  std::string scheme;              // "scheme.json" when there are views
+  std::string scheme;  // "scheme.json" when there are views
+  // One camera only: the horizontal-fringe scheme ("scheme_horizontal.json") when every view
+  // holds both directions, left/vertical/ (scheme) and left/horizontal/ (this one); empty:
+  // one direction, the stack in left/. JSON key "scheme_horizontal", optional.
+  std::string scheme_horizontal;
   int calibration_images = 0;      // board images per camera (one camera: board pose folders)
   std::string calibration_target;  // "calibration/target.json" when there are board images
   std::string truth;               // "truth" for simulated scans
@@ -119,6 +131,19 @@ class ScanFolder {
   bool stereo() const { return manifest_.cameras == 2; }
   // The pattern scheme (scheme.json); throws when the scan has none.
   phase::PatternScheme ReadScheme() const;
+  // One camera with both fringe directions (scan.json "scheme_horizontal").
+  bool both_directions() const { return !manifest_.scheme_horizontal.empty(); }
+  // The schemes of every view's stacks: {scheme}, or {vertical, horizontal} with both
+  // directions (throws unless the first has vertical and the second horizontal fringes).
+  std::vector<phase::PatternScheme> ReadSchemes() const;
+  // The folder of scheme k's stack (k indexes ReadSchemes()): the camera folder, or its
+  // vertical/ (k = 0) or horizontal/ (k = 1) with both directions.
+  std::filesystem::path StackDir(const std::string& view, Camera camera, size_t k) const;
+  // Every scheme's stacks at every exposure: [scheme][exposure] (ReadExposureStacks of each
+  // StackDir); all schemes must have the same number of exposures (an error naming the folder).
+  std::vector<std::vector<std::vector<cv::Mat>>> ReadViewStacks(
+      const std::string& view, Camera camera,
+      const std::vector<phase::PatternScheme>& schemes) const;
   // One camera's fringe images of a view in the scheme's order (phase::ReadStack checks them);
   // an error when the camera folder holds several exposures.
   std::vector<cv::Mat> ReadStack(const std::string& view, Camera camera,

@@ -1,5 +1,6 @@
 #include "fringe/sim/scan.h"
 
+#include <algorithm>
 #include <cmath>
 #include <iomanip>
 #include <limits>
@@ -11,8 +12,10 @@
 #include "fringe/io/image_io.h"
 #include "fringe/io/mesh_io.h"
 #include "fringe/phase/pattern_scheme.h"
+#include "fringe/phase/stack_io.h"
 #include "fringe/scan/scan_folder.h"
 #include "fringe/sim/markers.h"
+#include "fringe/sim/projector_board.h"
 #include "fringe/util/error.h"
 #include "fringe/util/files.h"
 #include "fringe/util/log.h"
@@ -125,6 +128,20 @@ void ScanOptions::Check() const {
                 "ScanOptions", "scheme.gamma_precompensation", scheme->gamma_precompensation,
                 "must be in (0, 10]");
   }
+  CheckOption(cameras == 1 || cameras == 2, "ScanOptions", "cameras", cameras, "must be 1 or 2");
+  CheckOption(!both_directions || cameras == 1, "ScanOptions", "both_directions", both_directions,
+              "needs cameras = 1 (stereo matching uses vertical fringes only)");
+  if (horizontal_scheme) {
+    horizontal_scheme->Check();
+    CheckOption(horizontal_scheme->direction == phase::FringeDirection::kHorizontal, "ScanOptions",
+                "horizontal_scheme.direction", phase::DirectionName(horizontal_scheme->direction),
+                "must be horizontal");
+  }
+  CheckOption(!exposures.empty() && exposures.size() <= 8, "ScanOptions", "exposures",
+              exposures.size(), "must hold 1 to 8 exposure factors");
+  for (double e : exposures) {
+    CheckOption(e > 0 && e <= 100, "ScanOptions", "exposures", e, "must be in (0, 100]");
+  }
   target.Check();
   render.Check();
   board.Check();
@@ -132,14 +149,17 @@ void ScanOptions::Check() const {
 
 std::string ScanSummary::BriefReport() const {
   std::ostringstream os;
-  os << "simulated scan: " << views << " views x " << fringe_images
-     << " fringe images x 2 cameras, " << calibration_images << " calibration images x 2 cameras, "
-     << markers << " markers, " << std::fixed << std::setprecision(1) << seconds << " s";
+  const char* per = cameras == 2 ? " x 2 cameras" : " (one camera + projector)";
+  os << "simulated scan: " << views << " views x " << fringe_images << " fringe images" << per
+     << ", " << calibration_images
+     << (cameras == 2 ? " calibration images x 2 cameras, " : " board pose folders, ") << markers
+     << " markers, " << std::fixed << std::setprecision(1) << seconds << " s";
   return os.str();
 }
 
 nlohmann::json ScanSummary::ToJson() const {
-  return {{"views", views},
+  return {{"cameras", cameras},
+          {"views", views},
           {"fringe_images", fringe_images},
           {"calibration_images", calibration_images},
           {"markers", markers},
@@ -194,10 +214,12 @@ struct ScanSimulator::Impl {
   StereoRig rig;
   ScanOptions options;
   Scene scene;
-  phase::PatternScheme scheme;
-  std::vector<cv::Mat> patterns;
+  phase::PatternScheme scheme, horizontal_scheme;
+  std::vector<cv::Mat> patterns, horizontal_patterns;
   std::vector<Rigid3d> poses;
   std::unique_ptr<Renderer> renderer;
+  // Exposures e >= 1 (the sensor's exposure scaled), without truth maps.
+  std::vector<std::unique_ptr<Renderer>> exposure_renderers;
   std::vector<Rigid3d> board_poses;
   BoardRenderOptions board_options;
 };
@@ -223,16 +245,43 @@ ScanSimulator::ScanSimulator(const StereoRig& rig, const ScanOptions& options)
                                rig.projector->height));
     }
     m.patterns = phase::GeneratePatterns(m.scheme, m.scheme.gamma_precompensation);
+    m.horizontal_scheme = m.scheme;
+    if (options.both_directions) {
+      if (options.horizontal_scheme) {
+        m.horizontal_scheme = *options.horizontal_scheme;
+      } else {
+        m.horizontal_scheme.direction = phase::FringeDirection::kHorizontal;
+        m.horizontal_scheme.name = m.scheme.name + "-horizontal";
+      }
+      m.horizontal_scheme.Check();
+      if (m.horizontal_scheme.projector_width != rig.projector->width ||
+          m.horizontal_scheme.projector_height != rig.projector->height) {
+        throw Error(util::StrCat("simulate: horizontal scheme '", m.horizontal_scheme.name,
+                                 "' is for a ", m.horizontal_scheme.projector_width, "x",
+                                 m.horizontal_scheme.projector_height, " projector, the rig's is ",
+                                 rig.projector->width, "x", rig.projector->height));
+      }
+      m.horizontal_patterns =
+          phase::GeneratePatterns(m.horizontal_scheme, m.horizontal_scheme.gamma_precompensation);
+    }
     RenderOptions ro = options.render;
     ro.sensor.seed = options.seed;
     ro.truth = options.truth_maps;  // markers are observed without the maps
+    ro.sensor.exposure = options.render.sensor.exposure * options.exposures.front();
     m.renderer = std::make_unique<Renderer>(m.scene, rig, ro);
+    for (size_t e = 1; e < options.exposures.size(); ++e) {
+      RenderOptions re = ro;
+      re.truth = false;
+      re.sensor.exposure = options.render.sensor.exposure * options.exposures[e];
+      m.exposure_renderers.push_back(std::make_unique<Renderer>(m.scene, rig, re));
+    }
     OrbitOptions oo = options.orbit;
     oo.views = options.views;
     oo.seed = options.seed;
     m.poses = OrbitPoses(rig, OrbitTarget(m.scene), oo);
   }
-  if (options.calibration_images > 0) {
+  // One camera: the board pose folders are rendered by WriteProjectorCalibrationFolder.
+  if (options.calibration_images > 0 && options.cameras == 2) {
     BoardPoseOptions bo = options.board_poses;
     bo.count = options.calibration_images;
     bo.seed = util::MixSeed(options.seed, 0xB0A4D);
@@ -248,6 +297,9 @@ const StereoRig& ScanSimulator::rig() const { return impl_->rig; }
 const ScanOptions& ScanSimulator::options() const { return impl_->options; }
 const Scene& ScanSimulator::scene() const { return impl_->scene; }
 const phase::PatternScheme& ScanSimulator::scheme() const { return impl_->scheme; }
+const phase::PatternScheme& ScanSimulator::horizontal_scheme() const {
+  return impl_->horizontal_scheme;
+}
 const std::vector<cv::Mat>& ScanSimulator::patterns() const { return impl_->patterns; }
 const std::vector<Rigid3d>& ScanSimulator::view_poses() const { return impl_->poses; }
 const std::vector<Rigid3d>& ScanSimulator::board_poses() const { return impl_->board_poses; }
@@ -257,6 +309,46 @@ ViewImages ScanSimulator::RenderView(int v) const {
     throw Error(util::StrCat("ScanSimulator::RenderView: no view ", v));
   }
   return impl_->renderer->RenderView(impl_->poses[v], impl_->patterns, static_cast<uint64_t>(v));
+}
+
+ViewStackImages ScanSimulator::RenderViewStacks(int v) const {
+  if (v < 0 || v >= static_cast<int>(impl_->poses.size())) {
+    throw Error(util::StrCat("ScanSimulator::RenderViewStacks: no view ", v));
+  }
+  const Impl& m = *impl_;
+  const Rigid3d& world_from_sensor = m.poses[static_cast<size_t>(v)];
+  const Rigid3d world_from_projector = world_from_sensor * m.rig.projector_from_left.Inverse();
+  const int cameras = m.options.cameras;
+  const bool both = m.options.both_directions;
+  // Both directions in one pass: the noise of pattern k is its own stream (renderer.h), so the
+  // vertical images are those of a one-direction scan.
+  std::vector<cv::Mat> patterns = m.patterns;
+  if (both)
+    patterns.insert(patterns.end(), m.horizontal_patterns.begin(), m.horizontal_patterns.end());
+  ViewStackImages out;
+  out.world_from_sensor = world_from_sensor;
+  out.images.resize(static_cast<size_t>(cameras));
+  out.truth.resize(static_cast<size_t>(cameras));
+  for (size_t e = 0; e < m.options.exposures.size(); ++e) {
+    const Renderer& renderer = e == 0 ? *m.renderer : *m.exposure_renderers[e - 1];
+    const uint64_t stream = static_cast<uint64_t>(v) + 1000000 * static_cast<uint64_t>(e);
+    for (int c = 0; c < cameras; ++c) {
+      CameraImages images =
+          c == 0 ? renderer.RenderCamera(m.rig.left, world_from_sensor, world_from_projector,
+                                         patterns, stream, 0)
+                 : renderer.RenderCamera(m.rig.right,
+                                         world_from_sensor * m.rig.right_from_left.Inverse(),
+                                         world_from_projector, patterns, stream, 1);
+      std::vector<std::vector<cv::Mat>> stacks;
+      const auto split = images.images.begin() + static_cast<std::ptrdiff_t>(m.patterns.size());
+      stacks.emplace_back(images.images.begin(), split);
+      if (both) stacks.emplace_back(split, images.images.end());
+      out.images[static_cast<size_t>(c)].push_back(std::move(stacks));
+      if (e == 0) out.truth[static_cast<size_t>(c)] = std::move(images.truth);
+    }
+  }
+  out.markers = m.renderer->ObserveMarkers(world_from_sensor);
+  return out;
 }
 
 StereoBoardImages ScanSimulator::RenderBoard(int i) const {
@@ -303,18 +395,29 @@ ScanSummary SimulateScan(const StereoRig& rig, const ScanOptions& options,
     scan::TruthMarkers truth_markers;
     truth_markers.markers = scene.markers();
     util::Progress progress("simulate views", options.views);
-    const std::vector<std::string> names = scheme.ImageNames();
+    const std::vector<std::vector<std::string>> names = {scheme.ImageNames(),
+                                                         sim.horizontal_scheme().ImageNames()};
+    const bool several_exposures = options.exposures.size() > 1;
     for (int v = 0; v < options.views; ++v) {
-      const ViewImages view = sim.RenderView(v);
+      const ViewStackImages view = sim.RenderViewStacks(v);
       const std::string view_name = scan::IndexName(v);
-      for (const scan::Camera cam : {scan::Camera::kLeft, scan::Camera::kRight}) {
-        const CameraImages& images = cam == scan::Camera::kLeft ? view.left : view.right;
-        const fs::path dir = layout.CameraDir(view_name, cam);
-        fs::create_directories(dir);
-        for (size_t k = 0; k < images.images.size(); ++k) {
-          io::WriteImage(dir / names[k], images.images[k]);
+      for (size_t c = 0; c < view.images.size(); ++c) {
+        const scan::Camera cam = c == 0 ? scan::Camera::kLeft : scan::Camera::kRight;
+        for (size_t e = 0; e < view.images[c].size(); ++e) {
+          for (size_t k = 0; k < view.images[c][e].size(); ++k) {
+            // <camera>/[vertical|horizontal/][e<e>/]PP.png (docs/scan-folder.md)
+            fs::path dir = options.both_directions
+                               ? layout.DirectionDir(view_name, cam,
+                                                     k == 0 ? phase::FringeDirection::kVertical
+                                                            : phase::FringeDirection::kHorizontal)
+                               : layout.CameraDir(view_name, cam);
+            if (several_exposures) dir = phase::ExposureDir(dir, static_cast<int>(e));
+            fs::create_directories(dir);
+            const std::vector<cv::Mat>& images = view.images[c][e][k];
+            for (size_t i = 0; i < images.size(); ++i) io::WriteImage(dir / names[k][i], images[i]);
+          }
         }
-        if (options.truth_maps) WriteCameraTruth(layout.TruthMaps(view_name, cam), images.truth);
+        if (options.truth_maps) WriteCameraTruth(layout.TruthMaps(view_name, cam), view.truth[c]);
       }
       truth_poses.views.push_back({view_name, poses[v]});
       truth_markers.views.push_back({view_name, view.markers});
@@ -323,9 +426,34 @@ ScanSummary SimulateScan(const StereoRig& rig, const ScanOptions& options,
     summary.views = options.views;
     summary.fringe_images = static_cast<int>(sim.patterns().size());
     if (options.views > 0) phase::WriteScheme(layout.Scheme(), scheme);
+    if (options.views > 0 && options.both_directions) {
+      phase::WriteScheme(layout.HorizontalScheme(), sim.horizontal_scheme());
+    }
     scan::WriteTruthPoses(layout.TruthPoses(), truth_poses);
     scan::WriteTruthMarkers(layout.TruthMarkers(), truth_markers);
 
+    // Calibration: one camera, board pose folders with both fringe directions (the camera +
+    // projector calibration layout) and their poses as the truth.
+    if (options.cameras == 1 && options.calibration_images > 0) {
+      ProjectorCalibrationFolderOptions po;
+      po.poses = options.board_poses;
+      po.poses.count = options.calibration_images;
+      po.poses.seed = util::MixSeed(options.seed, 0xB0A4D);
+      po.fringes.board = options.board;
+      po.fringes.board.sensor.seed = options.seed;
+      po.fringes.supersampling = std::min(8, options.render.sensor.supersampling);
+      const std::vector<Rigid3d> poses_of_boards =
+          WriteProjectorCalibrationFolder(rig, options.target, layout.CalibrationDir(), po);
+      json images = json::array();
+      for (size_t i = 0; i < poses_of_boards.size(); ++i) {
+        images.push_back({{"image", scan::IndexName(static_cast<int>(i))},
+                          {"left_from_board", io::RigidToJson(poses_of_boards[i])}});
+      }
+      io::WriteJson(layout.TruthCalibration(), {{"target", io::TargetToJson(options.target)},
+                                                {"features", "row-major, index = row * cols + col"},
+                                                {"images", images}});
+      summary.calibration_images = static_cast<int>(poses_of_boards.size());
+    }
     // Calibration board images.
     if (!board_poses.empty()) {
       fs::create_directories(layout.CalibrationDir(scan::Camera::kLeft));
@@ -356,7 +484,8 @@ ScanSummary SimulateScan(const StereoRig& rig, const ScanOptions& options,
                                                 {"features", "row-major, index = row * cols + col"},
                                                 {"images", images}});
     }
-    summary.calibration_images = static_cast<int>(board_poses.size());
+    if (options.cameras == 2) summary.calibration_images = static_cast<int>(board_poses.size());
+    summary.cameras = options.cameras;
 
     scan::ScanManifest manifest;
     manifest.generator = "fringe simulate";
@@ -366,7 +495,11 @@ ScanSummary SimulateScan(const StereoRig& rig, const ScanOptions& options,
     manifest.image_width = rig.left.width;
     manifest.image_height = rig.left.height;
     manifest.bit_depth = options.render.sensor.bit_depth;
+    manifest.cameras = options.cameras;
     if (options.views > 0) manifest.scheme = layout.Scheme().filename().string();
+    if (options.views > 0 && options.both_directions) {
+      manifest.scheme_horizontal = layout.HorizontalScheme().filename().string();
+    }
     manifest.calibration_images = summary.calibration_images;
     if (summary.calibration_images > 0) {
       manifest.calibration_target = layout.Target().lexically_relative(tmp).generic_string();

@@ -55,11 +55,43 @@ struct ScanOptions {
   BoardRenderOptions board;      // board images (noise seed = seed)
   OrbitOptions orbit;            // view poses (views and seed are overridden)
   BoardPoseOptions board_poses;  // board poses (count and seed are overridden)
+  // 2: stereo views (views/NNN/left/ and right/). 1: camera + projector views (scan.json
+  // "cameras": 1): left/ only (the right camera is not rendered; truth maps of the left only),
+  // and calibration/ holds `calibration_images` board pose folders of the camera + projector
+  // calibration layout (WriteProjectorCalibrationFolder: board image and both fringe
+  // directions per pose).
+  int cameras = 2;
+  // One camera only: horizontal fringes too (phase = projector row), so that the camera +
+  // projector triangulation can use both projector coordinates. The camera folders then hold
+  // vertical/ (the scheme) and horizontal/ (horizontal_scheme, scan.json
+  // "scheme_horizontal").
+  bool both_directions = false;
+  // The horizontal scheme; unset: `scheme` with its direction turned horizontal (same periods
+  // and steps; names "<name>-horizontal"). Its projector size must be the rig's.
+  std::optional<phase::PatternScheme> horizontal_scheme;
+  // Exposures of every fringe stack, as factors of render.sensor.exposure, each in (0, 100], at
+  // most 8. More than one: every camera (and direction) folder holds exposure folders e0/,
+  // e1/, ... (phase::ReadExposureStacks), combined per pixel by the decoder. Exposure 0 is
+  // rendered exactly as a single-exposure scan; exposure e > 0 uses the noise streams of view
+  // index view + 1000000 * e.
+  std::vector<double> exposures = {1.0};
 
   void Check() const;
 };
 
+// Every fringe stack of one view as SimulateScan writes it.
+struct ViewStackImages {
+  Rigid3d world_from_sensor;
+  // images[camera][exposure][scheme]: camera 0 the left, 1 the right (two cameras only);
+  // scheme 0 the scheme, 1 the horizontal one (both_directions); each a stack in the scheme's
+  // order.
+  std::vector<std::vector<std::vector<std::vector<cv::Mat>>>> images;
+  std::vector<CameraTruth> truth;  // per camera, of exposure 0 (empty Mats without truth maps)
+  std::vector<MarkerObservation> markers;
+};
+
 struct ScanSummary {
+  int cameras = 2;
   int views = 0;
   int fringe_images = 0;       // per camera
   int calibration_images = 0;  // per camera
@@ -85,12 +117,16 @@ class ScanSimulator {
   const StereoRig& rig() const;
   const ScanOptions& options() const;
   const Scene& scene() const;
-  const phase::PatternScheme& scheme() const;       // with gamma_precompensation set
+  const phase::PatternScheme& scheme() const;  // with gamma_precompensation set
+  // The horizontal scheme (both_directions; else the scheme), gamma_precompensation set.
+  const phase::PatternScheme& horizontal_scheme() const;
   const std::vector<cv::Mat>& patterns() const;     // projector images, CV_8U
   const std::vector<Rigid3d>& view_poses() const;   // world_from_sensor per view
   const std::vector<Rigid3d>& board_poses() const;  // left_from_board per board image
 
-  ViewImages RenderView(int view) const;           // view in [0, options.views)
+  ViewImages RenderView(int view) const;  // view in [0, options.views)
+  // Every stack of the view (cameras, exposures, directions), as written to the folder.
+  ViewStackImages RenderViewStacks(int view) const;
   StereoBoardImages RenderBoard(int index) const;  // index in [0, options.calibration_images)
 
  private:

@@ -155,5 +155,70 @@ TEST(Scan, DeterministicForASeed) {
   EXPECT_THROW(sim.RenderView(1), Error);
 }
 
+TEST(Scan, WritesOneCameraScanFoldersWithBothDirectionsAndExposures) {
+  // A camera + projector scan folder (docs/scan-folder.md): scan.json "cameras": 1, views with
+  // left/ only, board pose folders of the projector calibration layout; with both directions
+  // left/vertical/ and left/horizontal/ (scheme_horizontal.json), with two exposures e0/ and
+  // e1/ in each. The images are the simulator's: the vertical exposure-0 stack equals the
+  // one-direction single-exposure scan's, and exposure 1 is darker by its factor.
+  test::TempDir dir;
+  const StereoRig rig = ScaledRig(StereoRig::Reference(), 0.25);
+  ScanOptions opt = SmallScan();
+  opt.views = 1;
+  opt.cameras = 1;
+  opt.truth_maps = true;
+  const ScanSummary plain = SimulateScan(rig, opt, dir / "one");
+  EXPECT_EQ(plain.calibration_images, 2);
+  opt.both_directions = true;
+  opt.exposures = {1.0, 0.5};
+  SimulateScan(rig, opt, dir / "both");
+  for (const fs::path& root : {dir / "one", dir / "both"}) {
+    const scan::ScanFolder folder = scan::ScanFolder::Open(root);
+    EXPECT_FALSE(folder.stereo()) << root;
+    EXPECT_FALSE(fs::exists(root / "views/000/right")) << root;
+    EXPECT_FALSE(fs::exists(root / "truth/views/000/right")) << root;
+    EXPECT_TRUE(fs::exists(root / "truth/views/000/left/depth.tiff")) << root;
+    EXPECT_EQ(folder.calibration_images(), (std::vector<std::string>{"000", "001"})) << root;
+    for (const char* f : {"calibration/target.json", "calibration/001/board.png",
+                          "calibration/001/vertical/manifest.json",
+                          "calibration/001/horizontal/manifest.json", "truth/calibration.json"}) {
+      EXPECT_TRUE(fs::exists(root / f)) << root << " " << f;
+    }
+  }
+  const scan::ScanFolder one = scan::ScanFolder::Open(dir / "one");
+  EXPECT_FALSE(one.both_directions());
+  EXPECT_EQ(one.ReadStack("000", scan::Camera::kLeft, one.ReadScheme()).size(), 12u);
+
+  const scan::ScanFolder both = scan::ScanFolder::Open(dir / "both");
+  ASSERT_TRUE(both.both_directions());
+  const std::vector<phase::PatternScheme> schemes = both.ReadSchemes();
+  ASSERT_EQ(schemes.size(), 2u);
+  EXPECT_EQ(schemes[0].direction, phase::FringeDirection::kVertical);
+  EXPECT_EQ(schemes[1].direction, phase::FringeDirection::kHorizontal);
+  EXPECT_TRUE(fs::exists(dir / "both/views/000/left/horizontal/e1/11.png"));
+  const auto stacks = both.ReadViewStacks("000", scan::Camera::kLeft, schemes);
+  ASSERT_EQ(stacks.size(), 2u);  // [scheme][exposure]
+  for (const auto& exposures : stacks) {
+    ASSERT_EQ(exposures.size(), 2u);
+    for (const auto& images : exposures) EXPECT_EQ(images.size(), 12u);
+  }
+  const cv::Mat single = io::ReadGrayImage(dir / "one/views/000/left/05.png");
+  EXPECT_EQ(cv::norm(stacks[0][0][5], single, cv::NORM_INF), 0.0);
+  // The horizontal fringes differ from the vertical ones; exposure 1 gets half the light.
+  EXPECT_GT(cv::norm(stacks[1][0][5], stacks[0][0][5], cv::NORM_L1), 0.0);
+  const double ratio = cv::mean(stacks[0][1][5])[0] / cv::mean(stacks[0][0][5])[0];
+  EXPECT_NEAR(ratio, 0.5, 0.05);
+
+  // Both directions need one camera; exposure factors are bounded.
+  ScanOptions bad = opt;
+  bad.cameras = 2;
+  EXPECT_THROW(bad.Check(), Error);
+  bad = opt;
+  bad.exposures = {1.0, 0.0};
+  EXPECT_THROW(bad.Check(), Error);
+  bad.exposures = {};
+  EXPECT_THROW(bad.Check(), Error);
+}
+
 }  // namespace
 }  // namespace fringe::sim

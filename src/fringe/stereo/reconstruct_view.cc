@@ -191,10 +191,11 @@ ViewReconstruction ViewReconstructor::Reconstruct(const ViewStacks& stacks) cons
                         const char* side) {
     for (size_t k = 0; k < imgs.size(); ++k) {
       if (!imgs[k].empty() && (imgs[k][0].cols != cam.width || imgs[k][0].rows != cam.height)) {
-        throw Error(util::StrCat("reconstruct: ", side, " images",
-                                 imgs.size() > 1 ? " of scheme '" + schemes_[k].name + "'" : "",
-                                 " are ", imgs[k][0].cols, "x", imgs[k][0].rows, " but the rig's ",
-                                 side, " camera is ", cam.width, "x", cam.height));
+        throw Error(util::StrCat(
+            "reconstruct: ", side, " images",
+            schemes_.size() > 1 ? " of scheme '" + schemes_[k % schemes_.size()].name + "'" : "",
+            " are ", imgs[k][0].cols, "x", imgs[k][0].rows, " but the rig's ", side, " camera is ",
+            cam.width, "x", cam.height));
       }
     }
   };
@@ -204,29 +205,31 @@ ViewReconstruction ViewReconstructor::Reconstruct(const ViewStacks& stacks) cons
     check_size(stacks.right, *corr.Right(), "right");
     check_size(stacks.more_right_exposures, *corr.Right(), "right");
   }
-  if ((!stacks.more_left_exposures.empty() || !stacks.more_right_exposures.empty()) &&
-      schemes_.size() != 1) {
-    throw Error("reconstruct: several exposures are combined for a single scheme only");
+  const size_t n_schemes = schemes_.size();
+  if (stacks.more_left_exposures.size() % n_schemes != 0 ||
+      stacks.more_right_exposures.size() % n_schemes != 0) {
+    throw Error(util::StrCat("reconstruct: ", stacks.more_left_exposures.size(), " left and ",
+                             stacks.more_right_exposures.size(),
+                             " right further exposure stacks for ", n_schemes,
+                             " schemes (every exposure needs a stack of every scheme)"));
   }
-  // Scheme k's stack with, for the first scheme, the further exposures of the same view:
-  // phase::DecodeExposures keeps per pixel the best unsaturated one.
-  auto exposures = [](const std::vector<cv::Mat>& first,
-                      const std::vector<std::vector<cv::Mat>>& more) {
+  // Scheme k's stack with its further exposures of the same view (exposure-major, see
+  // ViewStacks): phase::DecodeExposures keeps per pixel the best unsaturated one.
+  auto exposures = [n_schemes](const std::vector<cv::Mat>& first,
+                               const std::vector<std::vector<cv::Mat>>& more, size_t k) {
     std::vector<std::vector<cv::Mat>> all = {first};
-    all.insert(all.end(), more.begin(), more.end());
+    for (size_t i = k; i < more.size(); i += n_schemes) all.push_back(more[i]);
     return all;
   };
 
   util::Timer timer;
-  const std::vector<std::vector<cv::Mat>> kNone;
   DecodedView decoded;
   for (size_t k = 0; k < schemes_.size(); ++k) {
     decoded.left.push_back(phase::DecodeExposures(
-        schemes_[k], exposures(stacks.left[k], k == 0 ? stacks.more_left_exposures : kNone),
-        options_.decode));
+        schemes_[k], exposures(stacks.left[k], stacks.more_left_exposures, k), options_.decode));
     if (two_cameras) {
       decoded.right.push_back(phase::DecodeExposures(
-          schemes_[k], exposures(stacks.right[k], k == 0 ? stacks.more_right_exposures : kNone),
+          schemes_[k], exposures(stacks.right[k], stacks.more_right_exposures, k),
           options_.decode));
     }
   }

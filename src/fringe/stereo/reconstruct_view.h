@@ -125,9 +125,10 @@ struct ViewStacks {
              std::vector<std::vector<cv::Mat>> right_stacks)
       : left(std::move(left_stacks)), right(std::move(right_stacks)) {}
   std::vector<std::vector<cv::Mat>> left, right;
-  // Further exposures of the same view for a single scheme: more_left_exposures[e] is the left
-  // camera's stack at exposure e + 1 (left[0] is exposure 0); phase::DecodeExposures combines
-  // them per pixel. Empty: one exposure.
+  // Further exposures of the same view, exposure-major: with S schemes,
+  // more_left_exposures[e * S + k] is the left camera's stack of scheme k at exposure e + 1
+  // (left[k] is exposure 0; one scheme: more_left_exposures[e]); phase::DecodeExposures
+  // combines them per pixel. Empty: one exposure.
   std::vector<std::vector<cv::Mat>> more_left_exposures, more_right_exposures;
 };
 

@@ -233,7 +233,30 @@ std::string Printable(const std::string& s) {
   return out;
 }
 
+// `s` with every occurrence of `from` replaced by `to`.
+std::string ReplaceAll(std::string s, const std::string& from, const std::string& to) {
+  if (from.empty()) return s;
+  for (size_t at = s.find(from); at != std::string::npos; at = s.find(from, at + to.size())) {
+    s.replace(at, from.size(), to);
+  }
+  return s;
+}
+
 }  // namespace
+
+void CloseOutput(std::ofstream& out, const fs::path& path) {
+  // The stream keeps only a failbit/badbit: the reason is errno of the write(2) that failed,
+  // either an earlier one (still in errno: later calls on a failed stream do nothing) or the
+  // one flushing the buffer at close.
+  const int err_before = errno;
+  const bool failed_before = !out;
+  errno = 0;
+  out.close();
+  if (!failed_before && out) return;
+  const int err = errno != 0 ? errno : (failed_before ? err_before : 0);
+  throw Error(StrCat(path.string(), ": cannot write: ",
+                     err != 0 ? std::strerror(err) : "write error (disk full?)"));
+}
 
 void WriteAtomically(const fs::path& path, const std::function<void(const fs::path&)>& write) {
   RequireWritableParent(path);
@@ -272,7 +295,7 @@ void WriteFolderAtomically(const fs::path& dir, const OutputFolderOptions& optio
     {
       std::ofstream marker(tmp / kOutputMarkerName);
       marker << "written by fringe; a later fringe run may replace this folder\n";
-      if (!marker) throw Error(StrCat(dir.string(), ": cannot write"));
+      CloseOutput(marker, dir / kOutputMarkerName);
     }
     write(tmp);
     std::error_code ec;
@@ -296,6 +319,10 @@ void WriteFolderAtomically(const fs::path& dir, const OutputFolderOptions& optio
     std::error_code ignored;
     fs::remove_all(tmp, ignored);
     throw Error(StrCat(dir.string(), ": cannot write: ", e.code().message()));
+  } catch (const Error& e) {
+    std::error_code ignored;
+    fs::remove_all(tmp, ignored);
+    throw Error(ReplaceAll(e.what(), tmp.string(), dir.string()));
   } catch (...) {
     std::error_code ignored;
     fs::remove_all(tmp, ignored);

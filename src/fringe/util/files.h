@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <iosfwd>
 #include <memory>
 #include <string>
 #include <vector>
@@ -41,9 +42,17 @@ struct OutputFolderOptions {
 // during write() removes the temporary before the process ends.
 void WriteAtomically(const fs::path& path, const std::function<void(const fs::path& tmp)>& write);
 
+// Closes a file stream written for `path` (usually its WriteAtomically temporary) and throws
+// fringe::Error("<path>: cannot write: <reason>") when any write failed: a full disk (ENOSPC), a
+// quota (EDQUOT) or a file size limit (EFBIG) show only in the stream's state, and the last
+// buffered bytes reach the file only at close, so the state is checked after closing.
+void CloseOutput(std::ofstream& out, const fs::path& path);
+
 // Same for a whole output folder: write(tmp_dir) fills a fresh temporary folder (which gets the
 // marker file) that then replaces `dir`. An existing `dir` is replaced only when
-// CheckOutputFolder() allows it, and removed only after the new one is complete.
+// CheckOutputFolder() allows it, and removed only after the new one is complete. Errors thrown by
+// write() that name a path inside the temporary folder are rethrown naming the same path inside
+// `dir` (the user never sees the hidden temporary); the temporary folder is removed.
 void WriteFolderAtomically(const fs::path& dir, const OutputFolderOptions& options,
                            const std::function<void(const fs::path& tmp_dir)>& write);
 inline void WriteFolderAtomically(const fs::path& dir,

@@ -4,6 +4,7 @@
 
 #include <fstream>
 
+#include "file_size_limit.h"
 #include "fringe/util/error.h"
 #include "fringe_test.h"
 
@@ -29,6 +30,65 @@ TEST(WriteAtomically, FailureLeavesNothing) {
                                  throw Error("boom");
                                }),
                Error);
+  EXPECT_TRUE(fs::is_empty(dir.path()));
+}
+
+// A full disk, simulated by a file size limit (tests/file_size_limit.h): the stream's failure
+// is caught after close, whether a write failed on the way (a large file) or only the final
+// flush at close did (a file smaller than the stream's buffer), and the error names the user's
+// path and the reason, never the temporary; nothing is left.
+TEST(CloseOutput, FullDiskFailsNamingThePathAndLeavesNothing) {
+  test::TempDir dir;
+  for (const size_t bytes : {size_t{1} << 20, size_t{3000}}) {
+    const fs::path out = dir / "big.bin";
+    const std::string data(bytes, 'x');
+    std::string message;
+    {
+      const test::FileSizeLimit limit(1000);
+      message = test::ErrorOf([&] {
+        WriteAtomically(out, [&](const fs::path& tmp) {
+          std::ofstream f(tmp, std::ios::binary);
+          f.write(data.data(), static_cast<std::streamsize>(data.size()));
+          CloseOutput(f, out);
+        });
+      });
+    }
+    EXPECT_NE(message.find(out.string() + ": cannot write: File too large"), std::string::npos)
+        << bytes << ": " << message;
+    EXPECT_EQ(message.find(".tmp"), std::string::npos) << message;
+    EXPECT_TRUE(fs::is_empty(dir.path())) << bytes;
+  }
+  // Under the limit the same write succeeds.
+  const test::FileSizeLimit limit(1000);
+  WriteAtomically(dir / "small.bin", [&](const fs::path& tmp) {
+    std::ofstream f(tmp, std::ios::binary);
+    f << std::string(999, 'y');
+    CloseOutput(f, dir / "small.bin");
+  });
+  EXPECT_EQ(FileSizeBytes(dir / "small.bin"), 999u);
+}
+
+TEST(WriteFolderAtomically, FullDiskNamesTheFileInsideTheOutputNotTheTemporary) {
+  test::TempDir dir;
+  const fs::path out = dir / "out";
+  std::string message;
+  {
+    const test::FileSizeLimit limit(1000);
+    message = test::ErrorOf([&] {
+      WriteFolderAtomically(out, [&](const fs::path& tmp) {
+        fs::create_directories(tmp / "views");
+        WriteAtomically(tmp / "views" / "000.ply", [&](const fs::path& file) {
+          std::ofstream f(file, std::ios::binary);
+          f << std::string(5000, 'z');
+          CloseOutput(f, tmp / "views" / "000.ply");
+        });
+      });
+    });
+  }
+  EXPECT_NE(message.find((out / "views" / "000.ply").string() + ": cannot write: File too large"),
+            std::string::npos)
+      << message;
+  EXPECT_EQ(message.find(".tmp"), std::string::npos) << message;
   EXPECT_TRUE(fs::is_empty(dir.path()));
 }
 

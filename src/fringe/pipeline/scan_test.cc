@@ -461,8 +461,14 @@ TEST_F(ScanTest, KeepGoingFinishesWithoutATruncatedViewAndNamesIt) {
   const fs::path png = scan / "views" / "002" / "left" / "03.png";
   fs::resize_file(png, fs::file_size(png) / 3);
   ScanOptions o = TestOptions();
-  o.keep_going = true;
   const fs::path out = tmp_ / "out";
+  // Without keep_going: the error names the view, the file and the stage; nothing is written.
+  const std::string message = test::ErrorOf([&] { RunScan(scan, out, o); });
+  EXPECT_NE(message.find("view 002 failed in stage 'read'"), std::string::npos) << message;
+  EXPECT_NE(message.find("03.png"), std::string::npos) << message;
+  EXPECT_NE(message.find("views that worked: 000, 001"), std::string::npos) << message;
+  EXPECT_FALSE(fs::exists(out));
+  o.keep_going = true;
   const ScanSummary s = RunScan(scan, out, o);
   EXPECT_EQ(s.status, ScanStatus::kPartial);
   EXPECT_EQ(s.views_ok, 2);
@@ -704,6 +710,12 @@ TEST_F(ScanTest, UnwritableOutputFailsBeforeWriting) {
   fs::permissions(tmp_ / "ro", fs::perms::owner_all);
 #endif
   EXPECT_THROW(RunScan(Scan(), tmp_ / "no" / "such" / "out"), Error);
+  // A folder the user made (no fringe marker) is never replaced: refused before the work.
+  fs::create_directories(tmp_ / "mine");
+  std::ofstream(tmp_ / "mine" / "notes.txt") << "keep";
+  const std::string message = test::ErrorOf([&] { RunScan(Scan(), tmp_ / "mine"); });
+  EXPECT_NE(message.find("was not written by fringe"), std::string::npos) << message;
+  EXPECT_EQ(util::ReadTextFile(tmp_ / "mine" / "notes.txt"), "keep");
   EXPECT_THROW(RunScan(tmp_ / "nonexistent-project", tmp_ / "out"), Error);
   EXPECT_FALSE(fs::exists(tmp_ / "out"));
 }

@@ -30,7 +30,6 @@
 #include "fringe/registration/registration_io.h"
 #include "fringe/scan/scan_folder.h"
 #include "fringe/scan/truth.h"
-#include "fringe/sim/projector_board.h"
 #include "fringe/sim/scan.h"
 #include "fringe/util/error.h"
 #include "fringe/util/files.h"
@@ -274,20 +273,15 @@ TEST_F(ScanTest, CameraProjectorScanMatchesTheTruth) {
 
 TEST_F(ScanTest, CameraProjectorScanCalibratesFromItsBoardPoseFolders) {
   // No rig.json: the camera and projector are calibrated from calibration/KKK/ (board image and
-  // both fringe directions per pose, as `fringe calibrate` reads them), 6 poses at half size.
-  const fs::path scan = CameraProjectorScan(CopyOfScan("camera-projector-calib"));
+  // both fringe directions per pose, as `fringe calibrate` reads them), 6 poses at half size,
+  // in a camera + projector scan folder written by the simulator (sim::ScanOptions::cameras).
+  const fs::path scan = tmp_ / "camera-projector-calib";
+  SimulateHalfSizeDemoScan(scan, [](sim::ScanOptions* o) {
+    o->cameras = 1;
+    o->calibration_images = 6;
+  });
   fs::remove(scan / "rig.json");
   const StereoRig rig = scan::ScanFolder::Open(scan).ReadTruthRig();
-  sim::ProjectorCalibrationFolderOptions so;
-  so.poses.count = 6;
-  so.poses.seed = 5;
-  so.fringes.supersampling = 1;
-  sim::WriteProjectorCalibrationFolder(rig, CalibrationTarget::Reference(), scan / "calibration",
-                                       so);
-  nlohmann::json manifest = io::ReadJson(scan / "scan.json");
-  manifest["calibration_images"] = 6;
-  manifest["calibration_target"] = "calibration/target.json";
-  io::WriteJson(scan / "scan.json", manifest);
   ScanOptions o = TestOptions();
   o.projector_calibration.features.window_radius_px = 10;  // half resolution
   o.write_report = false;

@@ -200,6 +200,13 @@ TEST(ScanFolder, OneCameraScanWithBothDirectionsAndExposures) {
   ASSERT_EQ(stacks.size(), 2u);
   EXPECT_EQ(stacks[1].size(), 2u);
   EXPECT_EQ(stacks[1][1].size(), horizontal.ImageNames().size());
+  // `fringe info` counts every direction's images over its exposures.
+  const std::string text = DescribePath(root);
+  EXPECT_NE(text.find("000: left vertical 24 images in 2 exposures, horizontal 24 images in 2 "
+                      "exposures"),
+            std::string::npos)
+      << text;
+  EXPECT_NE(text.find("both fringe directions"), std::string::npos) << text;
   // One exposure fewer in one direction.
   fs::remove_all(layout.DirectionDir("000", Camera::kLeft, phase::FringeDirection::kHorizontal) /
                  "e1");

@@ -130,6 +130,17 @@ TEST(Cli, SimulateOneCameraScanThenScanIt) {
   // Against the truth: the bounds of the pipeline's camera + projector tests.
   EXPECT_LT(summary["pose_trans_err_mm"].get<double>(), 0.1);
   EXPECT_LT(summary["single_view_all_rms_mm"].get<double>(), 0.15);
+  // `fringe reconstruct` on one of its views: the scan's two schemes, both exposures, the same
+  // points as the scan's view cloud.
+  ASSERT_EQ(RunCli({"reconstruct", (dir / "scan/views/001").string(), "--calib",
+                    (dir / "scan/truth/rig.json").string(), "--out", (dir / "001.ply").string(),
+                    "--no-markers"},
+                   &stdout_text, &err),
+            0)
+      << err;
+  EXPECT_NE(stdout_text.find("vertical and horizontal fringes"), std::string::npos) << stdout_text;
+  EXPECT_EQ(io::ReadOrganizedPly(dir / "001.ply").NumValid(),
+            io::ReadOrganizedPly(dir / "out/views/001.ply").NumValid());
   // Both directions need one camera: a usage error.
   EXPECT_EQ(RunCli({"simulate", "sphere", "--both-directions", "--out", (dir / "stereo").string()},
                    nullptr, &err),

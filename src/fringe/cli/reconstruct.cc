@@ -159,8 +159,19 @@ void AddReconstructCommand(CLI::App& app) {
     // In a scan folder (ROOT/views/NNN) the scheme is the one its manifest names; elsewhere a
     // manifest beside the images.
     const std::optional<fs::path> scan_root = scan::ScanFolder::RootOfView(view);
+    // A scan folder's view with both directions: the schemes are the scan's (scan.json's
+    // scheme and scheme_horizontal), not manifests beside the stacks.
+    std::optional<std::pair<fs::path, fs::path>> scan_schemes;
+    if (two_directions && scan_root) {
+      const scan::ScanFolder folder = scan::ScanFolder::Open(*scan_root);
+      if (folder.both_directions()) {
+        scan_schemes = {*scan_root / folder.manifest().scheme,
+                        *scan_root / folder.manifest().scheme_horizontal};
+      }
+    }
     const std::string scheme_arg =
-        two_directions       ? (left_dir / "vertical" / "manifest.json").string()
+        scan_schemes         ? scan_schemes->first.string()
+        : two_directions     ? (left_dir / "vertical" / "manifest.json").string()
         : !a->scheme.empty() ? a->scheme
         : scan_root ? (*scan_root / scan::ScanFolder::Open(*scan_root).manifest().scheme).string()
                     : FirstExisting({view / "manifest.json", view / "left" / "manifest.json",
@@ -206,7 +217,8 @@ void AddReconstructCommand(CLI::App& app) {
         phase::SchemeFromArgument(scheme_arg, a->parameters)};
     std::vector<fs::path> left_dirs = {two_directions ? left_dir / "vertical" : left_dir};
     if (two_directions) {
-      schemes.push_back(phase::ReadScheme(left_dir / "horizontal" / "manifest.json"));
+      schemes.push_back(phase::ReadScheme(
+          scan_schemes ? scan_schemes->second : left_dir / "horizontal" / "manifest.json"));
       left_dirs.push_back(left_dir / "horizontal");
       const char* names[] = {"vertical", "horizontal"};
       const phase::FringeDirection wanted[] = {phase::FringeDirection::kVertical,
@@ -221,17 +233,29 @@ void AddReconstructCommand(CLI::App& app) {
       }
     }
     const phase::PatternScheme& scheme = schemes[0];
-    // One stack per scheme; with one scheme the camera folder may hold exposure folders e0/,
-    // e1/, ... (phase/stack_io.h), combined per pixel by the decoder.
-    std::vector<std::vector<cv::Mat>> left_stacks, left_exposures;
+    // One stack per scheme, each folder a stack or exposure folders e0/, e1/, ...
+    // (phase/stack_io.h; the same number for both directions), combined per pixel by the
+    // decoder. more_left: the further exposures, exposure-major (stereo::ViewStacks).
+    std::vector<std::vector<cv::Mat>> left_stacks, left_exposures, more_left;
     if (two_directions) {
+      std::vector<std::vector<std::vector<cv::Mat>>> per_scheme;
       for (size_t k = 0; k < schemes.size(); ++k) {
-        left_stacks.push_back(phase::ReadStack(left_dirs[k], schemes[k]));
+        per_scheme.push_back(phase::ReadExposureStacks(left_dirs[k], schemes[k]));
+        if (per_scheme[k].size() != per_scheme[0].size()) {
+          throw Error(util::StrCat(left_dirs[k].string(), ": ", per_scheme[k].size(),
+                                   " exposures, but ", left_dirs[0].string(), " holds ",
+                                   per_scheme[0].size()));
+        }
+        left_stacks.push_back(per_scheme[k][0]);
       }
-      left_exposures = {left_stacks[0]};
+      for (size_t e = 1; e < per_scheme[0].size(); ++e) {
+        for (auto& exposures : per_scheme) more_left.push_back(exposures[e]);
+      }
+      left_exposures = per_scheme[0];
     } else {
       left_exposures = phase::ReadExposureStacks(left_dir, scheme);
       left_stacks = {left_exposures.front()};
+      more_left.assign(left_exposures.begin() + 1, left_exposures.end());
     }
     const std::vector<cv::Mat>& left = left_stacks[0];
     StereoRig rig;
@@ -273,10 +297,6 @@ void AddReconstructCommand(CLI::App& app) {
            << (two_directions ? " (vertical and horizontal fringes)" : "")
            << " against the projector of " << rig_name << "\n";
     }
-    if (camera_projector && left_exposures.size() > 1) {
-      throw Error(util::StrCat("reconstruct: ", left_dir.string(),
-                               ": several exposures are combined in stereo mode only"));
-    }
     const auto right_exposures = camera_projector ? std::vector<std::vector<cv::Mat>>{}
                                                   : phase::ReadExposureStacks(right_dir, scheme);
     // Images of another size than the rig's camera: name the folder (the library cannot).
@@ -301,7 +321,11 @@ void AddReconstructCommand(CLI::App& app) {
     if (camera_projector) {
       rec = stereo::MakeCameraProjectorReconstructor(
                 stereo::CameraProjectorRig::FromLeftCamera(rig), schemes, a->options)
-                .Reconstruct(stereo::ViewStacks{left_stacks, {}});
+                .Reconstruct([&] {
+                  stereo::ViewStacks stacks{left_stacks, {}};
+                  stacks.more_left_exposures = more_left;
+                  return stacks;
+                }());
       text << rec.summary.decode_left.BriefReport() << " (camera"
            << (two_directions ? ", vertical" : "") << ")\n";
       if (two_directions)

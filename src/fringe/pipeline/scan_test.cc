@@ -30,7 +30,6 @@
 #include "fringe/registration/registration_io.h"
 #include "fringe/scan/scan_folder.h"
 #include "fringe/scan/truth.h"
-#include "fringe/sim/projector_board.h"
 #include "fringe/sim/scan.h"
 #include "fringe/util/error.h"
 #include "fringe/util/files.h"
@@ -282,20 +281,15 @@ TEST_F(ScanTest, CameraProjectorScanMatchesTheTruth) {
 
 TEST_F(ScanTest, CameraProjectorScanCalibratesFromItsBoardPoseFolders) {
   // No rig.json: the camera and projector are calibrated from calibration/KKK/ (board image and
-  // both fringe directions per pose, as `fringe calibrate` reads them), 6 poses at half size.
-  const fs::path scan = CameraProjectorScan(CopyOfScan("camera-projector-calib"));
+  // both fringe directions per pose, as `fringe calibrate` reads them), 6 poses at half size,
+  // in a camera + projector scan folder written by the simulator (sim::ScanOptions::cameras).
+  const fs::path scan = tmp_ / "camera-projector-calib";
+  SimulateHalfSizeDemoScan(scan, [](sim::ScanOptions* o) {
+    o->cameras = 1;
+    o->calibration_images = 6;
+  });
   fs::remove(scan / "rig.json");
   const StereoRig rig = scan::ScanFolder::Open(scan).ReadTruthRig();
-  sim::ProjectorCalibrationFolderOptions so;
-  so.poses.count = 6;
-  so.poses.seed = 5;
-  so.fringes.supersampling = 1;
-  sim::WriteProjectorCalibrationFolder(rig, CalibrationTarget::Reference(), scan / "calibration",
-                                       so);
-  nlohmann::json manifest = io::ReadJson(scan / "scan.json");
-  manifest["calibration_images"] = 6;
-  manifest["calibration_target"] = "calibration/target.json";
-  io::WriteJson(scan / "scan.json", manifest);
   ScanOptions o = TestOptions();
   o.projector_calibration.features.window_radius_px = 10;  // half resolution
   o.write_report = false;
@@ -469,8 +463,14 @@ TEST_F(ScanTest, KeepGoingFinishesWithoutATruncatedViewAndNamesIt) {
   const fs::path png = scan / "views" / "002" / "left" / "03.png";
   fs::resize_file(png, fs::file_size(png) / 3);
   ScanOptions o = TestOptions();
-  o.keep_going = true;
   const fs::path out = tmp_ / "out";
+  // Without keep_going: the error names the view, the file and the stage; nothing is written.
+  const std::string message = test::ErrorOf([&] { RunScan(scan, out, o); });
+  EXPECT_NE(message.find("view 002 failed in stage 'read'"), std::string::npos) << message;
+  EXPECT_NE(message.find("03.png"), std::string::npos) << message;
+  EXPECT_NE(message.find("views that worked: 000, 001"), std::string::npos) << message;
+  EXPECT_FALSE(fs::exists(out));
+  o.keep_going = true;
   const ScanSummary s = RunScan(scan, out, o);
   EXPECT_EQ(s.status, ScanStatus::kPartial);
   EXPECT_EQ(s.views_ok, 2);
@@ -712,6 +712,12 @@ TEST_F(ScanTest, UnwritableOutputFailsBeforeWriting) {
   fs::permissions(tmp_ / "ro", fs::perms::owner_all);
 #endif
   EXPECT_THROW(RunScan(Scan(), tmp_ / "no" / "such" / "out"), Error);
+  // A folder the user made (no fringe marker) is never replaced: refused before the work.
+  fs::create_directories(tmp_ / "mine");
+  std::ofstream(tmp_ / "mine" / "notes.txt") << "keep";
+  const std::string message = test::ErrorOf([&] { RunScan(Scan(), tmp_ / "mine"); });
+  EXPECT_NE(message.find("was not written by fringe"), std::string::npos) << message;
+  EXPECT_EQ(util::ReadTextFile(tmp_ / "mine" / "notes.txt"), "keep");
   EXPECT_THROW(RunScan(tmp_ / "nonexistent-project", tmp_ / "out"), Error);
   EXPECT_FALSE(fs::exists(tmp_ / "out"));
 }

@@ -9,6 +9,7 @@
 #include "fringe/io/image_io.h"
 #include "fringe/io/opencv_calibration.h"
 #include "fringe/io/ply.h"
+#include "fringe/phase/stack_io.h"
 #include "fringe/scan/scan_folder.h"
 #include "fringe/util/error.h"
 
@@ -113,14 +114,34 @@ std::string DescribeScanFolder(const ScanFolder& scan) {
     os << " (" << scan.views().front() << " .. " << scan.views().back() << "), scheme " << m.scheme;
   }
   os << "\n";
-  if (!scan.stereo()) os << "  one camera + projector (views hold left/ only)\n";
-  for (const std::string& v : scan.views()) {
-    os << "    " << v << ": left "
-       << io::ListImageFiles(scan.layout().CameraDir(v, Camera::kLeft)).size() << " images";
-    if (scan.stereo()) {
-      os << ", right " << io::ListImageFiles(scan.layout().CameraDir(v, Camera::kRight)).size()
-         << " images";
+  if (!scan.stereo()) {
+    os << "  one camera + projector (views hold left/ only"
+       << (scan.both_directions()
+               ? "; both fringe directions, horizontal scheme " + m.scheme_horizontal
+               : std::string())
+       << ")\n";
+  }
+  // Images of a stack folder, or of its exposure folders e0/, e1/, ...
+  const auto images = [](const fs::path& dir) {
+    if (!phase::HasExposureFolders(dir)) {
+      return StrCat(io::ListImageFiles(dir).size(), " images");
     }
+    size_t n = 0;
+    int exposures = 0;
+    for (; fs::is_directory(phase::ExposureDir(dir, exposures)); ++exposures) {
+      n += io::ListImageFiles(phase::ExposureDir(dir, exposures)).size();
+    }
+    return StrCat(n, " images in ", exposures, " exposures");
+  };
+  for (const std::string& v : scan.views()) {
+    os << "    " << v << ": left ";
+    if (scan.both_directions()) {
+      os << "vertical " << images(scan.StackDir(v, Camera::kLeft, 0)) << ", horizontal "
+         << images(scan.StackDir(v, Camera::kLeft, 1));
+    } else {
+      os << images(scan.layout().CameraDir(v, Camera::kLeft));
+    }
+    if (scan.stereo()) os << ", right " << images(scan.layout().CameraDir(v, Camera::kRight));
     os << "\n";
   }
   os << "  calibration: " << m.calibration_images

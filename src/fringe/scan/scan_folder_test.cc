@@ -7,6 +7,7 @@
 #include "fringe/io/calibration_io.h"
 #include "fringe/io/image_io.h"
 #include "fringe/phase/pattern_scheme.h"
+#include "fringe/phase/stack_io.h"
 #include "fringe/scan/describe.h"
 #include "fringe/util/error.h"
 #include "fringe_test.h"
@@ -161,6 +162,72 @@ TEST(ScanFolder, OneCameraScanHoldsLeftViewsAndBoardPoseFolders) {
   nlohmann::json j = ManifestToJson(m);
   j["cameras"] = 3;
   ExpectError([&] { ManifestFromJson(j, "s.json"); }, {"s.json", "cameras"});
+}
+
+TEST(ScanFolder, OneCameraScanWithBothDirectionsAndExposures) {
+  // left/vertical/ and left/horizontal/, each with exposure folders e0/ and e1/, and
+  // scan.json's scheme_horizontal: every direction's exposures are read, and every
+  // disagreement is an error naming the file or folder.
+  test::TempDir dir;
+  const fs::path root = dir / "scan";
+  ScanManifest m = WriteSmallScan(root, 1, 0);
+  const ScanLayout layout{root};
+  fs::remove_all(layout.CameraDir("000", Camera::kRight));
+  phase::PatternScheme horizontal = phase::MakeScheme("heterodyne-4x3", 320, 200);
+  horizontal.direction = phase::FringeDirection::kHorizontal;
+  phase::WriteScheme(layout.HorizontalScheme(), horizontal);
+  const cv::Mat grey(kHeight, kWidth, CV_8U, cv::Scalar(90));
+  for (const phase::FringeDirection d :
+       {phase::FringeDirection::kVertical, phase::FringeDirection::kHorizontal}) {
+    for (int e = 0; e < 2; ++e) {
+      const fs::path stack = phase::ExposureDir(layout.DirectionDir("000", Camera::kLeft, d), e);
+      fs::create_directories(stack);
+      for (const std::string& n : horizontal.ImageNames()) io::WriteImage(stack / n, grey);
+    }
+  }
+  for (const std::string& n : horizontal.ImageNames()) {
+    fs::remove(layout.CameraDir("000", Camera::kLeft) / n);
+  }
+  m.cameras = 1;
+  m.scheme_horizontal = "scheme_horizontal.json";
+  WriteManifest(layout.Manifest(), m);
+  const ScanFolder scan = ScanFolder::Open(root);
+  ASSERT_TRUE(scan.both_directions());
+  const std::vector<phase::PatternScheme> schemes = scan.ReadSchemes();
+  ASSERT_EQ(schemes.size(), 2u);
+  EXPECT_EQ(schemes[1].direction, phase::FringeDirection::kHorizontal);
+  const auto stacks = scan.ReadViewStacks("000", Camera::kLeft, schemes);
+  ASSERT_EQ(stacks.size(), 2u);
+  EXPECT_EQ(stacks[1].size(), 2u);
+  EXPECT_EQ(stacks[1][1].size(), horizontal.ImageNames().size());
+  // `fringe info` counts every direction's images over its exposures.
+  const std::string text = DescribePath(root);
+  EXPECT_NE(text.find("000: left vertical 24 images in 2 exposures, horizontal 24 images in 2 "
+                      "exposures"),
+            std::string::npos)
+      << text;
+  EXPECT_NE(text.find("both fringe directions"), std::string::npos) << text;
+  // One exposure fewer in one direction.
+  fs::remove_all(layout.DirectionDir("000", Camera::kLeft, phase::FringeDirection::kHorizontal) /
+                 "e1");
+  ExpectError([&] { scan.ReadViewStacks("000", Camera::kLeft, schemes); },
+              {"horizontal", "1 exposures", "2"});
+  // The schemes swapped: each file's direction is checked.
+  m.scheme = "scheme_horizontal.json";
+  m.scheme_horizontal = "scheme.json";
+  WriteManifest(layout.Manifest(), m);
+  ExpectError([&] { ScanFolder::Open(root).ReadSchemes(); },
+              {"scheme_horizontal.json", "horizontal fringes", "vertical-fringe scheme"});
+  // A missing direction folder, and both directions in a stereo scan.
+  m.scheme = "scheme.json";
+  m.scheme_horizontal = "scheme_horizontal.json";
+  WriteManifest(layout.Manifest(), m);
+  fs::remove_all(layout.DirectionDir("000", Camera::kLeft, phase::FringeDirection::kVertical));
+  ExpectError([&] { ScanFolder::Open(root); }, {"000", "vertical"});
+  nlohmann::json j = ManifestToJson(m);
+  j.erase("cameras");
+  ExpectError([&] { ManifestFromJson(j, "s.json"); },
+              {"s.json", "scheme_horizontal", "'cameras': 1"});
 }
 
 TEST(ScanFolder, ErrorsNameTheFileThatDisagrees) {

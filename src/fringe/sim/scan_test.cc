@@ -5,6 +5,7 @@
 
 #include <cmath>
 
+#include "file_size_limit.h"
 #include "fringe/io/calibration_io.h"
 #include "fringe/io/image_io.h"
 #include "fringe/scan/scan_folder.h"
@@ -153,6 +154,29 @@ TEST(Scan, DeterministicForASeed) {
                      cv::NORM_INF),
             0.0);
   EXPECT_THROW(sim.RenderView(1), Error);
+}
+
+TEST(Scan, FullDiskFailsNamingTheFileAndLeavesNothing) {
+  // A full disk (a file size limit, tests/file_size_limit.h): the first file that does not fit
+  // (the truth mesh) is named inside the output folder, never the temporary one, and nothing is
+  // left behind.
+  test::TempDir dir;
+  ScanOptions opt = SmallScan();
+  opt.views = 1;
+  opt.calibration_images = 0;
+  opt.truth_maps = false;
+  std::string message;
+  {
+    const test::FileSizeLimit full(10000);
+    message = test::ErrorOf(
+        [&] { SimulateScan(ScaledRig(StereoRig::Reference(), 0.25), opt, dir / "scan"); });
+  }
+  EXPECT_NE(message.find((dir / "scan" / "truth" / "scene.ply").string() +
+                         ": cannot write: File too large"),
+            std::string::npos)
+      << message;
+  EXPECT_EQ(message.find(".tmp"), std::string::npos) << message;
+  EXPECT_TRUE(fs::is_empty(dir.path()));
 }
 
 TEST(Scan, WritesOneCameraScanFoldersWithBothDirectionsAndExposures) {

@@ -292,8 +292,11 @@ int main(int argc, char** argv) {
   app.add_option("--smooth-radius", options.smooth_radius_px,
                  "Fusion: single-coverage smoothing window radius, px (0: off)")
       ->capture_default_str();
-  app.add_option("--drop-one-view-clusters", options.drop_one_view_clusters,
-                 "Fusion: drop clusters of one view's points (1) or only outranked ones (0)")
+  app.add_option("--one-view-cluster-border", options.one_view_cluster_border_px,
+                 "Fusion: one-view clusters whose seed is this close to a border are dropped, px")
+      ->capture_default_str();
+  app.add_option("--seed-factor", options.seed_factor,
+                 "Fusion: seed radius, spacings (sparser seeds: larger clusters)")
       ->capture_default_str();
   app.add_option("--border-trim", options.border_trim_px,
                  "Fusion: single-coverage points this close to a border are trimmed, px")

@@ -463,6 +463,9 @@ void FusionOptions::Check() const {
                     border_ramp_px, "must be in [0, 100]");
   util::CheckOption(border_trim_px >= 0 && border_trim_px <= 100, kName, "border_trim_px",
                     border_trim_px, "must be in [0, 100]");
+  util::CheckOption(one_view_cluster_border_px >= 0 && one_view_cluster_border_px <= 100, kName,
+                    "one_view_cluster_border_px", one_view_cluster_border_px,
+                    "must be in [0, 100]");
   util::CheckOption(smooth_radius_px >= 0 && smooth_radius_px <= 10, kName, "smooth_radius_px",
                     smooth_radius_px, "must be in [0, 10]");
   util::CheckOption(min_border_hole_px >= 1, kName, "min_border_hole_px", min_border_hole_px,
@@ -1063,7 +1066,8 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
     // A centre that gathered only its own view's points while a better compatible point of
     // another view lies within its radius: that point's cluster represents the place (the
     // seed is typically a mixed pixel off the surface, beyond the others' seed radius).
-    if (distinct == 1 && ((flags[seeds[c]] & kOutranked) || options.drop_one_view_clusters)) {
+    if (distinct == 1 && ((flags[seeds[c]] & kOutranked) ||
+                          pts.border[seeds[c]] < options.one_view_cluster_border_px)) {
       ++s.absorbed_clusters;
       continue;
     }

@@ -23,14 +23,15 @@
 //      the median, i.e. beyond noise and registration error: an edge or a detail the normals blur),
 //      the centre keeps its seed view's measurement instead of an average that would round the
 //      edge.
-//   Points outside overlaps pass through unchanged; overlap points no centre reaches are dropped
-//   (they are no centre because a better compatible point of another view lies within their
-//   seed radius), so is a cluster that gathered only its own view's points while a better
-//   compatible point of another view lies within its seed's radius (on the demo part these
-//   one-view clusters had an RMS error of 0.3 mm: mixed pixels beside the overlap). Weight of a
-//   point: cos^2 of its viewing angle (normal vs the direction to its sensor) * B^2 / (B^2 + B0^2)
-//   with B its fringe modulation (quality) * 1 / (1 + (residual / residual0)^2) with its
-//   reprojection residual * a border ramp
+//   Points outside overlaps pass through (see single coverage below); overlap points no centre
+//   reaches are dropped (they are no centre because a better compatible point of another view
+//   lies within their seed radius), so is a cluster that gathered only its own view's points
+//   while a better compatible point of another view lies within its seed's radius, or while
+//   its seed lies within one_view_cluster_border_px of its view's border (on the demo part
+//   these one-view clusters had an RMS error of 0.17-0.3 mm: mixed pixels beside the overlap).
+//   Weight of a point: cos^2 of its viewing angle (normal vs the direction to its sensor) * B^2 /
+//   (B^2 + B0^2) with B its fringe modulation (quality) * 1 / (1 + (residual / residual0)^2) with
+//   its reprojection residual * a border ramp
 //   ((b + 1) / (border_ramp_px + 1))^2, b its grid distance to the nearest invalid slot (as
 //   Curless & Levoy, SIGGRAPH 1996, and Turk & Levoy, SIGGRAPH 1994, weigh range-image borders:
 //   the pixels beside a silhouette or a decoding hole mix two surfaces' phases; measured on the
@@ -44,8 +45,9 @@
 //   the demo part their RMS error is 10-15 times that of the points 6 px or more inside the
 //   border (docs/benchmarks.md), the place they claim to measure is measured by their inner
 //   neighbours, and the frame edge is no border (a view of a flat field that fills the frame
-//   loses nothing). Every other single-coverage point passes through unchanged. The summary
-//   counts absorbed and trimmed points; border_trim_px = 0 keeps them all.
+//   loses nothing). Every other single-coverage point passes through, averaged along its normal
+//   only with its own view's compatible grid neighbours (smooth_radius_px; 0: unchanged). The
+//   summary counts absorbed and trimmed points; border_trim_px = 0 keeps them all.
 //
 // Neighbour search through the organized grids: a point's neighbours in another view lie in a
 // small pixel window around its projection into that view's grid (the projection is fitted to
@@ -113,10 +115,13 @@ struct FusionOptions {
   // Single-coverage points closer than this to an invalid slot of their view are absorbed by
   // a better point of another view within their radius, else trimmed, px, [0, 100]; 0: never.
   int border_trim_px = 3;
-  // Drop every cluster that gathered only its own view's points (its seed has a compatible
-  // point of another view within its radius, whose cluster represents the place); false: only
-  // those whose seed that point outranks.
-  bool drop_one_view_clusters = true;
+  // A cluster that gathered only its own view's points although its seed has a compatible point
+  // of another view within its radius is dropped when its seed lies closer than this to its
+  // view's border (mixed pixels beside the overlap; that point's cluster represents the place),
+  // px, [0, 100]; 0: only those whose seed that point outranks. Farther inside, such clusters
+  // are the view's own sampling between the other view's centres (a sphere seen from 6 views
+  // loses 40 % of its fused points without them).
+  int one_view_cluster_border_px = 6;
   // Passed-through (single-coverage) points are averaged along their normal with their own
   // view's compatible grid neighbours within this many pixels (see fuse.cc,
   // SingleCoverageOffsets), [0, 10]; 0: passed through unchanged.

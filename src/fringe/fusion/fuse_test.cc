@@ -3,7 +3,9 @@
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 
+#include <array>
 #include <cmath>
+#include <limits>
 
 #include "fringe/eval/deviation.h"
 #include "fringe/fusion/test_views.h"
@@ -358,6 +360,61 @@ TEST(Fusion, ViewsOverlappingInOneQuadrantAreSearchedInsideTheFrameOnly) {
   EXPECT_GE(r.summary.overlap_points, 2 * 20 * 20);
   EXPECT_LE(r.summary.overlap_points, 2 * 23 * 23);
   EXPECT_LT(r.summary.max_fit_error_px, 0.01);
+  EXPECT_EQ(
+      r.summary.overlap_points + r.summary.passed_through + r.summary.absorbed + r.summary.trimmed,
+      r.summary.input_points);
+}
+
+// Views too small for the grid projection's fit (< 100 points) are searched point by point,
+// and their points' candidate centres are found without the own-view buckets: the fusion still
+// merges the overlap into clusters from both views and accounts for every point.
+TEST(Fusion, ViewsTooSmallForTheGridFitAreSearchedPointByPoint) {
+  const StereoRig rig = TestRig();
+  const sim::Renderer renderer(sim::MakePlaneScene(), rig);
+  const Rigid3d pose0 = Looking(rig, {-25, 0, 0}, 15), pose1 = Looking(rig, {25, 0, 0}, -15);
+  std::vector<FusionView> views = {TruthView(renderer, "a", pose0, pose0, 0.02, 1),
+                                   TruthView(renderer, "b", pose1, pose1, 0.02, 2)};
+  // Keep a 9 x 9 window: in view a at its image centre, in view b around the slot whose point
+  // lies nearest to that place.
+  constexpr int kHalf = 4;
+  const OrganizedPointCloud& ga = views[0].cloud;
+  const Eigen::Vector3d centre =
+      views[0].world_from_sensor * ga.cloud.points[ga.index(ga.width / 2, ga.height / 2)];
+  ASSERT_TRUE(ga.valid[ga.index(ga.width / 2, ga.height / 2)]);
+  std::array<int, 2> col = {ga.width / 2, 0}, row = {ga.height / 2, 0};
+  {
+    const OrganizedPointCloud& gb = views[1].cloud;
+    double best = std::numeric_limits<double>::infinity();
+    for (size_t i = 0; i < gb.valid.size(); ++i) {
+      if (!gb.valid[i]) continue;
+      const double d = (views[1].world_from_sensor * gb.cloud.points[i] - centre).norm();
+      if (d < best) {
+        best = d;
+        col[1] = static_cast<int>(i % gb.width);
+        row[1] = static_cast<int>(i / gb.width);
+      }
+    }
+    ASSERT_LT(best, 2.0);
+  }
+  for (size_t v = 0; v < 2; ++v) {
+    OrganizedPointCloud& g = views[v].cloud;
+    for (int r = 0; r < g.height; ++r) {
+      for (int c = 0; c < g.width; ++c) {
+        if (std::abs(c - col[v]) > kHalf || std::abs(r - row[v]) > kHalf)
+          g.valid[g.index(c, r)] = 0;
+      }
+    }
+    ASSERT_LT(g.NumValid(), 100u);
+    ASSERT_GT(g.NumValid(), 50u);
+  }
+  const FusionResult r = FuseViews(views);
+  SCOPED_TRACE(r.summary.BriefReport());
+  ASSERT_EQ(r.summary.status, FusionStatus::kOk);
+  EXPECT_EQ(r.summary.max_fit_error_px, 0);  // no view was fitted
+  EXPECT_GT(r.summary.overlap_points, 20);
+  int64_t two_view = 0;
+  for (uint16_t n : r.support) two_view += n >= 2;
+  EXPECT_GT(two_view, 5);
   EXPECT_EQ(
       r.summary.overlap_points + r.summary.passed_through + r.summary.absorbed + r.summary.trimmed,
       r.summary.input_points);

@@ -5,6 +5,7 @@
 #include <CGAL/Polygon_mesh_processing/manifoldness.h>
 #include <CGAL/Polygon_mesh_processing/polygon_soup_to_polygon_mesh.h>
 #include <CGAL/Polygon_mesh_processing/triangulate_hole.h>
+#include <CGAL/Random.h>
 #include <CGAL/Surface_mesh.h>
 #include <CGAL/poisson_surface_reconstruction.h>
 #include <CGAL/property_map.h>
@@ -76,6 +77,10 @@ bool CgalPoisson(const std::vector<Eigen::Vector3d>& points,
     oriented[i] = {Point(points[i].x(), points[i].y(), points[i].z()),
                    Vector(normals[i].x(), normals[i].y(), normals[i].z())};
   }
+  // CGAL's default random generator (thread-local) is seeded from the clock; its mesher draws
+  // from it, so the same cloud gave a different mesh from run to run. A fixed seed makes the
+  // mesh a function of the input.
+  CGAL::get_default_random() = CGAL::Random(0);
   Mesh m;
   const bool ok = CGAL::poisson_surface_reconstruction_delaunay(
       oriented.begin(), oriented.end(),

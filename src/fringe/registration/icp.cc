@@ -316,6 +316,12 @@ IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& o
   std::vector<PairMatches> pairs;
   std::vector<double> dist;
   std::vector<Corr> corr_buffer;
+  // Per view, the samples of the current level in ascending point order (the grid order of a
+  // compacted view): the association then walks both clouds nearly sequentially instead of
+  // missing the cache on every sample (the loop is memory-bound). Rebuilt when the level's
+  // sample count changes.
+  std::vector<std::vector<uint32_t>> samples(nv);
+  int samples_points = -1;
   // One iteration at the schedule's sample count and threshold: associate every view's samples
   // with every other view, one simultaneous step of all free views.
   const auto iterate = [&](int points, double threshold, IcpLevelReport* rep) {
@@ -328,6 +334,12 @@ IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& o
     for (int v = 0; v < nv; ++v) {
       const PreparedView& sv = prep[v];
       const int ns = std::min<int>(points, static_cast<int>(sv.order.size()));
+      if (samples_points != points) {
+        samples[v].assign(sv.order.begin(), sv.order.begin() + ns);
+        std::sort(samples[v].begin(), samples[v].end());
+        if (v == nv - 1) samples_points = points;
+      }
+      const std::vector<uint32_t>& sample = samples[v];
       for (int u = 0; u < nv; ++u) {
         if (u == v || (block[v] < 0 && block[u] < 0)) continue;
         if (block[v] < 0 && !options.sample_fixed_views) continue;
@@ -349,7 +361,7 @@ IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& o
               for (int s = rg.begin(); s != rg.end(); ++s) {
                 Match& m = found[s];
                 m.idx = -1;
-                const uint32_t k = sv.order[s];
+                const uint32_t k = sample[s];
                 const Vector3d q = r_uv * sv.data.pts[k] + t_uv;
                 const int32_t idx = projective ? tv.NearestByProjection(q, w, search_sq)
                                                : tv.NearestByTree(q, search_sq);

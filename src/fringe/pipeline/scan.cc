@@ -1257,6 +1257,7 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
       registration::RegistrationView rv;
       rv.name = names[i];
       rv.cloud = results[i].cloud.Compact();
+      rv.grid = registration::IndexViewGrid(results[i].cloud);  // projective ICP association
       rv.markers = results[i].markers;
       m.view_of.push_back(static_cast<int>(i));
       m.grid_valid.push_back(results[i].cloud.valid);

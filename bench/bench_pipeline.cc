@@ -62,20 +62,21 @@ void MeshSweep(const fs::path& out, const fs::path& scan_dir,
                const fringe::Rigid3d& truth_from_world, const fringe::fusion::MeshOptions& options,
                const std::vector<int>& depths, json* j) {
   using namespace fringe;
-  PointCloud fused = io::ReadPly(out / "fused.ply").cloud;
-  for (Eigen::Vector3d& p : fused.points) p = truth_from_world * p;
-  for (Eigen::Vector3d& n : fused.normals) n = truth_from_world.RotateDirection(n);
+  // Meshed in the scan's world frame (Poisson's cube is the cloud's bounding box there, as in
+  // the scan), compared in the truth's.
+  const PointCloud fused = io::ReadPly(out / "fused.ply").cloud;
   const eval::MeshDistance truth(scan::ScanFolder::Open(scan_dir).ReadTruthMesh());
   std::vector<Eigen::Vector3d> measured;
   for (size_t i = 0; i < fused.size(); i += std::max<size_t>(1, fused.size() / 200000)) {
-    measured.push_back(fused.points[i]);
+    measured.push_back(truth_from_world * fused.points[i]);
   }
   for (int depth : depths) {
     fusion::MeshOptions mo = options;
     mo.poisson_depth = depth;
     util::Timer wall;
     util::CpuTimer cpu;
-    const fusion::MeshResult m = fusion::MeshPoisson(fused, mo);
+    fusion::MeshResult m = fusion::MeshPoisson(fused, mo);
+    m.mesh.Transform(truth_from_world);
     json e = {{"wall_s", wall.ElapsedSeconds()},
               {"cpu_s", cpu.ElapsedSeconds()},
               {"summary", fusion::SummaryToJson(m.summary)}};

@@ -171,6 +171,23 @@ TEST_F(ScanTest, WholeChainMatchesTheTruth) {
     EXPECT_LT(angle_deg, kMaxRotErrDeg) << name;
     EXPECT_LT((true_rel * at_part - est_rel * at_part).norm(), 3 * kMaxTransErrMm) << name;
   }
+  // registered/ (written beside the meshing): each view's grid moved by its pose in poses.json,
+  // slot for slot (float coordinates in the files).
+  constexpr double kFloatStorageMm = 1e-3;
+  for (const char* name : {"000", "002"}) {
+    const OrganizedPointCloud sensor =
+        io::ReadOrganizedPly(out / "views" / (name + std::string(".ply")));
+    const OrganizedPointCloud world =
+        io::ReadOrganizedPly(out / "registered" / (name + std::string(".ply")));
+    ASSERT_EQ(world.valid, sensor.valid) << name;
+    double worst_mm = 0;
+    for (size_t i = 0; i < sensor.valid.size(); ++i) {
+      if (!sensor.valid[i]) continue;
+      worst_mm = std::max(worst_mm,
+                          (poses.at(name) * sensor.cloud.points[i] - world.cloud.points[i]).norm());
+    }
+    EXPECT_LT(worst_mm, kFloatStorageMm) << name;
+  }
   EXPECT_TRUE(s.has_truth);
   EXPECT_LT(s.pose_rot_err_deg, kMaxRotErrDeg);
   EXPECT_LT(s.pose_trans_err_mm, kMaxTransErrMm);

@@ -54,9 +54,13 @@ void CalibrateProjector(const CalibrateArgs& a, const CalibrationTarget& target,
   std::cout << "projector_from_left: rotation " << t.AngleRad() * 180 / M_PI << " deg, t = ("
             << t.translation().transpose() << ") mm\n";
   util::OutputTransaction outputs;
-  io::WriteRig(outputs.Stage(a.out), cal.rig, {{"calibration", cal.CalibrationJson()}});
+  outputs.Write(a.out, [&](const fs::path& tmp) {
+    io::WriteRig(tmp, cal.rig, {{"calibration", cal.CalibrationJson()}});
+  });
   if (!a.residual_image.empty()) {
-    io::WriteImage(outputs.Stage(a.residual_image), calib::ResidualImage(cal.LeftCamera()));
+    outputs.Write(a.residual_image, [&](const fs::path& tmp) {
+      io::WriteImage(tmp, calib::ResidualImage(cal.LeftCamera()));
+    });
   }
   if (!a.centres.empty()) {
     // The camera's detections (the projector's "centres" are decoded phase, not detections).
@@ -64,7 +68,8 @@ void CalibrateProjector(const CalibrateArgs& a, const CalibrationTarget& target,
     camera_only.names = cal.names;
     camera_only.left = cal.left_detections;
     camera_only.mono = cal.LeftCamera();
-    calib::WriteCentres(outputs.Stage(a.centres), camera_only, target);
+    outputs.Write(a.centres,
+                  [&](const fs::path& tmp) { calib::WriteCentres(tmp, camera_only, target); });
   }
   outputs.Commit();
   std::cout << "wrote " << a.out << "\n";
@@ -144,12 +149,16 @@ void AddCalibrateCommand(CLI::App& app) {
     std::cout << result.Report();
     // Both outputs are committed together or not at all.
     util::OutputTransaction outputs;
-    calib::WriteFolderCalibration(outputs.Stage(a->out), result);
+    outputs.Write(a->out, [&](const fs::path& tmp) { calib::WriteFolderCalibration(tmp, result); });
     if (!a->residual_image.empty()) {
-      io::WriteImage(outputs.Stage(a->residual_image),
-                     calib::ResidualImage(result.stereo ? result.pair.left : result.mono));
+      outputs.Write(a->residual_image, [&](const fs::path& tmp) {
+        io::WriteImage(tmp, calib::ResidualImage(result.stereo ? result.pair.left : result.mono));
+      });
     }
-    if (!a->centres.empty()) calib::WriteCentres(outputs.Stage(a->centres), result, target);
+    if (!a->centres.empty()) {
+      outputs.Write(a->centres,
+                    [&](const fs::path& tmp) { calib::WriteCentres(tmp, result, target); });
+    }
     outputs.Commit();
     std::cout << "wrote " << a->out << "\n";
     if (!a->residual_image.empty()) std::cout << "wrote " << a->residual_image << "\n";

@@ -172,6 +172,64 @@ TEST(Cli, ScanOnAFullDiskExitsWith1NamingTheFileAndTheStage) {
   }
 }
 
+// Issue 15, item 9: a full disk while `reconstruct` and `calibrate` write their outputs is
+// reported naming the user's file (never the hidden temporary beside it), exits 1 and leaves no
+// output and no temporary behind. The file size limit (tests/file_size_limit.h) lets the small
+// files through and stops the first large one.
+TEST(Cli, ReconstructAndCalibrateOnAFullDiskNameTheUsersFile) {
+  namespace fs = std::filesystem;
+  test::TempDir dir;
+  sim::ScanOptions o;
+  o.scene = "sphere";
+  o.views = 1;
+  o.calibration_images = 6;
+  o.render.sensor.supersampling = 1;
+  sim::SimulateScan(sim::ScaledRig(StereoRig::Reference(), 0.25), o, dir / "scan");
+  fs::create_directories(dir / "out");
+  const auto leftovers = [&] {
+    std::vector<std::string> names;
+    for (const auto& e : fs::directory_iterator(dir / "out")) {
+      names.push_back(e.path().filename().string());
+    }
+    return names;
+  };
+  const std::string cloud = (dir / "out" / "view.ply").string();
+  std::string err;
+  int rc = 0;
+  {
+    const test::FileSizeLimit full(20000);  // the view's cloud is several 100 kB
+    rc = RunCli({"-q", "reconstruct", (dir / "scan" / "views" / "000").string(), "--calib",
+                 (dir / "scan" / "truth" / "rig.json").string(), "--out", cloud},
+                nullptr, &err);
+  }
+  EXPECT_EQ(rc, 1) << err;
+  EXPECT_NE(err.find(cloud + ": cannot write: File too large"), std::string::npos) << err;
+  EXPECT_EQ(err.find(".tmp"), std::string::npos) << err;
+  EXPECT_TRUE(leftovers().empty()) << leftovers().front();
+
+  const std::string rig = (dir / "out" / "rig.json").string();
+  const std::string residuals = (dir / "out" / "residuals.tiff").string();
+  {
+    const test::FileSizeLimit full(20000);  // the rig fits, the float residual image does not
+    rc = RunCli({"-q", "calibrate", (dir / "scan" / "calibration").string(), "--target",
+                 (dir / "scan" / "calibration" / "target.json").string(), "--out", rig,
+                 "--residual-image", residuals},
+                nullptr, &err);
+  }
+  EXPECT_EQ(rc, 1) << err;
+  EXPECT_NE(err.find(residuals + ": cannot write"), std::string::npos) << err;
+  EXPECT_EQ(err.find(".tmp"), std::string::npos) << err;
+  EXPECT_TRUE(leftovers().empty()) << leftovers().front();
+  // Without the limit both succeed: the failures above were the disk's, not the inputs'.
+  EXPECT_EQ(RunCli({"-q", "calibrate", (dir / "scan" / "calibration").string(), "--target",
+                    (dir / "scan" / "calibration" / "target.json").string(), "--out", rig,
+                    "--residual-image", residuals},
+                   nullptr, &err),
+            0)
+      << err;
+  EXPECT_TRUE(fs::exists(rig) && fs::exists(residuals));
+}
+
 // ---------------------------------------------------------------------------------------------
 // Hostile and broken inputs (issue 15): each class asserts the exit code, a message naming the
 // user's file and the problem, and that nothing was written, deleted or overwritten.

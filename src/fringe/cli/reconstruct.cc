@@ -359,16 +359,19 @@ void AddReconstructCommand(CLI::App& app) {
     }
     // The cloud, the residual image and the markers are committed together or not at all.
     util::OutputTransaction outputs;
-    io::WritePly(outputs.Stage(a->out), rec.cloud,
-                 a->ascii ? io::PlyFormat::kAscii : io::PlyFormat::kBinaryLittleEndian,
-                 {camera_projector
-                      ? "fringe reconstruct (camera-projector): camera frame, mm; quality = "
-                        "fringe modulation (DN), intensity = texture, residual_px = round trip "
-                        "into the projector (px)"
-                      : "fringe reconstruct: left camera frame, mm; quality = fringe modulation "
-                        "(DN), intensity = texture, residual_px = reprojection residual (px)"});
+    outputs.Write(a->out, [&](const fs::path& tmp) {
+      io::WritePly(tmp, rec.cloud,
+                   a->ascii ? io::PlyFormat::kAscii : io::PlyFormat::kBinaryLittleEndian,
+                   {camera_projector
+                        ? "fringe reconstruct (camera-projector): camera frame, mm; quality = "
+                          "fringe modulation (DN), intensity = texture, residual_px = round trip "
+                          "into the projector (px)"
+                        : "fringe reconstruct: left camera frame, mm; quality = fringe modulation "
+                          "(DN), intensity = texture, residual_px = reprojection residual (px)"});
+    });
     if (!a->residuals.empty()) {
-      io::WriteImage(outputs.Stage(a->residuals), rec.reprojection_error_px);
+      outputs.Write(a->residuals,
+                    [&](const fs::path& tmp) { io::WriteImage(tmp, rec.reprojection_error_px); });
     }
     std::optional<registration::ViewMarkers> markers;
     // Stereo: markers triangulated from both cameras' textures; one camera: its ring centre's
@@ -378,7 +381,9 @@ void AddReconstructCommand(CLI::App& app) {
                                        rig.left, rec.texture_left, rec.cloud)
                                  : registration::DetectViewMarkers(rig, rec.texture_left,
                                                                    rec.texture_right, rec.cloud);
-      registration::WriteViewMarkers(outputs.Stage(markers_path), markers->markers);
+      outputs.Write(markers_path, [&](const fs::path& tmp) {
+        registration::WriteViewMarkers(tmp, markers->markers);
+      });
     }
     outputs.Commit();
     if (a->json) {

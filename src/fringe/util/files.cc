@@ -277,6 +277,11 @@ void WriteAtomically(const fs::path& path, const std::function<void(const fs::pa
     std::error_code ignored;
     fs::remove(tmp, ignored);
     throw Error(StrCat(path.string(), ": cannot write: ", e.code().message()));
+  } catch (const Error& e) {
+    // A writer's own error (its checked close on a full disk) names the file it was given.
+    std::error_code ignored;
+    fs::remove(tmp, ignored);
+    throw Error(ReplaceAll(e.what(), tmp.string(), path.string()));
   } catch (...) {
     std::error_code ignored;
     fs::remove(tmp, ignored);
@@ -351,6 +356,18 @@ fs::path OutputTransaction::Stage(const fs::path& path) {
   e.signal_cleanup = std::make_shared<TemporaryRegistration>(e.tmp);
   entries_.push_back(std::move(e));
   return entries_.back().tmp;
+}
+
+void OutputTransaction::Write(const fs::path& path,
+                              const std::function<void(const fs::path&)>& write) {
+  const fs::path tmp = Stage(path);
+  try {
+    write(tmp);
+  } catch (const fs::filesystem_error& e) {
+    throw Error(StrCat(path.string(), ": cannot write: ", e.code().message()));
+  } catch (const Error& e) {
+    throw Error(ReplaceAll(e.what(), tmp.string(), path.string()));
+  }
 }
 
 void OutputTransaction::Commit() {

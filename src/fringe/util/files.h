@@ -62,9 +62,10 @@ inline void WriteFolderAtomically(const fs::path& dir,
 
 // Several output files of one command committed together: Stage() checks the location and
 // returns a temporary path beside each output (same extension, so extension-driven writers
-// work); the caller writes every output to its temporary, then Commit() renames them all into
-// place. A failure before Commit() (an exception, a signal) leaves no output and no temporary:
-// the destructor removes uncommitted temporaries.
+// work); the caller writes every output to its temporary (Write() does both and names the
+// user's path in errors), then Commit() renames them all into place. A failure before Commit() (an
+// exception, a signal) leaves no output and no temporary: the destructor removes uncommitted
+// temporaries.
 class OutputTransaction {
  public:
   OutputTransaction() = default;
@@ -73,6 +74,10 @@ class OutputTransaction {
   OutputTransaction& operator=(const OutputTransaction&) = delete;
 
   fs::path Stage(const fs::path& path);
+  // Stage(path), then write(tmp): an error thrown by write() that names the temporary (a
+  // writer's checked close on a full disk, a filesystem error) is rethrown naming `path`, so the
+  // user never sees the hidden name. What was written stays staged until Commit().
+  void Write(const fs::path& path, const std::function<void(const fs::path& tmp)>& write);
   void Commit();
 
  private:

@@ -92,6 +92,50 @@ TEST(WriteFolderAtomically, FullDiskNamesTheFileInsideTheOutputNotTheTemporary) 
   EXPECT_TRUE(fs::is_empty(dir.path()));
 }
 
+// A writer's own error names the file it was handed (the temporary): WriteAtomically and
+// OutputTransaction::Write rethrow it naming the user's path, and leave nothing behind.
+TEST(OutputTransaction, FullDiskNamesTheUsersFileNotTheTemporary) {
+  test::TempDir dir;
+  const fs::path small = dir / "small.json", big = dir / "big.tiff";
+  const auto write_bytes = [](size_t bytes) {
+    return [bytes](const fs::path& tmp) {
+      std::ofstream f(tmp, std::ios::binary);
+      f << std::string(bytes, 'x');
+      CloseOutput(f, tmp);
+    };
+  };
+  std::string message;
+  {
+    const test::FileSizeLimit limit(1000);
+    message = test::ErrorOf([&] {
+      OutputTransaction outputs;
+      outputs.Write(small, write_bytes(10));
+      outputs.Write(big, write_bytes(5000));
+      outputs.Commit();
+    });
+  }
+  EXPECT_NE(message.find(big.string() + ": cannot write: File too large"), std::string::npos)
+      << message;
+  EXPECT_EQ(message.find(".tmp"), std::string::npos) << message;
+  EXPECT_TRUE(fs::is_empty(dir.path())) << "the staged small file is removed too";
+  {
+    const test::FileSizeLimit limit(1000);
+    message = test::ErrorOf([&] { WriteAtomically(big, write_bytes(5000)); });
+  }
+  EXPECT_NE(message.find(big.string() + ": cannot write: File too large"), std::string::npos)
+      << message;
+  EXPECT_EQ(message.find(".tmp"), std::string::npos) << message;
+  EXPECT_TRUE(fs::is_empty(dir.path()));
+  // Within the limit both outputs arrive together.
+  OutputTransaction outputs;
+  outputs.Write(small, write_bytes(10));
+  outputs.Write(big, write_bytes(500));
+  EXPECT_FALSE(fs::exists(small)) << "nothing is in place before Commit()";
+  outputs.Commit();
+  EXPECT_EQ(FileSizeBytes(small), 10u);
+  EXPECT_EQ(FileSizeBytes(big), 500u);
+}
+
 TEST(WriteAtomically, MissingFolderNamesThePath) {
   test::TempDir dir;
   const fs::path out = dir / "no" / "such" / "a.txt";

@@ -90,6 +90,11 @@ class Sweep:
                     "0.25", "--supersampling", "1", "--calibration-images", "0", "--no-truth-maps")
         self.run_ok("simulate", "board", "--out", v / "board", "--views", "0", "--rig-scale",
                     "0.25", "--supersampling", "1", "--calibration-images", "3")
+        # Camera + projector: a one-camera scan with both fringe directions and its board pose
+        # folders (calibration/KKK/{board.png,vertical/,horizontal/}).
+        self.run_ok("simulate", "sphere", "--out", v / "cp", "--cameras", "1", "--both-directions",
+                    "--views", "1", "--rig-scale", "0.25", "--supersampling", "1",
+                    "--calibration-images", "4", "--no-truth-maps")
         (v / "done").write_text("")
         self.valid = v
 
@@ -562,6 +567,86 @@ def build_cases(s):
         s.case("OpenCV file", f"{name}: convert-calib", ["convert-calib", "cal.yml", "--out", "{out}/rig.json"],
                ["cal.yml"], prepare=write("cal.yml", text))
         s.case("OpenCV file", f"{name}: info", ["info", "cal.yml"], ["cal.yml"], prepare=write("cal.yml", text))
+
+    # -------- camera + projector: one-camera scans, projector calibration folders, rigs -------
+    cp_rig = json.loads((v / "cp/truth/rig.json").read_text())
+    cp_view = ["reconstruct", "proj/views/000", "--calib", "rig.json", "--out", "{out}/r.ply"]
+    cp_calib = ["calibrate", "proj/calibration", "--target", "proj/calibration/target.json",
+                "--out", "{out}/rig.json"]
+    for label, val, ok in (("0", 0, False), ("3", 3, False), ("-1", -1, False),
+                           ("4294967297", 4294967297, False), ("1.5", 1.5, False),
+                           ("a string", "1", False), ("null", None, False), ("2", 2, False)):
+        # "cameras": 2 on a folder without right/ images is a wrong claim the reader must name.
+        s.case("camera + projector", f"scan.json 'cameras' = {label}", ["info", "proj"], ["proj"],
+               names=["scan.json", "right"], may_succeed=ok,
+               prepare=chain(s.copy("cp", "proj"),
+                             edit_json("proj/scan.json", lambda j, val=val: {**j, "cameras": val})))
+    for label, name in (("'..'", "../outside.json"), ("absolute", "/etc/passwd"), ("empty", ""),
+                        ("missing file", "nothere.json"), ("a number", 5),
+                        ("the vertical scheme's file", "scheme.json")):
+        # The same scheme for both directions cannot decode the horizontal stacks: an error, or
+        # (for "scheme.json") a clean refusal naming the direction.
+        s.case("camera + projector", f"scan.json 'scheme_horizontal' {label}",
+               ["scan", "proj", "--calib", "rig.json", "--out", "{out}/o", "--no-report"], ["proj"],
+               names=["scan.json", "scheme", "horizontal", "nothere.json"],
+               prepare=chain(s.copy("cp", "proj"), s.copy("cp/truth/rig.json", "rig.json"),
+                             edit_json("proj/scan.json",
+                                       lambda j, name=name: {**j, "scheme_horizontal": name})))
+    for name, fn, ok in json_mutations(json.loads((v / "cp/scheme_horizontal.json").read_text())):
+        s.case("camera + projector", f"scheme_horizontal.json: {name}", cp_view,
+               ["proj", "rig.json"], names=["scheme_horizontal.json"], may_succeed=ok,
+               prepare=chain(s.copy("cp", "proj"), s.copy("cp/truth/rig.json", "rig.json"),
+                             edit_json("proj/scheme_horizontal.json", fn)))
+    pose_manifest = "proj/calibration/001/vertical/manifest.json"
+    for label, image in (("'..' component", "../../000/board.png"), ("absolute path", "/tmp/x.png"),
+                         ("empty name", ""), ("unknown extension", "a.exe"),
+                         ("duplicate", "01.png")):
+        def bad_image(j, image=image):
+            j["images"][0] = image
+            return j
+        s.case("camera + projector", f"board pose manifest image name: {label}", cp_calib,
+               ["proj"], names=["manifest.json"],
+               prepare=chain(s.copy("cp", "proj"), edit_json(pose_manifest, bad_image)))
+    for name, fn, ok in json_mutations(json.loads((v / "cp" / pose_manifest[5:]).read_text())):
+        s.case("camera + projector", f"board pose manifest: {name}", cp_calib, ["proj"],
+               names=["manifest.json", "001"], may_succeed=ok,
+               prepare=chain(s.copy("cp", "proj"), edit_json(pose_manifest, fn)))
+    for name, fn in img_muts:
+        for rel in ("calibration/001/vertical/03.png", "calibration/002/board.png"):
+            def prep_pose_img(case_dir, fn=fn, rel=rel):
+                fn(case_dir, case_dir / "proj" / rel)
+            # Losing one pose of four may still calibrate (the pose is left out and named).
+            s.case("camera + projector", f"{name}: {rel}", cp_calib, ["proj"],
+                   names=[Path(rel).name, Path(rel).parent.name, "002", "001"], may_succeed=True,
+                   prepare=chain(s.copy("cp", "proj"), prep_pose_img))
+        def prep_view_img(case_dir, fn=fn):
+            fn(case_dir, case_dir / "proj/views/000/left/horizontal/05.png")
+        s.case("camera + projector", f"{name}: a view's horizontal stack", cp_view, ["proj"],
+               names=["05.png", "horizontal"],
+               prepare=chain(s.copy("cp", "proj"), s.copy("cp/truth/rig.json", "rig.json"),
+                             prep_view_img))
+    for label, fn in (("projector_from_left rotation scaled by 2",
+                       lambda j: scale_matrix(j, "projector_from_left", 2.0)),
+                      ("projector_from_left rotation all zero",
+                       lambda j: scale_matrix(j, "projector_from_left", 0.0)),
+                      ("projector_from_left translation 1e300",
+                       lambda j: {**j, "projector_from_left": {**j["projector_from_left"],
+                                                               "translation_mm": [1e300, 0, 0]}}),
+                      ("projector_from_left removed",
+                       lambda j: {k: x for k, x in j.items() if k != "projector_from_left"})):
+        s.case("camera + projector", f"rig: {label}", cp_view, ["rig.json"],
+               prepare=chain(s.copy("cp", "proj"), s.copy("cp/truth/rig.json", "rig.json"),
+                             edit_json("rig.json", fn)))
+    for key in cp_rig["cameras"]["projector"]:
+        for label, val in (("1e300", 1e300), ("-1", -1), ("[]", []), ("0", 0)):
+            if key == "distortion" and val == 0:
+                continue
+            def set_projector(j, key=key, val=val):
+                j["cameras"]["projector"][key] = val
+                return j
+            s.case("camera + projector", f"rig projector '{key}' = {label}", cp_view, ["rig.json"],
+                   prepare=chain(s.copy("cp", "proj"), s.copy("cp/truth/rig.json", "rig.json"),
+                                 edit_json("rig.json", set_projector)))
 
     # -------- paths and flags ------------------------------------------------------------------
     s.case("paths", "missing --scheme file", ["decode", "view/left", "--scheme", "nothere.json", "--out", "{out}/d"],

@@ -217,18 +217,21 @@ void AddReconstructCommand(CLI::App& app) {
         phase::SchemeFromArgument(scheme_arg, a->parameters)};
     std::vector<fs::path> left_dirs = {two_directions ? left_dir / "vertical" : left_dir};
     if (two_directions) {
-      schemes.push_back(phase::ReadScheme(
-          scan_schemes ? scan_schemes->second : left_dir / "horizontal" / "manifest.json"));
+      const fs::path horizontal_scheme =
+          scan_schemes ? scan_schemes->second : left_dir / "horizontal" / "manifest.json";
+      schemes.push_back(phase::ReadScheme(horizontal_scheme));
       left_dirs.push_back(left_dir / "horizontal");
+      // Name the file the wrong scheme came from (the scan's scheme file or the stack's own
+      // manifest) and the folder it was meant for.
+      const std::string sources[] = {scheme_arg, horizontal_scheme.string()};
       const char* names[] = {"vertical", "horizontal"};
       const phase::FringeDirection wanted[] = {phase::FringeDirection::kVertical,
                                                phase::FringeDirection::kHorizontal};
       for (int k = 0; k < 2; ++k) {
         if (schemes[k].direction != wanted[k]) {
-          throw Error(util::StrCat((left_dir / names[k] / "manifest.json").string(), ": scheme '",
-                                   schemes[k].name, "' has ",
-                                   phase::DirectionName(schemes[k].direction),
-                                   " fringes; this folder needs ", names[k], " ones"));
+          throw Error(util::StrCat(sources[k], ": scheme '", schemes[k].name, "' has ",
+                                   phase::DirectionName(schemes[k].direction), " fringes; ",
+                                   left_dirs[k].string(), " needs ", names[k], " ones"));
         }
       }
     }

@@ -273,6 +273,26 @@ stereo::ViewStacks ReadOneCameraStacks(const scan::ScanFolder& folder, const std
   return out;
 }
 
+// OUT/views/NNN.ply of a view that worked; a failure fails the view in stage "write".
+void WriteViewCloud(const fs::path& out_dir, ViewResult* v) {
+  ScanViewSummary& s = v->summary;
+  if (!s.ok) return;
+  try {
+    io::WritePly(out_dir / "views" / (s.name + ".ply"), v->cloud,
+                 io::PlyFormat::kBinaryLittleEndian,
+                 {StrCat("fringe scan: view ", s.name,
+                         ", left camera (sensor) frame, mm; quality = fringe modulation (DN)")});
+  } catch (const Error& e) {
+    s.ok = false;
+    s.failed_stage = "write";
+    s.message = e.what();
+  } catch (const cv::Exception& e) {
+    s.ok = false;
+    s.failed_stage = "write";
+    s.message = StrCat((out_dir / "views" / (s.name + ".ply")).string(), ": ", e.what());
+  }
+}
+
 // Reads, reconstructs and writes one view. Data failures come back in the summary (ok = false,
 // the stage and the reason); nothing is thrown for them so that other views go on.
 ViewResult ProcessView(const scan::ScanFolder& folder, const std::string& name,
@@ -351,11 +371,15 @@ ViewResult ProcessView(const scan::ScanFolder& folder, const std::string& name,
     if (options.detect_markers) {
       registration::WriteViewMarkers(out_dir / "views" / (name + ".markers.json"), v.markers);
     }
-    // The cloud is written after the views stage (WriteViewCloud), once the projector-column
-    // check (which needs every view) has run.
-    if (keep_phase) v.phase_left = rec.phase_left;
     v.cloud = std::move(rec.cloud);
     s.ok = true;
+    // With the projector-column check (it needs every view) the cloud is written after it;
+    // else here, while the next views decode.
+    if (keep_phase) {
+      v.phase_left = rec.phase_left;
+    } else {
+      WriteViewCloud(out_dir, &v);
+    }
   } catch (const Error& e) {
     s.ok = false;
     s.failed_stage = stage;
@@ -366,22 +390,6 @@ ViewResult ProcessView(const scan::ScanFolder& folder, const std::string& name,
     s.message = StrCat(view_dir.string(), ": ", e.what());
   }
   return v;
-}
-
-// OUT/views/NNN.ply of a view that worked; a failure fails the view in stage "write".
-void WriteViewCloud(const fs::path& out_dir, ViewResult* v) {
-  ScanViewSummary& s = v->summary;
-  if (!s.ok) return;
-  try {
-    io::WritePly(out_dir / "views" / (s.name + ".ply"), v->cloud,
-                 io::PlyFormat::kBinaryLittleEndian,
-                 {StrCat("fringe scan: view ", s.name,
-                         ", left camera (sensor) frame, mm; quality = fringe modulation (DN)")});
-  } catch (const Error& e) {
-    s.ok = false;
-    s.failed_stage = "write";
-    s.message = e.what();
-  }
 }
 
 // Projector-less stereo: the projector's columns fitted to every view's points and left phases
@@ -1315,9 +1323,11 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
                 progress.Advance();
               }));
     }
-    if (check_columns) CheckProjectorColumns(options, &results, &s);
-    tbb::parallel_for(size_t{0}, results.size(),
-                      [&](size_t i) { WriteViewCloud(dir, &results[i]); });
+    if (check_columns) {
+      CheckProjectorColumns(options, &results, &s);
+      tbb::parallel_for(size_t{0}, results.size(),
+                        [&](size_t i) { WriteViewCloud(dir, &results[i]); });
+    }
     s.views_s = timer.ElapsedSeconds();
     s.views_cpu_s = cpu.ElapsedSeconds();
     for (const ViewResult& v : results) {

@@ -1049,6 +1049,19 @@ Report BuildReport(const fs::path& project, const ScanSummary& s, const Calibrat
         s.stereo ? "Baseline " + Fixed(cal.rig.BaselineMm(), 3) + " mm."
                  : "Camera + projector: camera to projector distance " +
                        Fixed(cal.rig.projector_from_left.translation().norm(), 3) + " mm.");
+    // Stereo without a calibrated projector: the projector's columns fitted to this scan.
+    if (s.projector_columns.is_object()) {
+      sec.paragraphs.push_back(
+          s.projector_columns_used
+              ? StrCat("No calibrated projector: its columns were fitted to this scan's points (",
+                       s.projector_columns.at("message").get<std::string>(), "); ",
+                       s.projector_column_rejected,
+                       " points off their projector column (false matches) were dropped.")
+              : StrCat("No calibrated projector, and its columns could not be fitted to this "
+                       "scan (",
+                       s.projector_columns.at("message").get<std::string>(),
+                       "): matches were not checked against the projector."));
+    }
     if (cal.projector_folder) {
       sec.images.push_back({"camera: residual vectors (magnified) and board coverage",
                             calib::ResidualImage(cal.projector_folder->LeftCamera())});

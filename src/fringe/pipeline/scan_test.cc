@@ -135,6 +135,9 @@ TEST_F(ScanTest, ProjectorlessRigFitsTheProjectorColumnsFromTheScan) {
   ASSERT_EQ(with.status, ScanStatus::kOk) << with.message;
   ASSERT_TRUE(with.projector_columns_used) << with.projector_columns.dump();
   EXPECT_LT(with.projector_columns.at("rms_px").get<double>(), kMaxColumnRmsPx);
+  EXPECT_NE(util::ReadTextFile(tmp_ / "with" / "report.html")
+                .find("its columns were fitted to this scan"),
+            std::string::npos);
   ScanOptions off = TestOptions();
   off.fit_projector_columns = false;
   const ScanSummary without = RunScan(scan, tmp_ / "without", off);

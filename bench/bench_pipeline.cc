@@ -115,6 +115,9 @@ int main(int argc, char** argv) {
                  "Scan folder of an earlier run (WORK/scan with --keep) used instead of "
                  "simulating; its rig scale and views are those it was simulated with")
       ->check(CLI::ExistingDirectory);
+  app.add_flag(
+      "--no-projector-columns", [&](int64_t) { options.fit_projector_columns = false; },
+      "Do not fit the projector's columns to the scan when the rig has no projector");
   std::string rig_file;
   app.add_option("--rig", rig_file, "Rig JSON used instead of calibrating from the board images")
       ->check(CLI::ExistingFile);

@@ -42,6 +42,10 @@ void AddDemoCommand(CLI::App& app) {
   sub->add_option("--scheme", a->options.scheme, "Pattern scheme preset")->capture_default_str();
   sub->add_flag("--true-calibration", a->options.use_true_calibration,
                 "Measure with the true rig instead of the estimated calibration");
+  sub->add_flag(
+      "--no-projector-columns", [a](int64_t) { a->options.scan.fit_projector_columns = false; },
+      "Do not fit the projector's columns to the scan (the estimated calibration has no "
+      "projector) nor drop the points off them");
   sub->add_flag("--json", a->json, "Print the figures as one JSON object");
   sub->callback([a] {
     const pipeline::DemoSummary s = pipeline::RunDemo(a->options, a->out);

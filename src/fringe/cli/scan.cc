@@ -60,6 +60,10 @@ void AddScanCommand(CLI::App& app) {
       "Register without markers (marker-free coarse alignment + ICP)");
   sub->add_flag(
       "--no-report", [a](int64_t) { a->options.write_report = false; }, "Do not write report.html");
+  sub->add_flag(
+      "--no-projector-columns", [a](int64_t) { a->options.fit_projector_columns = false; },
+      "Stereo rig without a calibrated projector: do not fit the projector's columns to the "
+      "scan nor drop the points off them (false matches at occlusions)");
   sub->add_flag("--json", a->json, "Print the summary as one JSON object");
   sub->callback([a] {
     a->options.calib = a->calib;

@@ -54,6 +54,7 @@ struct ViewResult {
   OrganizedPointCloud cloud;
   std::vector<registration::ViewMarker> markers;
   std::vector<ReportImage> pictures;
+  cv::Mat phase_left;  // kept for the projector-column check (empty when it is not run)
 };
 
 struct Calibration {
@@ -272,12 +273,32 @@ stereo::ViewStacks ReadOneCameraStacks(const scan::ScanFolder& folder, const std
   return out;
 }
 
+// OUT/views/NNN.ply of a view that worked; a failure fails the view in stage "write".
+void WriteViewCloud(const fs::path& out_dir, ViewResult* v) {
+  ScanViewSummary& s = v->summary;
+  if (!s.ok) return;
+  try {
+    io::WritePly(out_dir / "views" / (s.name + ".ply"), v->cloud,
+                 io::PlyFormat::kBinaryLittleEndian,
+                 {StrCat("fringe scan: view ", s.name,
+                         ", left camera (sensor) frame, mm; quality = fringe modulation (DN)")});
+  } catch (const Error& e) {
+    s.ok = false;
+    s.failed_stage = "write";
+    s.message = e.what();
+  } catch (const cv::Exception& e) {
+    s.ok = false;
+    s.failed_stage = "write";
+    s.message = StrCat((out_dir / "views" / (s.name + ".ply")).string(), ": ", e.what());
+  }
+}
+
 // Reads, reconstructs and writes one view. Data failures come back in the summary (ok = false,
 // the stage and the reason); nothing is thrown for them so that other views go on.
 ViewResult ProcessView(const scan::ScanFolder& folder, const std::string& name,
                        const std::vector<phase::PatternScheme>& schemes, const StereoRig& rig,
                        const stereo::ViewReconstructor& reconstructor, const ScanOptions& options,
-                       const fs::path& out_dir) {
+                       bool keep_phase, const fs::path& out_dir) {
   ViewResult v;
   ScanViewSummary& s = v.summary;
   s.name = name;
@@ -350,11 +371,15 @@ ViewResult ProcessView(const scan::ScanFolder& folder, const std::string& name,
     if (options.detect_markers) {
       registration::WriteViewMarkers(out_dir / "views" / (name + ".markers.json"), v.markers);
     }
-    io::WritePly(out_dir / "views" / (name + ".ply"), rec.cloud, io::PlyFormat::kBinaryLittleEndian,
-                 {StrCat("fringe scan: view ", name,
-                         ", left camera (sensor) frame, mm; quality = fringe modulation (DN)")});
     v.cloud = std::move(rec.cloud);
     s.ok = true;
+    // With the projector-column check (it needs every view) the cloud is written after it;
+    // else here, while the next views decode.
+    if (keep_phase) {
+      v.phase_left = rec.phase_left;
+    } else {
+      WriteViewCloud(out_dir, &v);
+    }
   } catch (const Error& e) {
     s.ok = false;
     s.failed_stage = stage;
@@ -365,6 +390,60 @@ ViewResult ProcessView(const scan::ScanFolder& folder, const std::string& name,
     s.message = StrCat(view_dir.string(), ": ", e.what());
   }
   return v;
+}
+
+// Projector-less stereo: the projector's columns fitted to every view's points and left phases
+// (at most ~200 000 pairs, every k-th valid point), then each view's points off their column
+// dropped when the fit is accepted (ScanOptions::fit_projector_columns).
+void CheckProjectorColumns(const ScanOptions& options, std::vector<ViewResult>* results,
+                           ScanSummary* s) {
+  constexpr int64_t kMaxPairs = 200000;
+  const double tolerance = options.reconstruction.matching.max_projector_error_px;
+  int64_t valid = 0;
+  for (const ViewResult& v : *results) {
+    if (v.summary.ok) valid += static_cast<int64_t>(v.cloud.NumValid());
+  }
+  const int stride = static_cast<int>(std::max<int64_t>(1, (valid + kMaxPairs - 1) / kMaxPairs));
+  std::vector<Eigen::Vector3d> points;
+  std::vector<double> columns;
+  for (const ViewResult& v : *results) {
+    if (v.summary.ok)
+      stereo::SampleProjectorColumns(v.cloud, v.phase_left, stride, &points, &columns);
+  }
+  stereo::ProjectorColumnFitOptions fit_options = options.projector_columns;
+  fit_options.max_error_px = tolerance;
+  const stereo::ProjectorColumnFit fit = stereo::FitProjectorColumns(points, columns, fit_options);
+  s->projector_columns_used = fit.ok;
+  s->projector_column_rejected = 0;
+  if (fit.ok) {
+    tbb::parallel_for(size_t{0}, results->size(), [&](size_t i) {
+      ViewResult& v = (*results)[i];
+      if (!v.summary.ok) return;
+      const int removed =
+          stereo::RejectByProjectorColumns(fit.model, v.phase_left, tolerance, &v.cloud);
+      v.summary.projector_column_rejected = removed;
+      v.summary.points -= removed;
+      v.summary.valid_fraction =
+          v.summary.points / std::max(1.0, double(v.cloud.width) * v.cloud.height);
+    });
+    for (const ViewResult& v : *results)
+      s->projector_column_rejected += v.summary.projector_column_rejected;
+  }
+  for (ViewResult& v : *results) v.phase_left.release();
+  util::LogInfo(
+      StrCat("scan: projector columns ", fit.ok ? "used" : "not used", ": ", fit.message,
+             fit.ok ? StrCat("; ", s->projector_column_rejected, " points dropped") : ""));
+  const auto& r = fit.model.rows;
+  s->projector_columns = {
+      {"used", fit.ok},
+      {"message", fit.message},
+      {"pairs", fit.num_points},
+      {"inliers", fit.num_inliers},
+      {"rms_px", fit.rms_px},
+      {"thickness", fit.thickness},
+      {"tolerance_px", tolerance},
+      {"rejected_points", s->projector_column_rejected},
+      {"rows", {{r(0, 0), r(0, 1), r(0, 2), r(0, 3)}, {r(1, 0), r(1, 1), r(1, 2), r(1, 3)}}}};
 }
 
 ReportTable ViewTable(const std::vector<ScanViewSummary>& views, bool stereo) {
@@ -970,6 +1049,19 @@ Report BuildReport(const fs::path& project, const ScanSummary& s, const Calibrat
         s.stereo ? "Baseline " + Fixed(cal.rig.BaselineMm(), 3) + " mm."
                  : "Camera + projector: camera to projector distance " +
                        Fixed(cal.rig.projector_from_left.translation().norm(), 3) + " mm.");
+    // Stereo without a calibrated projector: the projector's columns fitted to this scan.
+    if (s.projector_columns.is_object()) {
+      sec.paragraphs.push_back(
+          s.projector_columns_used
+              ? StrCat("No calibrated projector: its columns were fitted to this scan's points (",
+                       s.projector_columns.at("message").get<std::string>(), "); ",
+                       s.projector_column_rejected,
+                       " points off their projector column (false matches) were dropped.")
+              : StrCat("No calibrated projector, and its columns could not be fitted to this "
+                       "scan (",
+                       s.projector_columns.at("message").get<std::string>(),
+                       "): matches were not checked against the projector."));
+    }
     if (cal.projector_folder) {
       sec.images.push_back({"camera: residual vectors (magnified) and board coverage",
                             calib::ResidualImage(cal.projector_folder->LeftCamera())});
@@ -1030,6 +1122,7 @@ void ScanOptions::Check() const {
                     calib.string(), "give a rig JSON or OpenCV files, not both");
   projector_calibration.Check();
   reconstruction.Check();
+  projector_columns.Check();
   registration.Check();
   fusion.Check();
   mesh.Check();
@@ -1095,6 +1188,8 @@ json ScanSummary::FiguresJson() const {
           {"peak_mem_gib", peak_mem_gib},
           {"marker_adjusted_rms_mm", marker_adjusted_rms_mm},
           {"icp_rms_mm", icp_rms_mm},
+          {"projector_columns_used", projector_columns_used},
+          {"projector_column_rejected", projector_column_rejected},
           {"pose_rot_err_deg", figure(pose_rot_err_deg)},
           {"pose_trans_err_mm", figure(pose_trans_err_mm)},
           {"fused_rms_mm", figure(fused_rms_mm)},
@@ -1126,6 +1221,7 @@ json ScanSummary::ToJson() const {
   j["fusion"] = fusion;
   j["mesh"] = meshing;
   j["mode"] = stereo ? "stereo" : "camera-projector";
+  j["projector_columns"] = projector_columns;
   if (calibration_rms_left_px > 0) {
     j["calibration_rms_left_px"] = calibration_rms_left_px;
     if (stereo) {
@@ -1147,6 +1243,7 @@ json ScanSummary::ToJson() const {
            {"reconstruct_s", e.reconstruct_s},
            {"markers", e.markers},
            {"markers_s", e.markers_s},
+           {"projector_column_rejected", e.projector_column_rejected},
            {"registration_path", e.registration_path},
            {"matched_markers", e.matched_markers},
            {"marker_rms_mm", e.marker_rms_mm},
@@ -1216,6 +1313,9 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
                         : stereo::MakeCameraProjectorReconstructor(
                               stereo::CameraProjectorRig::FromLeftCamera(cal.rig), schemes,
                               options.reconstruction);
+    const bool check_columns = folder.stereo() && !cal.rig.projector &&
+                               options.fit_projector_columns &&
+                               options.reconstruction.matching.max_projector_error_px > 0;
     std::vector<ViewResult> results(names.size());
     {
       util::Progress progress("scan: reconstruct views", static_cast<int>(names.size()));
@@ -1231,10 +1331,15 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
                                            return next++;
                                          }) &
               tbb::make_filter<size_t, void>(tbb::filter_mode::parallel, [&](size_t i) {
-                results[i] =
-                    ProcessView(folder, names[i], schemes, cal.rig, reconstructor, options, dir);
+                results[i] = ProcessView(folder, names[i], schemes, cal.rig, reconstructor, options,
+                                         check_columns, dir);
                 progress.Advance();
               }));
+    }
+    if (check_columns) {
+      CheckProjectorColumns(options, &results, &s);
+      tbb::parallel_for(size_t{0}, results.size(),
+                        [&](size_t i) { WriteViewCloud(dir, &results[i]); });
     }
     s.views_s = timer.ElapsedSeconds();
     s.views_cpu_s = cpu.ElapsedSeconds();

@@ -47,6 +47,7 @@
 #include "fringe/geometry/stereo_rig.h"
 #include "fringe/registration/markers.h"
 #include "fringe/registration/register_views.h"
+#include "fringe/stereo/projector_columns.h"
 #include "fringe/stereo/reconstruct_view.h"
 
 namespace fringe::pipeline {
@@ -64,6 +65,15 @@ struct ScanOptions {
   // of 1.3 Mpx: ~60 MB for 8-bit) while it is decoded; 2 keeps both cores busy on this machine.
   int views_in_flight = 2;
   stereo::ReconstructionOptions reconstruction;
+  // Stereo with a rig that has no calibrated projector (one calibrated from board images): after
+  // the views, the projector's columns are fitted to the scan's own points and their left
+  // phases (stereo/projector_columns.h) and, when the fit is accepted, the points off their
+  // projector column by more than reconstruction.matching.max_projector_error_px (false matches
+  // at occlusions) are dropped: the check a calibrated projector gets in the matcher. The fit's
+  // max_error_px is that tolerance (the one given here is replaced). Reported in the summary's
+  // "projector_columns".
+  bool fit_projector_columns = true;
+  stereo::ProjectorColumnFitOptions projector_columns;
   // Sticky markers of every view (registration/markers.h), written as OUT/views/NNN.markers.json.
   bool detect_markers = true;
   registration::MarkerDetectionOptions markers;
@@ -98,8 +108,9 @@ struct ScanViewSummary {
   std::string failed_stage;  // "read", "reconstruct", ... when !ok
   std::string message;       // why it failed, naming the file
   int points = 0;
-  int markers = 0;                                       // sticky markers measured in the view
-  double valid_fraction = 0;                             // points / left pixels
+  int markers = 0;                    // sticky markers measured in the view
+  int projector_column_rejected = 0;  // points dropped by the fitted projector columns
+  double valid_fraction = 0;          // points / left pixels
   double decode_valid_left = 0, decode_valid_right = 0;  // decoded pixel fractions
   double read_s = 0, decode_s = 0, reconstruct_s = 0;    // reconstruct_s: match to normals
   double markers_s = 0;
@@ -139,6 +150,12 @@ struct ScanSummary {
   double calibrate_cpu_s = 0, views_cpu_s = 0, register_cpu_s = 0, fuse_cpu_s = 0, mesh_cpu_s = 0;
   double report_cpu_s = 0, total_cpu_s = 0, evaluate_cpu_s = 0;
   double peak_mem_gib = 0;
+  // The projector columns fitted to the scan (ScanOptions::fit_projector_columns): whether they
+  // were fitted and used, why not, their fit and the points dropped (all views); null when not
+  // attempted (the rig has a projector, one camera, or the option is off).
+  nlohmann::json projector_columns;
+  bool projector_columns_used = false;
+  int64_t projector_column_rejected = 0;
   // Registration.
   std::string registration_status;
   double marker_adjusted_rms_mm = 0;  // marker sightings after the global adjustment

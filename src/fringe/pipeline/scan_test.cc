@@ -117,12 +117,64 @@ TEST(ScanOptions, DefaultsPassCheck) {
   EXPECT_THROW(o.Check(), Error);  // extrinsics missing
 }
 
+// A stereo rig without a calibrated projector (what calibration from board images gives): the
+// scanner fits the projector's columns to the scan's own points and drops the points off them,
+// the check the matcher makes with a calibrated projector. The fit must agree with the true
+// projector, and dropping the false matches must not make the fused cloud worse (on the
+// full-size scan it halves its RMS: docs/benchmarks.md, session 6).
+TEST_F(ScanTest, ProjectorlessRigFitsTheProjectorColumnsFromTheScan) {
+  constexpr double kMaxColumnRmsPx = 0.1;   // phase noise of the half-size rig's views
+  constexpr double kMaxColumnErrPx = 0.05;  // fitted vs true projector column at the points
+  const fs::path scan = CopyOfScan("no-projector");
+  StereoRig rig = io::ReadRig(Scan() / "rig.json");
+  ASSERT_TRUE(rig.projector.has_value());
+  const StereoRig truth = rig;
+  rig.projector.reset();
+  io::WriteRig(scan / "rig.json", rig);
+  const ScanSummary with = RunScan(scan, tmp_ / "with", TestOptions());
+  ASSERT_EQ(with.status, ScanStatus::kOk) << with.message;
+  ASSERT_TRUE(with.projector_columns_used) << with.projector_columns.dump();
+  EXPECT_LT(with.projector_columns.at("rms_px").get<double>(), kMaxColumnRmsPx);
+  EXPECT_NE(util::ReadTextFile(tmp_ / "with" / "report.html")
+                .find("its columns were fitted to this scan"),
+            std::string::npos);
+  ScanOptions off = TestOptions();
+  off.fit_projector_columns = false;
+  const ScanSummary without = RunScan(scan, tmp_ / "without", off);
+  ASSERT_EQ(without.status, ScanStatus::kOk) << without.message;
+  EXPECT_TRUE(without.projector_columns.is_null());
+  EXPECT_EQ(without.projector_column_rejected, 0);
+  // The dropped points are exactly the difference of the written clouds.
+  EXPECT_EQ(without.points - with.points, with.projector_column_rejected);
+  int64_t dropped = 0;
+  for (const ScanViewSummary& v : with.views) dropped += v.projector_column_rejected;
+  EXPECT_EQ(dropped, with.projector_column_rejected);
+  EXPECT_LE(with.fused_rms_mm, without.fused_rms_mm);
+  // The fitted columns against the true projector at the points of view 000.
+  stereo::ProjectorColumnModel model;
+  const nlohmann::json& rows = with.projector_columns.at("rows");
+  for (int r = 0; r < 2; ++r) {
+    for (int c = 0; c < 4; ++c) model.rows(r, c) = rows.at(r).at(c).get<double>();
+  }
+  const OrganizedPointCloud cloud = io::ReadOrganizedPly(tmp_ / "with" / "views" / "000.ply");
+  double worst = 0;
+  for (size_t i = 0; i < cloud.valid.size(); ++i) {
+    if (!cloud.valid[i]) continue;
+    const Eigen::Vector3d& p = cloud.cloud.points[i];
+    const double u = truth.projector->Project(truth.projector_from_left * p).x();
+    worst = std::max(worst, std::abs(model.Column(p) - u));
+  }
+  EXPECT_LT(worst, kMaxColumnErrPx);
+}
+
 TEST_F(ScanTest, WholeChainMatchesTheTruth) {
   const fs::path out = tmp_ / "out";
   const ScanSummary s = RunScan(Scan(), out, TestOptions());
   EXPECT_EQ(s.status, ScanStatus::kOk) << s.message;
   ASSERT_EQ(s.views.size(), 3u);
   EXPECT_EQ(s.views_ok, 3);
+  // The true rig has a projector: the matcher checks it, no columns are fitted.
+  EXPECT_TRUE(s.projector_columns.is_null());
   for (const char* f : {"rig.json", "summary.json", "report.html", "poses.json", "markers.json",
                         "fused.ply", "mesh.ply", "mesh.stl"}) {
     EXPECT_TRUE(fs::exists(out / f)) << f;

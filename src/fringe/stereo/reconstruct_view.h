@@ -82,6 +82,10 @@ struct ViewReconstruction {
   // Decoded fringe background (texture) of each camera on its own grid, CV_32F, 0-255 scale:
   // the images marker detection looks at (registration/markers.h).
   cv::Mat texture_left, texture_right;
+  // The left camera's absolute phase of the first scheme (CV_32F on the left grid, projector
+  // pixels, NaN where not decoded): what the projector-column check of a projector-less rig
+  // compares the points with (projector_columns.h). Shares the decoder's buffer.
+  cv::Mat phase_left;
   ReconstructionSummary summary;
 };
 

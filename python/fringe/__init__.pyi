@@ -652,6 +652,8 @@ def register(
 class FusionOptions:
     spacing_factor: float
     seed_factor: float
+    border_seed_factor: float
+    border_seed_px: int
     registration_rms_mm: float
     registration_factor: float
     max_normal_angle_deg: float

@@ -147,7 +147,8 @@ def test_every_fusion_and_mesh_option_is_bound_and_takes_effect(views, cli_regis
     registration = fringe.register(clouds)
     # Every field round-trips through the bound options (values inside the C++ ranges, none a
     # default).
-    fusion_fields = dict(spacing_factor=2.5, seed_factor=1.5, registration_rms_mm=0.03,
+    fusion_fields = dict(spacing_factor=2.5, seed_factor=1.5, border_seed_factor=2.5,
+                         border_seed_px=4, registration_rms_mm=0.03,
                          registration_factor=2.0, max_normal_angle_deg=40.0, lateral_sigma=0.75,
                          max_disagreement=5.0, max_iterations=7, convergence_mm=2e-3,
                          max_moving_fraction=0.01, modulation_half_dn=12.0, residual_half_px=0.6,
@@ -173,8 +174,10 @@ def test_every_fusion_and_mesh_option_is_bound_and_takes_effect(views, cli_regis
     assert no_trim["passed_through"] > base["passed_through"]
     # No single-coverage smoothing: no noise estimate is made.
     assert fused(smooth_radius_px=0)["single_coverage_noise_mm"] == 0
-    # Sparser seeds: fewer clusters.
+    # Sparser seeds: fewer clusters; without the wider seed radius near borders: more.
     assert fused(seed_factor=2.0)["clusters"] < base["clusters"]
+    assert fused(border_seed_px=0)["clusters"] > base["clusters"]
+    assert fused(border_seed_factor=1.0)["clusters"] > base["clusters"]
     # A loose convergence threshold settles every centre after the first update.
     loose = fused(convergence_mm=10.0, max_moving_fraction=0.0)
     assert loose["iterations"] == 1 and loose["converged"] and loose["moving_centres"] == 0

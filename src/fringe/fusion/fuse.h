@@ -90,7 +90,10 @@ struct FusionView {
 
 struct FusionOptions {
   // Overlap radius = spacing_factor * local spacing + registration_factor * registration_rms_mm.
-  double spacing_factor = 2.0;  // (0, 20]
+  // 3 (was 2): more members per cluster (about three points per view) and border points reach
+  // a better point of another view (with border_seed_factor 3); on the demo part 0.0275 ->
+  // 0.0257 mm fused RMS at ~25 % more fusion CPU (docs/benchmarks.md, "Fusion, session 6").
+  double spacing_factor = 3.0;  // (0, 20]
   // Seed radius = seed_factor * local spacing + the registration term: the best point within
   // it becomes a centre. 1 covers the farthest place from a grid point (0.71 spacing), (0, 20].
   double seed_factor = 1.0;
@@ -99,9 +102,10 @@ struct FusionOptions {
   // compatible point of another view that near keeps them from seeding a centre (they join its
   // cluster or, beyond every centre's reach, are dropped as unassigned). Border points are
   // the fused cloud's worst (mixed pixels, grazing angles; docs/benchmarks.md, "Fusion, session
-  // 6": 0.0315 -> 0.0275 mm fused RMS on the demo part), while a wider seed radius everywhere
-  // lets clusters reach across edges. (0, 20]; border_seed_px 0: off, [0, 100].
-  double border_seed_factor = 2.0;
+  // 6": 0.0315 -> 0.0275 mm fused RMS on the demo part with spacing_factor 2 and 2 here), while
+  // a wider seed radius everywhere lets clusters reach across edges. Beyond spacing_factor it
+  // changes nothing (the search sees no farther). (0, 20]; border_seed_px 0: off, [0, 100].
+  double border_seed_factor = 3.0;
   int border_seed_px = 3;
   double registration_rms_mm = 0.02;  // registration residual (e.g. ICP RMS), mm, >= 0
   double registration_factor = 3.0;   // >= 0

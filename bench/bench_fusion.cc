@@ -298,6 +298,12 @@ int main(int argc, char** argv) {
   app.add_option("--seed-factor", options.seed_factor,
                  "Fusion: seed radius, spacings (sparser seeds: larger clusters)")
       ->capture_default_str();
+  app.add_option("--border-seed-factor", options.border_seed_factor,
+                 "Fusion: seed radius near a view's border, spacings")
+      ->capture_default_str();
+  app.add_option("--border-seed", options.border_seed_px,
+                 "Fusion: border distance below which the border seed radius applies, px")
+      ->capture_default_str();
   app.add_option("--border-trim", options.border_trim_px,
                  "Fusion: single-coverage points this close to a border are trimmed, px")
       ->capture_default_str();

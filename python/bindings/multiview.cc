@@ -339,6 +339,8 @@ Pass it as `poses` to fringe.fuse.)doc")
       .def(OptionsInit<fusion::FusionOptions>("FusionOptions"))
       .def_readwrite("spacing_factor", &fusion::FusionOptions::spacing_factor)
       .def_readwrite("seed_factor", &fusion::FusionOptions::seed_factor)
+      .def_readwrite("border_seed_factor", &fusion::FusionOptions::border_seed_factor)
+      .def_readwrite("border_seed_px", &fusion::FusionOptions::border_seed_px)
       .def_readwrite("registration_rms_mm", &fusion::FusionOptions::registration_rms_mm)
       .def_readwrite("registration_factor", &fusion::FusionOptions::registration_factor)
       .def_readwrite("max_normal_angle_deg", &fusion::FusionOptions::max_normal_angle_deg)
@@ -346,9 +348,16 @@ Pass it as `poses` to fringe.fuse.)doc")
       .def_readwrite("max_disagreement", &fusion::FusionOptions::max_disagreement)
       .def_readwrite("max_iterations", &fusion::FusionOptions::max_iterations)
       .def_readwrite("convergence_mm", &fusion::FusionOptions::convergence_mm)
+      .def_readwrite("max_moving_fraction", &fusion::FusionOptions::max_moving_fraction)
       .def_readwrite("modulation_half_dn", &fusion::FusionOptions::modulation_half_dn)
       .def_readwrite("residual_half_px", &fusion::FusionOptions::residual_half_px)
       .def_readwrite("min_cos_view", &fusion::FusionOptions::min_cos_view)
+      .def_readwrite("border_ramp_px", &fusion::FusionOptions::border_ramp_px)
+      .def_readwrite("border_trim_px", &fusion::FusionOptions::border_trim_px)
+      .def_readwrite("one_view_cluster_border_px",
+                     &fusion::FusionOptions::one_view_cluster_border_px)
+      .def_readwrite("smooth_radius_px", &fusion::FusionOptions::smooth_radius_px)
+      .def_readwrite("min_border_hole_px", &fusion::FusionOptions::min_border_hole_px)
       .def_readwrite("max_fit_error_px", &fusion::FusionOptions::max_fit_error_px)
       .def_readwrite("max_spacing_ratio", &fusion::FusionOptions::max_spacing_ratio);
 
@@ -423,9 +432,17 @@ an overlap), summary (dict: the "fusion" object `fringe fuse --json` prints).)do
       "fields as keyword arguments. Returns a FusionResult (a bad input is its summary's status).");
 
   // ---- Meshing ----
+  py::enum_<fusion::MeshLibrary>(m, "MeshLibrary", "The Poisson implementation of fringe.mesh.")
+      .value("open3d", fusion::MeshLibrary::kOpen3d)
+      .value("cgal", fusion::MeshLibrary::kCgal);
+
   py::class_<fusion::MeshOptions>(m, "MeshOptions", "Options of fringe.mesh (C++ defaults).")
       .def(OptionsInit<fusion::MeshOptions>("MeshOptions"))
+      .def_readwrite("library", &fusion::MeshOptions::library)
       .def_readwrite("poisson_depth", &fusion::MeshOptions::poisson_depth)
+      .def_readwrite("cell_spacings", &fusion::MeshOptions::cell_spacings)
+      .def_readwrite("resolution_mm", &fusion::MeshOptions::resolution_mm)
+      .def_readwrite("max_auto_depth", &fusion::MeshOptions::max_auto_depth)
       .def_readwrite("watertight", &fusion::MeshOptions::watertight)
       .def_readwrite("trim_density_quantile", &fusion::MeshOptions::trim_density_quantile)
       .def_readwrite("trim_distance_factor", &fusion::MeshOptions::trim_distance_factor)

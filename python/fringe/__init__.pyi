@@ -652,6 +652,8 @@ def register(
 class FusionOptions:
     spacing_factor: float
     seed_factor: float
+    border_seed_factor: float
+    border_seed_px: int
     registration_rms_mm: float
     registration_factor: float
     max_normal_angle_deg: float
@@ -659,9 +661,15 @@ class FusionOptions:
     max_disagreement: float
     max_iterations: int
     convergence_mm: float
+    max_moving_fraction: float
     modulation_half_dn: float
     residual_half_px: float
     min_cos_view: float
+    border_ramp_px: int
+    border_trim_px: int
+    one_view_cluster_border_px: int
+    smooth_radius_px: int
+    min_border_hole_px: int
     max_fit_error_px: float
     max_spacing_ratio: float
     def __init__(self, **fields: Any) -> None: ...
@@ -687,8 +695,20 @@ def fuse(
     **fields: Any,
 ) -> FusionResult: ...
 
+class MeshLibrary:
+    open3d: MeshLibrary
+    cgal: MeshLibrary
+    @property
+    def name(self) -> str: ...
+    @property
+    def value(self) -> int: ...
+
 class MeshOptions:
+    library: MeshLibrary
     poisson_depth: int
+    cell_spacings: float
+    resolution_mm: float
+    max_auto_depth: int
     watertight: bool
     trim_density_quantile: float
     trim_distance_factor: float

@@ -140,3 +140,80 @@ def test_fuse_and_mesh_equal_fringe_fuse(tmp_path, views, cli_registration):
         fringe.fuse(clouds, registration.world_from_sensor[:1])
     with pytest.raises(TypeError, match="MeshOptions has no option 'depth'"):
         fringe.mesh(fused, depth=8)
+
+
+def test_every_fusion_and_mesh_option_is_bound_and_takes_effect(views, cli_registration):
+    _, _, clouds = views
+    registration = fringe.register(clouds)
+    # Every field round-trips through the bound options (values inside the C++ ranges, none a
+    # default).
+    fusion_fields = dict(spacing_factor=2.5, seed_factor=1.5, border_seed_factor=2.5,
+                         border_seed_px=4, registration_rms_mm=0.03,
+                         registration_factor=2.0, max_normal_angle_deg=40.0, lateral_sigma=0.75,
+                         max_disagreement=5.0, max_iterations=7, convergence_mm=2e-3,
+                         max_moving_fraction=0.01, modulation_half_dn=12.0, residual_half_px=0.6,
+                         min_cos_view=0.2, border_ramp_px=4, border_trim_px=2,
+                         one_view_cluster_border_px=5, smooth_radius_px=2, min_border_hole_px=20,
+                         max_fit_error_px=3.0, max_spacing_ratio=10.0)
+    options = fringe.FusionOptions(**fusion_fields)
+    for name, value in fusion_fields.items():
+        assert getattr(options, name) == value, name
+    assert fringe.fuse(clouds, registration, options=options).ok
+
+    base = fringe.fuse(clouds, registration).summary
+    assert base["trimmed"] + base["absorbed"] > 0 and base["single_coverage_noise_mm"] > 0
+
+    def fused(**fields):
+        result = fringe.fuse(clouds, registration, **fields)
+        assert result.ok
+        return result.summary
+
+    # No border trim: nothing trimmed or absorbed, more points pass through.
+    no_trim = fused(border_trim_px=0)
+    assert no_trim["trimmed"] == 0 and no_trim["absorbed"] == 0
+    assert no_trim["passed_through"] > base["passed_through"]
+    # No single-coverage smoothing: no noise estimate is made.
+    assert fused(smooth_radius_px=0)["single_coverage_noise_mm"] == 0
+    # Sparser seeds: fewer clusters; without the wider seed radius near borders: more.
+    assert fused(seed_factor=2.0)["clusters"] < base["clusters"]
+    assert fused(border_seed_px=0)["clusters"] > base["clusters"]
+    assert fused(border_seed_factor=1.0)["clusters"] > base["clusters"]
+    # A loose convergence threshold settles every centre after the first update.
+    loose = fused(convergence_mm=10.0, max_moving_fraction=0.0)
+    assert loose["iterations"] == 1 and loose["converged"] and loose["moving_centres"] == 0
+    # Every centre must settle: at least as many iterations as the default's 0.1 % rule.
+    assert fused(max_moving_fraction=0.0)["iterations"] >= base["iterations"]
+    # Only outranked one-view clusters dropped: fewer absorbed clusters.
+    assert (fused(one_view_cluster_border_px=0)["absorbed_clusters"]
+            < base["absorbed_clusters"])
+    # Larger holes only make a border: fewer points near one, fewer trimmed.
+    assert fused(min_border_hole_px=100000)["trimmed"] < base["trimmed"]
+    # The weights (border ramp) decide which view seeds: another set of centres.
+    assert fused(border_ramp_px=0)["clusters"] != base["clusters"]
+
+    fused_cloud = fringe.fuse(clouds, registration)
+    coarse = fringe.mesh(fused_cloud, poisson_depth=POISSON_DEPTH).summary
+    cell_mm = coarse["cell_mm"]
+    # The automatic depth from a resolution / a cell size just above depth 6's cell is 6.
+    by_resolution = fringe.mesh(fused_cloud, resolution_mm=1.01 * cell_mm).summary
+    assert by_resolution["poisson_depth"] == POISSON_DEPTH
+    by_spacing = fringe.mesh(fused_cloud,
+                             cell_spacings=1.01 * cell_mm / coarse["spacing_mm"]).summary
+    assert by_spacing["poisson_depth"] == POISSON_DEPTH
+    assert fringe.mesh(fused_cloud, max_auto_depth=5).summary["poisson_depth"] == 5
+    mesh_options = fringe.MeshOptions(library=fringe.MeshLibrary.cgal, resolution_mm=0.5,
+                                      cell_spacings=3.0, max_auto_depth=9)
+    assert mesh_options.library == fringe.MeshLibrary.cgal
+    assert (mesh_options.resolution_mm, mesh_options.cell_spacings,
+            mesh_options.max_auto_depth) == (0.5, 3.0, 9)
+    # The library is CGAL's Poisson when asked (a small sphere: CGAL's Delaunay refinement is
+    # slow on a scan-sized cloud).
+    golden = np.pi * (3 - np.sqrt(5))
+    k = np.arange(2000)
+    z = 1 - 2 * (k + 0.5) / len(k)
+    ring = np.sqrt(1 - z * z)
+    normals = np.stack([ring * np.cos(golden * k), ring * np.sin(golden * k), z], axis=1)
+    sphere = fringe.PointCloud(20.0 * normals, normals=normals)
+    by_cgal = fringe.mesh(sphere, library=fringe.MeshLibrary.cgal)
+    assert by_cgal.ok and by_cgal.summary["library"] == "cgal"
+    assert fringe.mesh(sphere).summary["library"] == "open3d"

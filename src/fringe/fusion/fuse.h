@@ -8,9 +8,10 @@
 //      and the two normals agree within max_normal_angle_deg (so the two faces of a sharp edge,
 //      or a thin wall's front and back, never merge).
 //   2. Initial centres: an overlap point is a centre when it outranks every compatible point of
-//      the other views within its seed radius (seed_factor * spacing + the registration term;
-//      rank = weight, then view index, then point order), so each overlap region is seeded by
-//      the locally best view at that view's own sampling (about one centre per spacing).
+//      the other views within its seed radius (seed_factor * spacing + the registration term,
+//      border_seed_factor * spacing near its view's border; rank = weight, then view index,
+//      then point order), so each overlap region is seeded by the locally best view at that
+//      view's own sampling (about one centre per spacing).
 //   3. Iteration: every overlap point joins the nearest compatible centre within its radius;
 //      each centre moves to the quality-weighted mean of its members ALONG ITS NORMAL (the
 //      centre keeps the best view's tangential position: no lateral smearing of ribs,
@@ -89,10 +90,23 @@ struct FusionView {
 
 struct FusionOptions {
   // Overlap radius = spacing_factor * local spacing + registration_factor * registration_rms_mm.
-  double spacing_factor = 2.0;  // (0, 20]
+  // 3 (was 2): more members per cluster (about three points per view) and border points reach
+  // a better point of another view (with border_seed_factor 3); on the demo part 0.0275 ->
+  // 0.0257 mm fused RMS at ~25 % more fusion CPU (docs/benchmarks.md, "Fusion, session 6").
+  double spacing_factor = 3.0;  // (0, 20]
   // Seed radius = seed_factor * local spacing + the registration term: the best point within
   // it becomes a centre. 1 covers the farthest place from a grid point (0.71 spacing), (0, 20].
   double seed_factor = 1.0;
+  // Points closer than border_seed_px to their view's border (see border_ramp_px) take the seed
+  // radius max(seed_factor, border_seed_factor) * spacing + the registration term: a better
+  // compatible point of another view that near keeps them from seeding a centre (they join its
+  // cluster or, beyond every centre's reach, are dropped as unassigned). Border points are
+  // the fused cloud's worst (mixed pixels, grazing angles; docs/benchmarks.md, "Fusion, session
+  // 6": 0.0315 -> 0.0275 mm fused RMS on the demo part with spacing_factor 2 and 2 here), while
+  // a wider seed radius everywhere lets clusters reach across edges. Beyond spacing_factor it
+  // changes nothing (the search sees no farther). (0, 20]; border_seed_px 0: off, [0, 100].
+  double border_seed_factor = 3.0;
+  int border_seed_px = 3;
   double registration_rms_mm = 0.02;  // registration residual (e.g. ICP RMS), mm, >= 0
   double registration_factor = 3.0;   // >= 0
   double max_normal_angle_deg = 30;   // normal compatibility, (0, 90)

@@ -84,10 +84,13 @@ bool GridProjection::DiscOf(const Eigen::Vector3f& x, float radius_mm, Disc* d) 
   const float c = row_poly_.dot(mu), e = row_poly_.dot(mv);
   const float t = a * a + b * b + c * c + e * e, det = a * e - b * c;
   const float sigma = std::sqrt(0.5f * (t + std::sqrt(std::max(0.f, t * t - 4 * det * det))));
-  // A point q within radius R of p has normalized coordinates within
-  // R (1 + |(u, v)|) / (z - R) of p's: sigma (+ 5 % for its change across the disc) bounds the
-  // distance of q's projection, the fit error that of q's slot from its projection.
-  const float duv = radius_mm * (1 + std::sqrt(u * u + v * v)) / (x.z() - radius_mm);
+  // A point q = p + d, |d| <= R, has normalized coordinates (u, v) + [I | -(u, v)] d / (z + d_z):
+  // the 2x3 matrix's largest singular value is sqrt(1 + u^2 + v^2) (M M^T = I + (u, v)(u, v)^T),
+  // so they lie within R sqrt(1 + u^2 + v^2) / (z - R) of p's (the tight bound: the earlier
+  // R (1 + |(u, v)|) made the discs at a frame's corners ~1.6 times the area). sigma (+ 5 % for
+  // its change across the disc) bounds the distance of q's projection, the fit error that of q's
+  // slot from its projection.
+  const float duv = radius_mm * std::sqrt(1 + u * u + v * v) / (x.z() - radius_mm);
   d->col = col_poly_.dot(m);
   d->row = row_poly_.dot(m);
   d->radius_px = 1.05f * sigma * duv + static_cast<float>(fit_error_px_);

@@ -19,6 +19,11 @@ void BindPipeline(py::module_& m) {
       .def_readwrite("reconstruction", &pipeline::ScanOptions::reconstruction)
       .def_readwrite("detect_markers", &pipeline::ScanOptions::detect_markers)
       .def_readwrite("markers", &pipeline::ScanOptions::markers)
+      .def_readwrite("fit_projector_columns", &pipeline::ScanOptions::fit_projector_columns)
+      .def_readwrite("registration", &pipeline::ScanOptions::registration)
+      .def_readwrite("fusion", &pipeline::ScanOptions::fusion)
+      .def_readwrite("mesh", &pipeline::ScanOptions::mesh)
+      .def_readwrite("evaluate_truth", &pipeline::ScanOptions::evaluate_truth)
       .def_readwrite("write_report", &pipeline::ScanOptions::write_report);
 
   m.def(

@@ -526,6 +526,11 @@ class ScannerOptions:
     reconstruction: ReconstructionOptions
     detect_markers: bool
     markers: MarkerDetectionOptions
+    fit_projector_columns: bool
+    registration: RegistrationOptions
+    fusion: FusionOptions
+    mesh: MeshOptions
+    evaluate_truth: bool
     write_report: bool
     def __init__(self, **fields: Any) -> None: ...
 

@@ -155,3 +155,23 @@ def test_scan_equals_fringe_scan(tmp_path, scan):
         assert (tmp_path / "py" / "views" / ply.name).read_bytes() == ply.read_bytes()
     with pytest.raises(fringe.Error, match="no-such-folder"):
         fringe.scan(tmp_path / "no-such-folder", tmp_path / "out2", calib=rig_json)
+
+
+def test_scan_takes_every_stage_option(tmp_path, scan):
+    # The scanner's stage options reach their stages: the mesh depth, the fusion's overlap
+    # radius, the truth comparison, the report and the projector-column fit.
+    rig_json = scan / "truth" / "rig.json"
+    options = fringe.ScannerOptions(calib=rig_json, fit_projector_columns=False,
+                                    evaluate_truth=False, write_report=False)
+    options.mesh.poisson_depth = 5
+    options.fusion.spacing_factor = 2.0
+    options.registration.refine_icp = False
+    assert options.mesh.poisson_depth == 5 and not options.fit_projector_columns
+    s = fringe.scan(scan, tmp_path / "o", options)
+    assert s["status"] == "ok"
+    assert s["mesh"]["poisson_depth"] == 5
+    assert s["has_truth"] is False
+    assert not (tmp_path / "o" / "report.html").exists()
+    default = fringe.scan(scan, tmp_path / "d", calib=rig_json, write_report=False)
+    assert default["has_truth"] is True
+    assert default["mesh"]["poisson_depth"] > 5

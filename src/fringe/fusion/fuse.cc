@@ -103,24 +103,39 @@ size_t TileOf(const ViewGrid& g, uint32_t slot) {
          slot % w / ViewGrid::kTile;
 }
 
-// True when a tile of the grid overlapping slot rows [r0, r1] x columns [c0, c1] holds a
-// depth within radius_mm (+ slack) of `depth`: only then can a point there lie within radius_mm.
-bool AnyTileNear(const ViewGrid& g, int r0, int r1, int c0, int c1, float depth, float radius_mm) {
+// A pixel bound clamped to [-1, n] in float before the conversion (a disc far outside the frame
+// must not overflow the int).
+int Clamped(float x, int n) { return static_cast<int>(std::clamp(x, -1.f, static_cast<float>(n))); }
+
+// Slot rows [r0, r1] x columns [c0, c1] of a grid, clipped to its frame; empty when a window
+// lies beside the frame.
+struct SlotWindow {
+  int r0 = 0, r1 = -1, c0 = 0, c1 = -1;
+  bool empty() const { return r0 > r1 || c0 > c1; }
+};
+
+// The slots whose centres lie in the square of half-width radius_px around (row, col).
+SlotWindow WindowAround(const ViewGrid& g, float row, float col, float radius_px) {
+  return {std::max(0, Clamped(std::ceil(row - radius_px), g.height)),
+          std::min(g.height - 1, Clamped(std::floor(row + radius_px), g.height)),
+          std::max(0, Clamped(std::ceil(col - radius_px), g.width)),
+          std::min(g.width - 1, Clamped(std::floor(col + radius_px), g.width))};
+}
+
+// True when a tile of the grid overlapping the (non-empty) window holds a depth within
+// radius_mm (+ slack) of `depth`: only then can a point there lie within radius_mm.
+bool AnyTileNear(const ViewGrid& g, const SlotWindow& w, float depth, float radius_mm) {
   constexpr int t = ViewGrid::kTile;
   const float lo = depth - radius_mm - DepthSlack(depth),
               hi = depth + radius_mm + DepthSlack(depth);
-  for (int tr = r0 / t; tr <= r1 / t; ++tr) {
+  for (int tr = w.r0 / t; tr <= w.r1 / t; ++tr) {
     const size_t row = static_cast<size_t>(tr) * static_cast<size_t>(g.tiles_w);
-    for (int tc = c0 / t; tc <= c1 / t; ++tc) {
+    for (int tc = w.c0 / t; tc <= w.c1 / t; ++tc) {
       if (g.tile_zmin[row + tc] <= hi && g.tile_zmax[row + tc] >= lo) return true;
     }
   }
   return false;
 }
-
-// A pixel bound clamped to [-1, n] in float before the conversion (a disc far outside the frame
-// must not overflow the int).
-int Clamped(float x, int n) { return static_cast<int>(std::clamp(x, -1.f, static_cast<float>(n))); }
 
 // Calls f(slot, squared distance) for every slot of the grid in the disc around p that `keep`
 // accepts and whose point lies within radius_mm of p, row by row (a deterministic order), until
@@ -140,15 +155,9 @@ void ForEachNear(const ViewGrid& grid, const Eigen::Vector3f& p_in_world, float 
   GridProjection::Disc d;
   float depth = 0;
   if (!DiscOf(grid, p_in_world, radius_mm, &d, &depth)) return;
-  const int r0 = std::max(0, Clamped(std::ceil(d.row - d.radius_px), grid.height));
-  const int r1 = std::min(grid.height - 1, Clamped(std::floor(d.row + d.radius_px), grid.height));
-  if (r0 > r1) return;
-  {
-    const int c0 = std::max(0, Clamped(std::ceil(d.col - d.radius_px), grid.width));
-    const int c1 = std::min(grid.width - 1, Clamped(std::floor(d.col + d.radius_px), grid.width));
-    if (c0 > c1 || !AnyTileNear(grid, r0, r1, c0, c1, depth, radius_mm)) return;
-  }
-  for (int r = r0; r <= r1; ++r) {
+  const SlotWindow window = WindowAround(grid, d.row, d.col, d.radius_px);
+  if (window.empty() || !AnyTileNear(grid, window, depth, radius_mm)) return;
+  for (int r = window.r0; r <= window.r1; ++r) {
     const float dr = static_cast<float>(r) - d.row;
     const float half = std::sqrt(std::max(0.f, d.radius_px * d.radius_px - dr * dr));
     const int c0 = std::max(0, Clamped(std::ceil(d.col - half), grid.width));
@@ -293,12 +302,13 @@ void FindCandidates(const Points& pts, const std::vector<ViewGrid>& grids,
         // view does not see, behind or in front of what it measured) is no view point's
         // candidate and stays out of the view's buckets (a fifth of the entries read on the demo
         // part).
+        // Rounded outward (the square holds every slot within span).
         const float span = reach_px[v] + static_cast<float>(g.projection.fit_error_px()) + 2;
-        const int r0 = std::max(0, Clamped(std::floor(row - span), g.height));
-        const int r1 = std::min(g.height - 1, Clamped(std::ceil(row + span), g.height));
-        const int c0 = std::max(0, Clamped(std::floor(col - span), g.width));
-        const int c1 = std::min(g.width - 1, Clamped(std::ceil(col + span), g.width));
-        if (!AnyTileNear(g, r0, r1, c0, c1, x.z(), reach_mm[v])) continue;
+        const SlotWindow window{std::max(0, Clamped(std::floor(row - span), g.height)),
+                                std::min(g.height - 1, Clamped(std::ceil(row + span), g.height)),
+                                std::max(0, Clamped(std::floor(col - span), g.width)),
+                                std::min(g.width - 1, Clamped(std::ceil(col + span), g.width))};
+        if (!AnyTileNear(g, window, x.z(), reach_mm[v])) continue;
         slot_of[c * n_views + v] =
             static_cast<int32_t>(g.width * std::lround(row) + std::lround(col));
       }
@@ -869,13 +879,8 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
         if (!DiscOf(g, centre, rho, &d, &depth)) continue;
         // The disc's bound is taken at its centre: over a tile-sized disc it is widened by 10 %
         // and a pixel so that the skip never depends on the Jacobian's change across it.
-        const float radius_px = 1.1f * d.radius_px + 1;
-        const int r0 = std::max(0, Clamped(std::ceil(d.row - radius_px), g.height));
-        const int r1 = std::min(g.height - 1, Clamped(std::floor(d.row + radius_px), g.height));
-        const int c0 = std::max(0, Clamped(std::ceil(d.col - radius_px), g.width));
-        const int c1 = std::min(g.width - 1, Clamped(std::floor(d.col + radius_px), g.width));
-        far[t * views.size() + v] =
-            r0 > r1 || c0 > c1 || !AnyTileNear(g, r0, r1, c0, c1, depth, rho);
+        const SlotWindow window = WindowAround(g, d.row, d.col, 1.1f * d.radius_px + 1);
+        far[t * views.size() + v] = window.empty() || !AnyTileNear(g, window, depth, rho);
       }
     }
   });

@@ -158,13 +158,22 @@ ProjectorColumnFit FitProjectorColumns(const std::vector<Vec3>& points,
   return out;
 }
 
-void SampleProjectorColumns(const OrganizedPointCloud& cloud, const cv::Mat& phase, int stride,
-                            std::vector<Vec3>* points, std::vector<double>* columns) {
+namespace {
+
+// The left phase must be CV_32F on the cloud's grid; `caller` names the function in the error.
+void CheckPhaseGrid(const char* caller, const cv::Mat& phase, const OrganizedPointCloud& cloud) {
   if (phase.type() != CV_32F || phase.cols != cloud.width || phase.rows != cloud.height) {
-    throw Error(util::StrCat("SampleProjectorColumns: phase ", phase.cols, " x ", phase.rows,
+    throw Error(util::StrCat(caller, ": phase ", phase.cols, " x ", phase.rows,
                              " (CV_32F expected) for a ", cloud.width, " x ", cloud.height,
                              " cloud"));
   }
+}
+
+}  // namespace
+
+void SampleProjectorColumns(const OrganizedPointCloud& cloud, const cv::Mat& phase, int stride,
+                            std::vector<Vec3>* points, std::vector<double>* columns) {
+  CheckPhaseGrid("SampleProjectorColumns", phase, cloud);
   if (stride < 1) throw Error("SampleProjectorColumns: stride must be >= 1");
   int k = 0;
   for (size_t i = 0; i < cloud.valid.size(); ++i) {
@@ -180,11 +189,7 @@ void SampleProjectorColumns(const OrganizedPointCloud& cloud, const cv::Mat& pha
 
 int RejectByProjectorColumns(const ProjectorColumnModel& model, const cv::Mat& phase,
                              double max_error_px, OrganizedPointCloud* cloud) {
-  if (phase.type() != CV_32F || phase.cols != cloud->width || phase.rows != cloud->height) {
-    throw Error(util::StrCat("RejectByProjectorColumns: phase ", phase.cols, " x ", phase.rows,
-                             " (CV_32F expected) for a ", cloud->width, " x ", cloud->height,
-                             " cloud"));
-  }
+  CheckPhaseGrid("RejectByProjectorColumns", phase, *cloud);
   int removed = 0;
   for (size_t i = 0; i < cloud->valid.size(); ++i) {
     if (!cloud->valid[i]) continue;

@@ -242,6 +242,20 @@ std::string ReplaceAll(std::string s, const std::string& from, const std::string
   return s;
 }
 
+// Runs body(), which writes to the temporary `tmp` of the output `path`, and rethrows its errors
+// naming `path`: a filesystem error (e.g. "No space left on device") as "<path>: cannot write:
+// <reason>", a fringe::Error (a writer's checked close names the file it was handed) with `tmp`
+// replaced by `path`. The user never sees the hidden name; other exceptions pass unchanged.
+void NamingTheOutput(const fs::path& tmp, const fs::path& path, const std::function<void()>& body) {
+  try {
+    body();
+  } catch (const fs::filesystem_error& e) {
+    throw Error(StrCat(path.string(), ": cannot write: ", e.code().message()));
+  } catch (const Error& e) {
+    throw Error(ReplaceAll(e.what(), tmp.string(), path.string()));
+  }
+}
+
 }  // namespace
 
 void CloseOutput(std::ofstream& out, const fs::path& path) {
@@ -268,20 +282,12 @@ void WriteAtomically(const fs::path& path, const std::function<void(const fs::pa
   const fs::path tmp = TemporarySibling(path);
   const TemporaryRegistration registration(tmp);
   try {
-    write(tmp);
-    std::error_code ec;
-    fs::rename(tmp, path, ec);
-    if (ec) throw Error(StrCat(path.string(), ": cannot write: ", ec.message()));
-  } catch (const fs::filesystem_error& e) {
-    // Name the user's path, not the hidden temporary (e.g. "No space left on device").
-    std::error_code ignored;
-    fs::remove(tmp, ignored);
-    throw Error(StrCat(path.string(), ": cannot write: ", e.code().message()));
-  } catch (const Error& e) {
-    // A writer's own error (its checked close on a full disk) names the file it was given.
-    std::error_code ignored;
-    fs::remove(tmp, ignored);
-    throw Error(ReplaceAll(e.what(), tmp.string(), path.string()));
+    NamingTheOutput(tmp, path, [&] {
+      write(tmp);
+      std::error_code ec;
+      fs::rename(tmp, path, ec);
+      if (ec) throw Error(StrCat(path.string(), ": cannot write: ", ec.message()));
+    });
   } catch (...) {
     std::error_code ignored;
     fs::remove(tmp, ignored);
@@ -296,38 +302,32 @@ void WriteFolderAtomically(const fs::path& dir, const OutputFolderOptions& optio
   const fs::path tmp = TemporarySibling(dir);
   const TemporaryRegistration registration(tmp);
   try {
-    fs::create_directories(tmp);
-    {
-      std::ofstream marker(tmp / kOutputMarkerName);
-      marker << "written by fringe; a later fringe run may replace this folder\n";
-      CloseOutput(marker, dir / kOutputMarkerName);
-    }
-    write(tmp);
-    std::error_code ec;
-    if (fs::exists(fs::symlink_status(dir))) {
-      // Keep the old folder until the new one is in place.
-      const fs::path old = TemporarySibling(dir);
-      const TemporaryRegistration old_registration(old);
-      fs::rename(dir, old, ec);
-      if (ec) throw Error(StrCat(dir.string(), ": cannot replace: ", ec.message()));
-      fs::rename(tmp, dir, ec);
-      if (ec) {
-        fs::rename(old, dir);
-        throw Error(StrCat(dir.string(), ": cannot write: ", ec.message()));
+    NamingTheOutput(tmp, dir, [&] {
+      fs::create_directories(tmp);
+      {
+        std::ofstream marker(tmp / kOutputMarkerName);
+        marker << "written by fringe; a later fringe run may replace this folder\n";
+        CloseOutput(marker, dir / kOutputMarkerName);
       }
-      fs::remove_all(old, ec);
-    } else {
-      fs::rename(tmp, dir, ec);
-      if (ec) throw Error(StrCat(dir.string(), ": cannot write: ", ec.message()));
-    }
-  } catch (const fs::filesystem_error& e) {
-    std::error_code ignored;
-    fs::remove_all(tmp, ignored);
-    throw Error(StrCat(dir.string(), ": cannot write: ", e.code().message()));
-  } catch (const Error& e) {
-    std::error_code ignored;
-    fs::remove_all(tmp, ignored);
-    throw Error(ReplaceAll(e.what(), tmp.string(), dir.string()));
+      write(tmp);
+      std::error_code ec;
+      if (fs::exists(fs::symlink_status(dir))) {
+        // Keep the old folder until the new one is in place.
+        const fs::path old = TemporarySibling(dir);
+        const TemporaryRegistration old_registration(old);
+        fs::rename(dir, old, ec);
+        if (ec) throw Error(StrCat(dir.string(), ": cannot replace: ", ec.message()));
+        fs::rename(tmp, dir, ec);
+        if (ec) {
+          fs::rename(old, dir);
+          throw Error(StrCat(dir.string(), ": cannot write: ", ec.message()));
+        }
+        fs::remove_all(old, ec);
+      } else {
+        fs::rename(tmp, dir, ec);
+        if (ec) throw Error(StrCat(dir.string(), ": cannot write: ", ec.message()));
+      }
+    });
   } catch (...) {
     std::error_code ignored;
     fs::remove_all(tmp, ignored);
@@ -361,13 +361,7 @@ fs::path OutputTransaction::Stage(const fs::path& path) {
 void OutputTransaction::Write(const fs::path& path,
                               const std::function<void(const fs::path&)>& write) {
   const fs::path tmp = Stage(path);
-  try {
-    write(tmp);
-  } catch (const fs::filesystem_error& e) {
-    throw Error(StrCat(path.string(), ": cannot write: ", e.code().message()));
-  } catch (const Error& e) {
-    throw Error(ReplaceAll(e.what(), tmp.string(), path.string()));
-  }
+  NamingTheOutput(tmp, path, [&] { write(tmp); });
 }
 
 void OutputTransaction::Commit() {

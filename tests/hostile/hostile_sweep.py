@@ -259,6 +259,16 @@ def build_cases(s):
            ["view", "rig.json"], names=["00.png"],
            prepare=chain(s.copy("scan/views/000", "view"), s.copy("scan/truth/rig.json", "rig.json"),
                          s.copy("scan/scheme.json", "scheme.json")))
+    # A view assembled from links to the capture's own folders: the capture is an input too.
+    s.case("1 data loss", "reconstruct --out an image of a view whose left/ is a link",
+           ["reconstruct", "view", "--calib", "rig.json", "--scheme", "scheme.json", "--out",
+            "view/left/00.png"],
+           ["capture", "rig.json"], names=["00.png"],
+           prepare=chain(s.copy("scan/views/000", "capture"), s.copy("scan/truth/rig.json", "rig.json"),
+                         s.copy("scan/scheme.json", "scheme.json"),
+                         lambda d: ((d / "view").mkdir(),
+                                    os.symlink("../capture/left", d / "view/left"),
+                                    os.symlink("../capture/right", d / "view/right"))))
     s.case("1 data loss", "patterns --out a folder the user made",
            ["patterns", "--out", "mine"], ["mine"], names=["mine"],
            prepare=write("mine/notes.txt", "my notes"))

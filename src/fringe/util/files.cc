@@ -187,6 +187,33 @@ bool IsWithin(const fs::path& inner, const fs::path& outer) {
   return true;
 }
 
+// Where an input folder's files really are: the folder and the resolved targets of the links
+// below it (a view's left/ may link to the capture's own folder, an image to a file elsewhere),
+// followed into linked folders once each (no loops). At most kMaxEntries entries are visited: an
+// input that large is checked at the places reached until then.
+std::vector<fs::path> PlacesOfInputFolder(const fs::path& canonical_folder) {
+  constexpr size_t kMaxEntries = 200000;
+  std::vector<fs::path> places = {canonical_folder};
+  size_t visited = 0;
+  for (size_t k = 0; k < places.size() && visited < kMaxEntries; ++k) {
+    std::error_code ec;
+    if (!fs::is_directory(places[k], ec)) continue;
+    fs::recursive_directory_iterator it(places[k], fs::directory_options::skip_permission_denied,
+                                        ec);
+    for (; !ec && it != fs::recursive_directory_iterator() && visited < kMaxEntries;
+         it.increment(ec), ++visited) {
+      std::error_code lec;
+      if (!it->is_symlink(lec)) continue;
+      const fs::path target = fs::canonical(it->path(), lec);
+      if (lec) continue;  // dangling or a loop: reads nothing
+      bool known = false;
+      for (const fs::path& p : places) known = known || IsWithin(target, p);
+      if (!known) places.push_back(target);
+    }
+  }
+  return places;
+}
+
 void CheckNotAnInput(const fs::path& output, const std::vector<fs::path>& inputs,
                      bool output_is_folder) {
   const fs::path out = Canonical(output);
@@ -199,16 +226,28 @@ void CheckNotAnInput(const fs::path& output, const std::vector<fs::path>& inputs
       throw Error(StrCat(output.string(), ": is also an input of this command (", input.string(),
                          "); an output never replaces an input"));
     }
-    if (output_is_folder && IsWithin(in, out)) {
+    const std::vector<fs::path> places =
+        fs::is_directory(input, ec) ? PlacesOfInputFolder(in) : std::vector<fs::path>{};
+    for (const fs::path& place : places) {
+      if (output_is_folder && IsWithin(place, out)) {
+        throw Error(StrCat(output.string(), ": contains the input ", input.string(),
+                           place == in ? "" : StrCat(" (linked from it: ", place.string(), ")"),
+                           "; replacing the folder would delete it (choose another output "
+                           "folder)"));
+      }
+      // A file that already exists inside an input folder (a view's image, a scan's
+      // calibration), also through a link, may be read by this command: never replace it. New
+      // files there are fine.
+      if (!output_is_folder && fs::exists(output, ec) && IsWithin(out, place)) {
+        throw Error(StrCat(output.string(), ": exists inside the input folder ", input.string(),
+                           place == in ? "" : StrCat(" (linked from it: ", place.string(), ")"),
+                           "; an output never replaces a file of its inputs (choose another "
+                           "name)"));
+      }
+    }
+    if (output_is_folder && places.empty() && IsWithin(in, out)) {
       throw Error(StrCat(output.string(), ": contains the input ", input.string(),
                          "; replacing the folder would delete it (choose another output folder)"));
-    }
-    // A file that already exists inside an input folder (a view's image, a scan's calibration)
-    // may be read by this command: never replace it. New files there are fine.
-    if (!output_is_folder && fs::exists(output, ec) && fs::is_directory(input, ec) &&
-        IsWithin(out, in)) {
-      throw Error(StrCat(output.string(), ": exists inside the input folder ", input.string(),
-                         "; an output never replaces a file of its inputs (choose another name)"));
     }
   }
 }

@@ -136,6 +136,38 @@ TEST(OutputTransaction, FullDiskNamesTheUsersFileNotTheTemporary) {
   EXPECT_EQ(FileSizeBytes(big), 500u);
 }
 
+// An input folder whose parts are links (a view's left/ linking to the capture's own folder, an
+// image linking to a file elsewhere, a link loop): an output that resolves into them is refused
+// like one inside the folder itself; new files there stay allowed, and the loop ends the walk.
+TEST(CheckOutputFile, FilesReachedThroughLinksInAnInputFolderAreInputsToo) {
+  test::TempDir dir;
+  fs::create_directories(dir / "capture" / "L");
+  std::ofstream(dir / "capture" / "L" / "0.png") << "image";
+  std::ofstream(dir / "capture" / "x.png") << "other";
+  fs::create_directories(dir / "view");
+  fs::create_directory_symlink(dir / "capture" / "L", dir / "view" / "left");
+  fs::create_symlink(dir / "capture" / "x.png", dir / "view" / "extra.png");
+  fs::create_directory_symlink(dir / "view", dir / "view" / "loop");
+  const std::vector<fs::path> inputs = {dir / "view"};
+  const std::string through_dir =
+      test::ErrorOf([&] { CheckOutputFile(dir / "view" / "left" / "0.png", inputs); });
+  EXPECT_NE(through_dir.find("exists inside the input folder"), std::string::npos) << through_dir;
+  EXPECT_NE(through_dir.find("linked from it"), std::string::npos) << through_dir;
+  const std::string direct =
+      test::ErrorOf([&] { CheckOutputFile(dir / "capture" / "L" / "0.png", inputs); });
+  EXPECT_NE(direct.find("exists inside the input folder"), std::string::npos) << direct;
+  const std::string file_link =
+      test::ErrorOf([&] { CheckOutputFile(dir / "capture" / "x.png", inputs); });
+  EXPECT_NE(file_link.find("exists inside the input folder"), std::string::npos) << file_link;
+  OutputFolderOptions folder;
+  folder.inputs = inputs;
+  const std::string holder = test::ErrorOf([&] { CheckOutputFolder(dir / "capture", folder); });
+  EXPECT_NE(holder.find("contains the input"), std::string::npos) << holder;
+  EXPECT_NO_THROW(CheckOutputFile(dir / "view" / "left" / "new.ply", inputs));
+  EXPECT_NO_THROW(CheckOutputFile(dir / "out.ply", inputs));
+  EXPECT_EQ(ReadTextFile(dir / "capture" / "L" / "0.png"), "image");
+}
+
 TEST(WriteAtomically, MissingFolderNamesThePath) {
   test::TempDir dir;
   const fs::path out = dir / "no" / "such" / "a.txt";

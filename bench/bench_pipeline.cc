@@ -56,11 +56,12 @@ using nlohmann::json;
 
 namespace {
 
-// --mesh-depths: the fused cloud of the result folder `out` (as the scan wrote it: float
-// coordinates) meshed at each depth as the scan meshes it, compared with the truth both ways.
+// --mesh-depths / --mesh-resolutions: the fused cloud of the result folder `out` (as the scan
+// wrote it: float coordinates) meshed at each depth (or automatic depth at each wanted
+// resolution) as the scan meshes it, compared with the truth both ways.
 void MeshSweep(const fs::path& out, const fs::path& scan_dir,
                const fringe::Rigid3d& truth_from_world, const fringe::fusion::MeshOptions& options,
-               const std::vector<int>& depths, json* j) {
+               const std::vector<int>& depths, const std::vector<double>& resolutions, json* j) {
   using namespace fringe;
   // Meshed in the scan's world frame (Poisson's cube is the cloud's bounding box there, as in
   // the scan), compared in the truth's.
@@ -70,9 +71,17 @@ void MeshSweep(const fs::path& out, const fs::path& scan_dir,
   for (size_t i = 0; i < fused.size(); i += std::max<size_t>(1, fused.size() / 200000)) {
     measured.push_back(truth_from_world * fused.points[i]);
   }
+  std::vector<std::pair<std::string, fusion::MeshOptions>> sweep;
   for (int depth : depths) {
-    fusion::MeshOptions mo = options;
-    mo.poisson_depth = depth;
+    sweep.emplace_back("mesh_depth_" + std::to_string(depth), options);
+    sweep.back().second.poisson_depth = depth;
+  }
+  for (double r : resolutions) {
+    sweep.emplace_back("mesh_resolution_" + util::StrCat(r), options);
+    sweep.back().second.poisson_depth = 0;
+    sweep.back().second.resolution_mm = r;
+  }
+  for (const auto& [key, mo] : sweep) {
     util::Timer wall;
     util::CpuTimer cpu;
     fusion::MeshResult m = fusion::MeshPoisson(fused, mo);
@@ -85,8 +94,8 @@ void MeshSweep(const fs::path& out, const fs::path& scan_dir,
       e["rms_mm"] = f.vertices_rms_mm;
       e["truth_rms_mm"] = f.truth_rms_mm;
     }
-    (*j)["mesh_depth_" + std::to_string(depth)] = e;
-    util::LogInfo("mesh depth " + std::to_string(depth) + ": " + e.dump());
+    util::LogInfo(key + ": " + e.dump());
+    (*j)[key] = std::move(e);
   }
 }
 
@@ -127,6 +136,15 @@ int main(int argc, char** argv) {
                  "with the truth both ways")
       ->delimiter(',')
       ->check(CLI::Range(5, 14));
+  app.add_option("--poisson-pieces", options.mesh.poisson_pieces,
+                 "Poisson in two pieces: 0 automatic, 1 never, 2 always (fusion::MeshOptions)")
+      ->check(CLI::Range(0, 2));
+  std::vector<double> mesh_resolutions;
+  app.add_option("--mesh-resolutions", mesh_resolutions,
+                 "Mesh the scan's fused cloud again at these wanted resolutions (mm, automatic "
+                 "depth) and compare each with the truth both ways")
+      ->delimiter(',')
+      ->check(CLI::PositiveNumber);
   std::string result_dir;
   app.add_option("--result", result_dir,
                  "Result folder of an earlier run with truth (WORK/out with --keep; give its "
@@ -140,8 +158,10 @@ int main(int argc, char** argv) {
     const fs::path dir = work;
     fs::create_directories(dir);
     if (!result_dir.empty()) {
-      if (reuse_scan.empty() || mesh_depths.empty()) {
-        throw Error("--result needs --scan (the scan folder with the truth) and --mesh-depths");
+      if (reuse_scan.empty() || (mesh_depths.empty() && mesh_resolutions.empty())) {
+        throw Error(
+            "--result needs --scan (the scan folder with the truth) and --mesh-depths or "
+            "--mesh-resolutions");
       }
       const json summary = io::ReadJson(fs::path(result_dir) / "summary.json");
       Eigen::Matrix<double, 3, 4> g;
@@ -149,7 +169,8 @@ int main(int argc, char** argv) {
         for (int c = 0; c < 4; ++c) g(r, c) = summary.at("truth_from_world").at(r).at(c);
       }
       json j = json::object();
-      MeshSweep(result_dir, reuse_scan, Rigid3d::FromMatrix(g), options.mesh, mesh_depths, &j);
+      MeshSweep(result_dir, reuse_scan, Rigid3d::FromMatrix(g), options.mesh, mesh_depths,
+                mesh_resolutions, &j);
       std::cout << (as_json ? j.dump() : j.dump(2)) << "\n";
       return 0;
     }
@@ -180,9 +201,11 @@ int main(int argc, char** argv) {
     j["simulate_s"] = simulate_s;
     j["peak_mem_gib"] = util::PeakMemoryGiB();  // the whole process, simulation included
     j["calibration_rms_left_px"] = s.calibration_rms_left_px;
-    if (!mesh_depths.empty()) {
-      if (!s.has_truth) throw Error("--mesh-depths needs a scan folder with truth");
-      MeshSweep(dir / "out", scan_dir, s.truth_from_world, options.mesh, mesh_depths, &j);
+    if (!mesh_depths.empty() || !mesh_resolutions.empty()) {
+      if (!s.has_truth)
+        throw Error("--mesh-depths/--mesh-resolutions need a scan folder with truth");
+      MeshSweep(dir / "out", scan_dir, s.truth_from_world, options.mesh, mesh_depths,
+                mesh_resolutions, &j);
     }
     if (as_json) {
       std::cout << j.dump() << "\n";

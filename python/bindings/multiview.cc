@@ -447,7 +447,10 @@ an overlap), summary (dict: the "fusion" object `fringe fuse --json` prints).)do
       .def_readwrite("trim_density_quantile", &fusion::MeshOptions::trim_density_quantile)
       .def_readwrite("trim_distance_factor", &fusion::MeshOptions::trim_distance_factor)
       .def_readwrite("max_triangles", &fusion::MeshOptions::max_triangles)
-      .def_readwrite("threads", &fusion::MeshOptions::threads);
+      .def_readwrite("threads", &fusion::MeshOptions::threads)
+      .def_readwrite("poisson_pieces", &fusion::MeshOptions::poisson_pieces)
+      .def_readwrite("min_points_per_piece", &fusion::MeshOptions::min_points_per_piece)
+      .def_readwrite("piece_margin_cells", &fusion::MeshOptions::piece_margin_cells);
 
   py::class_<fusion::MeshResult, std::shared_ptr<fusion::MeshResult>>(m, "MeshResult", R"doc(
 The surface: mesh (fringe.Mesh sharing the C++ storage), summary (dict: the "mesh" object

@@ -719,6 +719,9 @@ class MeshOptions:
     trim_distance_factor: float
     max_triangles: int
     threads: int
+    poisson_pieces: int
+    min_points_per_piece: int
+    piece_margin_cells: int
     def __init__(self, **fields: Any) -> None: ...
 
 class MeshResult:

@@ -201,6 +201,13 @@ def test_every_fusion_and_mesh_option_is_bound_and_takes_effect(views, cli_regis
                              cell_spacings=1.01 * cell_mm / coarse["spacing_mm"]).summary
     assert by_spacing["poisson_depth"] == POISSON_DEPTH
     assert fringe.mesh(fused_cloud, max_auto_depth=5).summary["poisson_depth"] == 5
+    # Two Poisson pieces when asked (or for clouds of 2 * min_points_per_piece points), joined.
+    assert fringe.mesh(fused_cloud).summary["poisson_pieces"] == 1
+    assert fringe.mesh(fused_cloud, poisson_pieces=1, min_points_per_piece=1).summary[
+        "poisson_pieces"] == 1
+    two = fringe.mesh(fused_cloud, min_points_per_piece=1, piece_margin_cells=8).summary
+    assert two["poisson_pieces"] == 2 and two["seam_vertices"] > 0
+    assert fringe.mesh(fused_cloud, poisson_pieces=2).summary["poisson_pieces"] == 2
     mesh_options = fringe.MeshOptions(library=fringe.MeshLibrary.cgal, resolution_mm=0.5,
                                       cell_spacings=3.0, max_auto_depth=9)
     assert mesh_options.library == fringe.MeshLibrary.cgal

@@ -1,6 +1,7 @@
 #include "fringe/fusion/mesh.h"
 
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
 #include <tbb/parallel_sort.h>
 
 #include <open3d/geometry/KDTreeFlann.h>
@@ -8,6 +9,7 @@
 #include <open3d/geometry/TriangleMesh.h>
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <memory>
 #include <tuple>
 
@@ -65,6 +67,139 @@ MeshResult Fail(MeshResult r, MeshStatus status, std::string message) {
   return r;
 }
 
+// Open3D's screened Poisson with the finest cell `width_mm` (its cube: 2^depth cells around the
+// bounding box's centre).
+std::tuple<std::shared_ptr<open3d::geometry::TriangleMesh>, std::vector<double>> Poisson(
+    const open3d::geometry::PointCloud& pcd, double width_mm, float scale, int threads) {
+  return open3d::geometry::TriangleMesh::CreateFromPointCloudPoisson(
+      pcd, 0, static_cast<float>(width_mm), scale, false, threads == 0 ? -1 : threads);
+}
+
+// Two pieces of one Poisson problem, solved concurrently (Open3D's Poisson is deterministic on
+// one thread only, and one thread leaves a core idle on a large scan). Each piece holds the
+// points on its side of a plane of the octree's grid plus a margin, and two anchor points just
+// beyond the whole cloud's bounding box (far from every point: their little closed surfaces
+// are trimmed with everything else far from the data), so that both pieces get the whole
+// cloud's bounding box, hence the same cube and the same grid. A piece keeps the triangles on
+// its side of the plane; marching cubes puts the vertices where the surface crosses grid
+// edges, so the two pieces' vertices on the plane lie on the same edges and are joined.
+// Where the pieces' solutions disagree on which edges the surface crosses (the implicit
+// function near zero at a grid corner on the plane: a few percent of the seam) a crack of one
+// cell stays; they are counted (seam_unmatched). Far from the plane a piece's surface differs
+// from the whole problem's by what the other piece's data change in the global solve
+// (docs/benchmarks.md).
+struct PiecewisePoisson {
+  std::shared_ptr<open3d::geometry::TriangleMesh> mesh;
+  std::vector<double> densities;
+  int depth = 0;
+  int64_t seam_vertices = 0, seam_unmatched = 0;
+};
+
+PiecewisePoisson TwoPiecePoisson(const open3d::geometry::PointCloud& pcd, double width_mm,
+                                 float scale, int threads, int margin_cells) {
+  const Eigen::Vector3d lo0 = pcd.GetMinBound(), hi0 = pcd.GetMaxBound();
+  int axis = 0;
+  (hi0 - lo0).maxCoeff(&axis);
+  // Anchors: a few cells and 1 % of the extent beyond the box's corners.
+  const double delta = std::max(8 * width_mm, 0.01 * (hi0 - lo0).maxCoeff());
+  const Eigen::Vector3d lo = lo0.array() - delta, hi = hi0.array() + delta;
+  // PoissonRecon's cube for `width` (GetBoundingBoxXForm): 2^depth cells, the smallest depth
+  // with 2^depth >= scale * largest side / width, centred on the box.
+  const double cells = scale * (hi - lo).maxCoeff() / width_mm;
+  int depth = 0;
+  while (depth < 30 && std::ldexp(1.0, depth) < cells) ++depth;
+  const double side = std::ldexp(width_mm, depth);
+  const Eigen::Vector3d cube_min = 0.5 * (lo + hi).array() - 0.5 * side;
+  // The plane: the grid plane nearest the points' median along the axis (equal work).
+  std::vector<double> along(pcd.points_.size());
+  for (size_t i = 0; i < along.size(); ++i) along[i] = pcd.points_[i](axis);
+  std::nth_element(along.begin(), along.begin() + static_cast<std::ptrdiff_t>(along.size() / 2),
+                   along.end());
+  const double plane =
+      cube_min(axis) + width_mm * std::round((along[along.size() / 2] - cube_min(axis)) / width_mm);
+  const double margin = margin_cells * width_mm;
+  open3d::geometry::PointCloud pieces[2];
+  for (size_t i = 0; i < pcd.points_.size(); ++i) {
+    const double x = pcd.points_[i](axis);
+    for (int k = 0; k < 2; ++k) {
+      if (k == 0 ? x < plane + margin : x > plane - margin) {
+        pieces[k].points_.push_back(pcd.points_[i]);
+        pieces[k].normals_.push_back(pcd.normals_[i]);
+      }
+    }
+  }
+  for (auto& piece : pieces) {
+    for (const Eigen::Vector3d& anchor : {lo, hi}) {
+      piece.points_.push_back(anchor);
+      piece.normals_.push_back(Eigen::Vector3d::UnitZ());
+    }
+  }
+  std::tuple<std::shared_ptr<open3d::geometry::TriangleMesh>, std::vector<double>> solved[2];
+  tbb::parallel_invoke([&] { solved[0] = Poisson(pieces[0], width_mm, scale, threads); },
+                       [&] { solved[1] = Poisson(pieces[1], width_mm, scale, threads); });
+
+  // Join: piece 0 keeps the triangles up to the plane, piece 1 those beyond (a triangle lies in
+  // one cell; one flat on the plane goes to piece 0). Piece 1's vertices on the plane take
+  // piece 0's vertex on the same grid edge.
+  const double eps = 1e-3 * width_mm;
+  const int u = (axis + 1) % 3, v = (axis + 2) % 3;
+  // A vertex on the plane lies on a grid edge along u or v: the edge's key is its integral
+  // coordinate and the cell index of the fractional one (both integral: a grid corner).
+  const auto edge_key = [&](const Eigen::Vector3d& p, std::array<int64_t, 3>* key) {
+    const double gu = (p(u) - cube_min(u)) / width_mm, gv = (p(v) - cube_min(v)) / width_mm;
+    const bool iu = std::abs(gu - std::round(gu)) < 1e-3, iv = std::abs(gv - std::round(gv)) < 1e-3;
+    if (!iu && !iv) return false;
+    *key = {static_cast<int64_t>(iu ? std::round(gu) : std::floor(gu)),
+            static_cast<int64_t>(iv ? std::round(gv) : std::floor(gv)), iu + 2 * iv};
+    return true;
+  };
+  PiecewisePoisson out;
+  out.depth = depth;
+  out.mesh = std::make_shared<open3d::geometry::TriangleMesh>();
+  std::map<std::array<int64_t, 3>, int> seam;  // piece 0's vertices on the plane
+  for (int k = 0; k < 2; ++k) {
+    const auto& [mesh, densities] = solved[k];
+    std::vector<int> index(mesh->vertices_.size(), -1);
+    for (const Eigen::Vector3i& t : mesh->triangles_) {
+      const double c = (mesh->vertices_[t(0)](axis) + mesh->vertices_[t(1)](axis) +
+                        mesh->vertices_[t(2)](axis)) /
+                       3;
+      if ((k == 0) != (c <= plane + eps)) continue;
+      Eigen::Vector3i joined;
+      for (int j = 0; j < 3; ++j) {
+        int& to = index[static_cast<size_t>(t(j))];
+        if (to < 0) {
+          const Eigen::Vector3d& p = mesh->vertices_[static_cast<size_t>(t(j))];
+          std::array<int64_t, 3> key;
+          const bool on_plane = std::abs(p(axis) - plane) <= eps && edge_key(p, &key);
+          if (on_plane && k == 1) {
+            ++out.seam_vertices;
+            const auto it = seam.find(key);
+            if (it != seam.end() &&
+                (out.mesh->vertices_[static_cast<size_t>(it->second)] - p).norm() <
+                    0.5 * width_mm) {
+              to = it->second;
+              seam.erase(it);  // joined
+            } else {
+              ++out.seam_unmatched;
+            }
+          }
+          if (to < 0) {
+            to = static_cast<int>(out.mesh->vertices_.size());
+            out.mesh->vertices_.push_back(p);
+            out.densities.push_back(densities[static_cast<size_t>(t(j))]);
+            if (on_plane && k == 0) seam.emplace(key, to);
+          }
+        }
+        joined(j) = to;
+      }
+      out.mesh->triangles_.push_back(joined);
+    }
+  }
+  out.seam_unmatched += static_cast<int64_t>(seam.size());  // the first piece's, not joined
+  return out;
+}
+
 }  // namespace
 
 void MeshOptions::Check() const {
@@ -84,6 +219,12 @@ void MeshOptions::Check() const {
   util::CheckOption(max_triangles == 0 || max_triangles >= 4, kName, "max_triangles", max_triangles,
                     "must be 0 (no decimation) or >= 4");
   util::CheckOption(threads >= 0, kName, "threads", threads, "must be >= 0");
+  util::CheckOption(poisson_pieces >= 0 && poisson_pieces <= 2, kName, "poisson_pieces",
+                    poisson_pieces, "must be 0 (automatic), 1 or 2");
+  util::CheckOption(min_points_per_piece >= 1, kName, "min_points_per_piece", min_points_per_piece,
+                    "must be >= 1");
+  util::CheckOption(piece_margin_cells >= 2 && piece_margin_cells <= 1000, kName,
+                    "piece_margin_cells", piece_margin_cells, "must be in [2, 1000]");
 }
 
 const char* ToString(MeshLibrary l) {
@@ -120,6 +261,10 @@ std::string MeshSummary::BriefReport() const {
                  : util::StrCat("not watertight (", boundary_edges, " boundary edges, ",
                                 non_manifold_edges, " non-manifold edges, ", non_manifold_vertices,
                                 " non-manifold vertices)"));
+  if (poisson_pieces > 1) {
+    s += util::StrCat(", ", poisson_pieces, " Poisson pieces (", seam_vertices, " seam vertices, ",
+                      seam_unmatched, " not joined)");
+  }
   if (decimated) {
     s += util::StrCat(", decimation deviation RMS ", decimation_rms_mm, " mm (max ",
                       decimation_max_mm, " mm)");
@@ -137,6 +282,9 @@ nlohmann::json SummaryToJson(const MeshSummary& s) {
           {"library", s.library},
           {"poisson_depth", s.poisson_depth},
           {"cell_mm", s.cell_mm},
+          {"poisson_pieces", s.poisson_pieces},
+          {"seam_vertices", s.seam_vertices},
+          {"seam_unmatched", s.seam_unmatched},
           {"closed_holes", s.closed_holes},
           {"spacing_mm", s.spacing_mm},
           {"trimmed_vertices", s.trimmed_vertices},
@@ -190,25 +338,52 @@ MeshResult MeshPoisson(const PointCloud& cloud, const MeshOptions& options) {
     });
     s.spacing_mm = Quantile(nn, 0.5);
   }
-  constexpr double kScale = 1.1;  // Poisson's cube: the bounding box's largest side * 1.1
+  constexpr double kScale = 1.1;  // Poisson's cube: at least the bounding box's largest side * 1.1
   s.poisson_depth = options.poisson_depth;
-  const double cube_mm = kScale * (pcd.GetMaxBound() - pcd.GetMinBound()).maxCoeff();
+  const double extent_mm = (pcd.GetMaxBound() - pcd.GetMinBound()).maxCoeff();
+  const double cube_mm = kScale * extent_mm;
+  // Automatic: the finest cell is the wanted one exactly (Open3D's `width`: the cube grows to
+  // 2^depth cells of that size around the bounding box's centre), not the next power-of-two
+  // fraction of the box below it, which is up to 2x finer and ~4x slower for detail nobody asked
+  // for. Outside [5, max_auto_depth] levels the depth is clamped and the cube is kScale * extent.
+  double width_mm = 0;
   if (s.poisson_depth == 0) {
     const double cell_mm = std::max(options.cell_spacings * s.spacing_mm, options.resolution_mm);
+    // Open3D's own depth for `width` (PoissonRecon's GetBoundingBoxXForm): the smallest with
+    // 2^depth >= kScale * extent / width.
     const double cells = cube_mm / std::max(cell_mm, 1e-9);
-    s.poisson_depth = std::clamp(static_cast<int>(std::ceil(std::log2(std::max(cells, 1.0)))), 5,
-                                 options.max_auto_depth);
+    int depth = 0;
+    while (depth < 30 && std::ldexp(1.0, depth) < cells) ++depth;
+    if (depth < 5 || depth > options.max_auto_depth) {
+      s.poisson_depth = std::clamp(depth, 5, options.max_auto_depth);
+    } else {
+      s.poisson_depth = depth;
+      width_mm = cell_mm;
+    }
   }
-  s.cell_mm = cube_mm / std::pow(2.0, s.poisson_depth);
+  s.cell_mm = width_mm > 0 ? width_mm : cube_mm / std::pow(2.0, s.poisson_depth);
   s.library = ToString(options.library);
   s.spacing_s = total.ElapsedSeconds();
   util::Timer timer;
   std::shared_ptr<open3d::geometry::TriangleMesh> mesh;
   std::vector<double> densities;  // Open3D only
-  if (options.library == MeshLibrary::kOpen3d) {
+  const bool two_pieces =
+      options.library == MeshLibrary::kOpen3d && width_mm > 0 && !options.watertight &&
+      (options.poisson_pieces == 2 ||
+       (options.poisson_pieces == 0 && s.input_points >= 2 * options.min_points_per_piece));
+  if (two_pieces) {
+    PiecewisePoisson pp = TwoPiecePoisson(pcd, width_mm, static_cast<float>(kScale),
+                                          options.threads, options.piece_margin_cells);
+    mesh = std::move(pp.mesh);
+    densities = std::move(pp.densities);
+    s.poisson_depth = pp.depth;
+    s.poisson_pieces = 2;
+    s.seam_vertices = pp.seam_vertices;
+    s.seam_unmatched = pp.seam_unmatched;
+  } else if (options.library == MeshLibrary::kOpen3d) {
     std::tie(mesh, densities) = open3d::geometry::TriangleMesh::CreateFromPointCloudPoisson(
-        pcd, static_cast<size_t>(s.poisson_depth), 0.0f, static_cast<float>(kScale), false,
-        options.threads == 0 ? -1 : options.threads);
+        pcd, static_cast<size_t>(s.poisson_depth), static_cast<float>(width_mm),
+        static_cast<float>(kScale), false, options.threads == 0 ? -1 : options.threads);
   } else {
     internal::IndexedMesh m;
     mesh = std::make_shared<open3d::geometry::TriangleMesh>();

@@ -1,8 +1,8 @@
 // A triangle mesh of a fused cloud: screened Poisson surface reconstruction (Kazhdan & Hoppe,
 // "Screened Poisson surface reconstruction", ACM TOG 2013) as implemented in Open3D
 // (open3d::geometry::TriangleMesh::CreateFromPointCloudPoisson, Debian libopen3d-dev 0.16),
-// not hand-written. CGAL's Poisson (libcgal-dev) has NOT been measured against it yet on the
-// same fused cloud (issue 12 asks for that comparison; docs/benchmarks.md, "Fusion").
+// not hand-written; CGAL's Poisson (libcgal-dev) is selectable (MeshLibrary; compared on the
+// same fused cloud in docs/benchmarks.md, "Fusion, session 4").
 //
 // By default the mesh keeps only the measured surface: Poisson closes the surface everywhere,
 // and vertices the data do not support are trimmed — those with a Poisson sampling density
@@ -36,13 +36,14 @@ const char* ToString(MeshLibrary l);
 
 struct MeshOptions {
   MeshLibrary library = MeshLibrary::kOpen3d;
-  // Octree depth, [5, 14]; 0: from the cloud, the shallowest depth whose finest cell is at most
-  // cell_spacings median point spacings across the cloud's extent (Poisson's cost grows ~8x per
-  // level: a fixed depth is either too coarse for a fine scan or too slow for a coarse one).
-  // The finest cell may also be made coarser by the wanted resolution: with resolution_mm > 0
-  // the depth is the shallowest whose cell is at most max(cell_spacings * spacing,
-  // resolution_mm) (detail finer than the resolution is smoothed; each level less costs ~1/4 of
-  // the time, docs/benchmarks.md). 0: as fine as the points allow.
+  // Octree depth, [5, 14]; 0: from the cloud — the finest cell is cell_spacings median point
+  // spacings exactly (Open3D's `width`: the cube is 2^depth such cells around the cloud's
+  // centre, at least 1.1 x its largest side), and depth the smallest that allows it (Poisson's
+  // cost grows ~4x per level on a surface: a fixed depth is either too coarse for a fine scan
+  // or too slow for a coarse one). The wanted resolution may make the cell coarser: with
+  // resolution_mm > 0 the cell is max(cell_spacings * spacing, resolution_mm) (detail finer than
+  // the resolution is smoothed, docs/benchmarks.md). 0: as fine as the points allow. A depth
+  // outside [5, max_auto_depth] is clamped (the cube is then 1.1 x the largest side).
   int poisson_depth = 0;
   double cell_spacings = 2;  // (0, 100]
   double resolution_mm = 0;  // >= 0
@@ -57,6 +58,15 @@ struct MeshOptions {
   // Poisson threads (OpenMP inside Open3D), 0: all, >= 0. 1 by default: OpenMP's spinning
   // threads slow down badly on a loaded machine and one thread is deterministic.
   int threads = 1;
+  // Poisson in two pieces solved concurrently (mesh.cc, TwoPiecePoisson): 0 automatic — two
+  // when the depth is automatic, the mesh is trimmed (not watertight), Open3D meshes, and the
+  // cloud has at least 2 * min_points_per_piece points (a property of the data, not of the
+  // thread count: the mesh is the same on any number of threads); 1 never; 2 whenever the
+  // depth is automatic and the mesh trimmed. Each piece takes piece_margin_cells cells of the
+  // other side's points.
+  int poisson_pieces = 0;
+  int64_t min_points_per_piece = 250000;
+  int piece_margin_cells = 16;
 
   void Check() const;
 };
@@ -76,8 +86,12 @@ struct MeshSummary {
   int64_t poisson_triangles = 0;  // before trimming and decimation
   int poisson_depth = 0;          // the depth used
   double cell_mm = 0;             // its finest cell: the cube's side / 2^depth
-  double spacing_mm = 0;          // median nearest-neighbour distance of the cloud
-  std::string library;            // "open3d" or "cgal"
+  int poisson_pieces = 1;         // 2: solved in two pieces joined on a grid plane
+  // Two pieces: the second piece's vertices on the joining plane, and the vertices on it of
+  // either piece without the other's on the same grid edge (one-cell cracks in the seam).
+  int64_t seam_vertices = 0, seam_unmatched = 0;
+  double spacing_mm = 0;  // median nearest-neighbour distance of the cloud
+  std::string library;    // "open3d" or "cgal"
   int64_t trimmed_vertices = 0;
   int64_t closed_holes = 0;  // watertight: border cycles closed by CGAL's hole triangulation
   int64_t vertices = 0;

@@ -1,6 +1,7 @@
 #include "fringe/fusion/mesh.h"
 
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
 
 #include <cmath>
 
@@ -217,6 +218,66 @@ TEST(Mesh, WantedResolutionCoarsensTheAutomaticDepthButNeverRefinesIt) {
   EXPECT_EQ(fine.summary.poisson_depth, data.summary.poisson_depth);
   MeshOptions bad;
   bad.resolution_mm = -1;
+  EXPECT_THROW(bad.Check(), Error);
+}
+
+TEST(Mesh, TwoPiecesJoinIntoOneSurfaceAsCloseToTheSphereAsOnePiece) {
+  // The fused sphere meshed in one Poisson problem and in two pieces joined on a grid plane
+  // (MeshOptions::poisson_pieces): the joined surface is as close to the sphere, the seam is
+  // joined (a crack adds two boundary edges per unmatched seam vertex at most; an unjoined seam
+  // would add about two per seam vertex), and the mesh does not depend on the thread count.
+  // Trimming differs a little (the density quantile is taken over another set of vertices).
+  constexpr double kRmsTolMm = 0.05;
+  constexpr double kMaxTolMm = 0.2;
+  constexpr double kMaxUnmatchedFraction = 0.05;
+  const FusionResult& fused = FusedSphere();
+  MeshOptions one_options;
+  one_options.poisson_pieces = 1;
+  MeshOptions two_options;
+  two_options.poisson_pieces = 2;
+  const MeshResult one = MeshPoisson(fused.fused, one_options);
+  const MeshResult two = MeshPoisson(fused.fused, two_options);
+  SCOPED_TRACE(one.summary.BriefReport() + "\n" + two.summary.BriefReport());
+  ASSERT_TRUE(one.summary.ok());
+  ASSERT_TRUE(two.summary.ok());
+  EXPECT_EQ(one.summary.poisson_pieces, 1);
+  ASSERT_EQ(two.summary.poisson_pieces, 2);
+  EXPECT_EQ(two.summary.poisson_depth, one.summary.poisson_depth);
+  EXPECT_DOUBLE_EQ(two.summary.cell_mm, one.summary.cell_mm);
+  ASSERT_GT(two.summary.seam_vertices, 50);
+  EXPECT_LE(two.summary.seam_unmatched, kMaxUnmatchedFraction * two.summary.seam_vertices);
+  {
+    // Untrimmed, Poisson's sphere is closed: every boundary edge is a crack in the seam.
+    MeshOptions untrimmed = two_options;
+    untrimmed.trim_density_quantile = 0;
+    untrimmed.trim_distance_factor = 1e6;
+    const MeshResult closed = MeshPoisson(fused.fused, untrimmed);
+    SCOPED_TRACE(closed.summary.BriefReport());
+    ASSERT_EQ(closed.summary.poisson_pieces, 2);
+    EXPECT_LE(closed.summary.seam_unmatched, kMaxUnmatchedFraction * closed.summary.seam_vertices);
+    EXPECT_LE(closed.summary.boundary_edges, 2 * closed.summary.seam_unmatched);
+    EXPECT_EQ(closed.summary.non_manifold_edges, 0);
+  }
+  const Eigen::Vector2d err = RadialErrorRmsMax(VertexCloud(two));
+  EXPECT_LT(err[0], kRmsTolMm);
+  EXPECT_LT(err[1], kMaxTolMm);
+  EXPECT_EQ(InwardNormals(two), 0);
+  EXPECT_NEAR(static_cast<double>(two.summary.vertices), static_cast<double>(one.summary.vertices),
+              0.02 * one.summary.vertices);
+  {
+    const tbb::global_control serial(tbb::global_control::max_allowed_parallelism, 1);
+    const MeshResult two_serial = MeshPoisson(fused.fused, two_options);
+    EXPECT_EQ(two_serial.mesh.vertices, two.mesh.vertices);
+    EXPECT_EQ(two_serial.mesh.triangles, two.mesh.triangles);
+  }
+  // Automatic: two pieces only for clouds of at least 2 * min_points_per_piece points.
+  MeshOptions automatic;
+  automatic.min_points_per_piece = static_cast<int64_t>(fused.fused.size());
+  EXPECT_EQ(MeshPoisson(fused.fused, automatic).summary.poisson_pieces, 1);
+  automatic.min_points_per_piece = static_cast<int64_t>(fused.fused.size() / 2);
+  EXPECT_EQ(MeshPoisson(fused.fused, automatic).summary.poisson_pieces, 2);
+  MeshOptions bad;
+  bad.poisson_pieces = 3;
   EXPECT_THROW(bad.Check(), Error);
 }
 

@@ -80,9 +80,9 @@ struct ScanOptions {
   registration::RegistrationOptions registration;
   fusion::FusionOptions fusion;  // registration_rms_mm is set from the registration's ICP RMS
   // The mesh resolves 0.75 mm (fused.ply keeps every point): on the full-size demo scan Poisson
-  // depth 9 instead of 10 (0.61 instead of 0.31 mm cells) in 1/4 of the time; mesh vertices to
-  // the truth 0.032 instead of 0.056 mm on the calibrated scan, 0.034 instead of 0.027 mm on the
-  // true-rig one (docs/benchmarks.md). 0 meshes as fine as the points allow.
+  // depth 9 with 0.75 mm cells, in two pieces side by side (MeshOptions::poisson_pieces);
+  // mesh vertices to the truth 0.035 mm against 0.030 mm with 0.61 mm cells at 1.6 x the
+  // Poisson CPU time (docs/benchmarks.md). 0 meshes as fine as the points allow.
   fusion::MeshOptions mesh = [] {
     fusion::MeshOptions o;
     o.resolution_mm = 0.75;

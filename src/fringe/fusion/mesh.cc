@@ -4,7 +4,6 @@
 #include <tbb/parallel_invoke.h>
 #include <tbb/parallel_sort.h>
 
-#include <open3d/geometry/KDTreeFlann.h>
 #include <open3d/geometry/PointCloud.h>
 #include <open3d/geometry/TriangleMesh.h>
 #include <algorithm>
@@ -15,6 +14,7 @@
 
 #include "fringe/eval/deviation.h"
 #include "fringe/fusion/mesh_cgal.h"
+#include "fringe/geometry/point_index.h"
 #include "fringe/io/mesh_io.h"
 #include "fringe/util/error.h"
 #include "fringe/util/files.h"
@@ -328,13 +328,13 @@ MeshResult MeshPoisson(const PointCloud& cloud, const MeshOptions& options) {
 
   // Median point spacing from every 8th point's nearest neighbour (the tree also serves the
   // trimming below).
-  const open3d::geometry::KDTreeFlann tree(pcd);
+  const PointIndex tree(pcd.points_);
   {
     std::vector<double> nn((pcd.points_.size() + 7) / 8);
     tbb::parallel_for(size_t{0}, nn.size(), [&](size_t k) {
-      std::vector<int> idx(2);
-      std::vector<double> d2(2);
-      nn[k] = tree.SearchKNN(pcd.points_[8 * k], 2, idx, d2) == 2 ? std::sqrt(d2[1]) : 0;
+      std::vector<size_t> idx;
+      std::vector<double> d2;
+      nn[k] = tree.Nearest(pcd.points_[8 * k], 2, &idx, &d2) == 2 ? std::sqrt(d2[1]) : 0;
     });
     s.spacing_mm = Quantile(nn, 0.5);
   }
@@ -409,10 +409,7 @@ MeshResult MeshPoisson(const PointCloud& cloud, const MeshOptions& options) {
                                    : -std::numeric_limits<double>::infinity();
     std::vector<uint8_t> remove(mesh->vertices_.size(), 0);
     tbb::parallel_for(size_t{0}, mesh->vertices_.size(), [&](size_t v) {
-      std::vector<int> idx(1);
-      std::vector<double> d2(1);
-      const bool far =
-          tree.SearchKNN(mesh->vertices_[v], 1, idx, d2) < 1 || d2[0] > max_dist_mm * max_dist_mm;
+      const bool far = tree.Nearest(mesh->vertices_[v]).second > max_dist_mm * max_dist_mm;
       remove[v] = far || (!densities.empty() && densities[v] < min_density);
     });
     std::vector<bool> mask(remove.begin(), remove.end());

@@ -5,8 +5,6 @@
 #include <tbb/parallel_pipeline.h>
 #include <tbb/task_group.h>
 
-#include <nanoflann.hpp>
-
 #include <algorithm>
 #include <atomic>
 #include <cmath>
@@ -23,6 +21,7 @@
 #include "fringe/calib/projector_folder.h"
 #include "fringe/eval/deviation.h"
 #include "fringe/geometry/align.h"
+#include "fringe/geometry/point_index.h"
 #include "fringe/io/calibration_io.h"
 #include "fringe/io/image_io.h"
 #include "fringe/io/opencv_calibration.h"
@@ -536,36 +535,6 @@ cv::Mat ViewDeviationMap(const PointCloud& compact, const std::vector<uint8_t>& 
   }
   return out;
 }
-
-// Nearest-neighbour search over a point set (nanoflann k-d tree).
-class PointIndex {
- public:
-  explicit PointIndex(std::vector<Eigen::Vector3d> points)
-      : adaptor_{std::move(points)},
-        tree_(3, adaptor_, nanoflann::KDTreeSingleIndexAdaptorParams(16)) {}
-  // Index of the nearest point and its squared distance.
-  std::pair<size_t, double> Nearest(const Eigen::Vector3d& p) const {
-    unsigned index = 0;  // the tree's default index type
-    double d2 = 0;
-    tree_.knnSearch(p.data(), 1, &index, &d2);
-    return {static_cast<size_t>(index), d2};
-  }
-
- private:
-  struct Adaptor {
-    std::vector<Eigen::Vector3d> points;
-    size_t kdtree_get_point_count() const { return points.size(); }
-    double kdtree_get_pt(size_t i, size_t dim) const { return points[i][static_cast<int>(dim)]; }
-    template <class Box>
-    bool kdtree_get_bbox(Box&) const {
-      return false;
-    }
-  };
-  using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, Adaptor>,
-                                                   Adaptor, 3>;
-  Adaptor adaptor_;
-  Tree tree_;
-};
 
 // Every k-th index so that at most max_count of n remain (deterministic, spread over the grid).
 std::vector<size_t> Stride(size_t n, size_t max_count) {

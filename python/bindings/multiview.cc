@@ -449,7 +449,7 @@ an overlap), summary (dict: the "fusion" object `fringe fuse --json` prints).)do
       .def_readwrite("max_triangles", &fusion::MeshOptions::max_triangles)
       .def_readwrite("threads", &fusion::MeshOptions::threads)
       .def_readwrite("poisson_pieces", &fusion::MeshOptions::poisson_pieces)
-      .def_readwrite("min_points_per_piece", &fusion::MeshOptions::min_points_per_piece)
+      .def_readwrite("min_cells_per_piece", &fusion::MeshOptions::min_cells_per_piece)
       .def_readwrite("piece_margin_cells", &fusion::MeshOptions::piece_margin_cells);
 
   py::class_<fusion::MeshResult, std::shared_ptr<fusion::MeshResult>>(m, "MeshResult", R"doc(

@@ -720,7 +720,7 @@ class MeshOptions:
     max_triangles: int
     threads: int
     poisson_pieces: int
-    min_points_per_piece: int
+    min_cells_per_piece: int
     piece_margin_cells: int
     def __init__(self, **fields: Any) -> None: ...
 

@@ -123,6 +123,8 @@ def test_fuse_and_mesh_equal_fringe_fuse(tmp_path, views, cli_registration):
     # The Poisson cell follows the fused cloud's bounding box, which carries the last-bit
     # difference of the poses' rotation round trip (registration in memory here, poses.json there).
     assert ours_mesh.pop("cell_mm") == pytest.approx(theirs_mesh.pop("cell_mm"), rel=1e-12)
+    assert ours_mesh.pop("surface_cells") == pytest.approx(theirs_mesh.pop("surface_cells"),
+                                                           rel=1e-9)
     assert ours_mesh == theirs_mesh
     mesh_file = fringe.Mesh.load(tmp_path / "m.ply")
     np.testing.assert_array_equal(surface.mesh.triangles, mesh_file.triangles)
@@ -201,11 +203,11 @@ def test_every_fusion_and_mesh_option_is_bound_and_takes_effect(views, cli_regis
                              cell_spacings=1.01 * cell_mm / coarse["spacing_mm"]).summary
     assert by_spacing["poisson_depth"] == POISSON_DEPTH
     assert fringe.mesh(fused_cloud, max_auto_depth=5).summary["poisson_depth"] == 5
-    # Two Poisson pieces when asked (or for clouds of 2 * min_points_per_piece points), joined.
+    # Two Poisson pieces when asked (or for surfaces of 2 * min_cells_per_piece cells), joined.
     assert fringe.mesh(fused_cloud).summary["poisson_pieces"] == 1
-    assert fringe.mesh(fused_cloud, poisson_pieces=1, min_points_per_piece=1).summary[
+    assert fringe.mesh(fused_cloud, poisson_pieces=1, min_cells_per_piece=1).summary[
         "poisson_pieces"] == 1
-    two = fringe.mesh(fused_cloud, min_points_per_piece=1, piece_margin_cells=8).summary
+    two = fringe.mesh(fused_cloud, min_cells_per_piece=1, piece_margin_cells=8).summary
     assert two["poisson_pieces"] == 2 and two["seam_vertices"] > 0
     assert fringe.mesh(fused_cloud, poisson_pieces=2).summary["poisson_pieces"] == 2
     mesh_options = fringe.MeshOptions(library=fringe.MeshLibrary.cgal, resolution_mm=0.5,

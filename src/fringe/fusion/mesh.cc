@@ -221,7 +221,7 @@ void MeshOptions::Check() const {
   util::CheckOption(threads >= 0, kName, "threads", threads, "must be >= 0");
   util::CheckOption(poisson_pieces >= 0 && poisson_pieces <= 2, kName, "poisson_pieces",
                     poisson_pieces, "must be 0 (automatic), 1 or 2");
-  util::CheckOption(min_points_per_piece >= 1, kName, "min_points_per_piece", min_points_per_piece,
+  util::CheckOption(min_cells_per_piece >= 1, kName, "min_cells_per_piece", min_cells_per_piece,
                     "must be >= 1");
   util::CheckOption(piece_margin_cells >= 2 && piece_margin_cells <= 1000, kName,
                     "piece_margin_cells", piece_margin_cells, "must be in [2, 1000]");
@@ -283,6 +283,7 @@ nlohmann::json SummaryToJson(const MeshSummary& s) {
           {"poisson_depth", s.poisson_depth},
           {"cell_mm", s.cell_mm},
           {"poisson_pieces", s.poisson_pieces},
+          {"surface_cells", s.surface_cells},
           {"seam_vertices", s.seam_vertices},
           {"seam_unmatched", s.seam_unmatched},
           {"closed_holes", s.closed_holes},
@@ -362,6 +363,8 @@ MeshResult MeshPoisson(const PointCloud& cloud, const MeshOptions& options) {
     }
   }
   s.cell_mm = width_mm > 0 ? width_mm : cube_mm / std::pow(2.0, s.poisson_depth);
+  s.surface_cells = static_cast<double>(s.input_points) * s.spacing_mm * s.spacing_mm /
+                    std::max(s.cell_mm * s.cell_mm, 1e-18);
   s.library = ToString(options.library);
   s.spacing_s = total.ElapsedSeconds();
   util::Timer timer;
@@ -370,7 +373,8 @@ MeshResult MeshPoisson(const PointCloud& cloud, const MeshOptions& options) {
   const bool two_pieces =
       options.library == MeshLibrary::kOpen3d && width_mm > 0 && !options.watertight &&
       (options.poisson_pieces == 2 ||
-       (options.poisson_pieces == 0 && s.input_points >= 2 * options.min_points_per_piece));
+       (options.poisson_pieces == 0 &&
+        s.surface_cells >= 2.0 * static_cast<double>(options.min_cells_per_piece)));
   if (two_pieces) {
     PiecewisePoisson pp = TwoPiecePoisson(pcd, width_mm, static_cast<float>(kScale),
                                           options.threads, options.piece_margin_cells);

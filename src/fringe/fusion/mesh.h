@@ -60,12 +60,13 @@ struct MeshOptions {
   int threads = 1;
   // Poisson in two pieces solved concurrently (mesh.cc, TwoPiecePoisson): 0 automatic — two
   // when the depth is automatic, the mesh is trimmed (not watertight), Open3D meshes, and the
-  // cloud has at least 2 * min_points_per_piece points (a property of the data, not of the
-  // thread count: the mesh is the same on any number of threads); 1 never; 2 whenever the
-  // depth is automatic and the mesh trimmed. Each piece takes piece_margin_cells cells of the
-  // other side's points.
+  // surface holds at least 2 * min_cells_per_piece finest cells (estimated as points *
+  // spacing^2 / cell^2: Poisson's cost follows the surface's cells, not the points; a property
+  // of the data, not of the thread count: the mesh is the same on any number of threads); 1
+  // never; 2 whenever the depth is automatic and the mesh trimmed. Each piece takes
+  // piece_margin_cells cells of the other side's points.
   int poisson_pieces = 0;
-  int64_t min_points_per_piece = 250000;
+  int64_t min_cells_per_piece = 10000;
   int piece_margin_cells = 16;
 
   void Check() const;
@@ -87,6 +88,7 @@ struct MeshSummary {
   int poisson_depth = 0;          // the depth used
   double cell_mm = 0;             // its finest cell: the cube's side / 2^depth
   int poisson_pieces = 1;         // 2: solved in two pieces joined on a grid plane
+  double surface_cells = 0;       // points * spacing^2 / cell^2: the surface's finest cells
   // Two pieces: the second piece's vertices on the joining plane, and the vertices on it of
   // either piece without the other's on the same grid edge (one-cell cracks in the seam).
   int64_t seam_vertices = 0, seam_unmatched = 0;

@@ -270,11 +270,14 @@ TEST(Mesh, TwoPiecesJoinIntoOneSurfaceAsCloseToTheSphereAsOnePiece) {
     EXPECT_EQ(two_serial.mesh.vertices, two.mesh.vertices);
     EXPECT_EQ(two_serial.mesh.triangles, two.mesh.triangles);
   }
-  // Automatic: two pieces only for clouds of at least 2 * min_points_per_piece points.
+  // Automatic: two pieces only for surfaces of at least 2 * min_cells_per_piece cells (the
+  // sphere's ~4 pi R^2 / cell^2).
+  const double sphere_cells =
+      4 * M_PI * kRadiusMm * kRadiusMm / (one.summary.cell_mm * one.summary.cell_mm);
+  EXPECT_NEAR(one.summary.surface_cells, sphere_cells, 0.3 * sphere_cells);
   MeshOptions automatic;
-  automatic.min_points_per_piece = static_cast<int64_t>(fused.fused.size());
-  EXPECT_EQ(MeshPoisson(fused.fused, automatic).summary.poisson_pieces, 1);
-  automatic.min_points_per_piece = static_cast<int64_t>(fused.fused.size() / 2);
+  EXPECT_EQ(MeshPoisson(fused.fused, automatic).summary.poisson_pieces, 1);  // ~4,500 cells
+  automatic.min_cells_per_piece = static_cast<int64_t>(0.3 * one.summary.surface_cells);
   EXPECT_EQ(MeshPoisson(fused.fused, automatic).summary.poisson_pieces, 2);
   MeshOptions bad;
   bad.poisson_pieces = 3;

@@ -450,7 +450,8 @@ an overlap), summary (dict: the "fusion" object `fringe fuse --json` prints).)do
       .def_readwrite("threads", &fusion::MeshOptions::threads)
       .def_readwrite("poisson_pieces", &fusion::MeshOptions::poisson_pieces)
       .def_readwrite("min_cells_per_piece", &fusion::MeshOptions::min_cells_per_piece)
-      .def_readwrite("piece_margin_cells", &fusion::MeshOptions::piece_margin_cells);
+      .def_readwrite("piece_margin_cells", &fusion::MeshOptions::piece_margin_cells)
+      .def_readwrite("max_seam_unmatched", &fusion::MeshOptions::max_seam_unmatched);
 
   py::class_<fusion::MeshResult, std::shared_ptr<fusion::MeshResult>>(m, "MeshResult", R"doc(
 The surface: mesh (fringe.Mesh sharing the C++ storage), summary (dict: the "mesh" object

@@ -722,6 +722,7 @@ class MeshOptions:
     poisson_pieces: int
     min_cells_per_piece: int
     piece_margin_cells: int
+    max_seam_unmatched: float
     def __init__(self, **fields: Any) -> None: ...
 
 class MeshResult:

@@ -207,9 +207,13 @@ def test_every_fusion_and_mesh_option_is_bound_and_takes_effect(views, cli_regis
     assert fringe.mesh(fused_cloud).summary["poisson_pieces"] == 1
     assert fringe.mesh(fused_cloud, poisson_pieces=1, min_cells_per_piece=1).summary[
         "poisson_pieces"] == 1
-    two = fringe.mesh(fused_cloud, min_cells_per_piece=1, piece_margin_cells=8).summary
+    two = fringe.mesh(fused_cloud, min_cells_per_piece=1, piece_margin_cells=8,
+                      max_seam_unmatched=1.0).summary
     assert two["poisson_pieces"] == 2 and two["seam_vertices"] > 0
-    assert fringe.mesh(fused_cloud, poisson_pieces=2).summary["poisson_pieces"] == 2
+    assert fringe.mesh(fused_cloud, poisson_pieces=2,
+                       max_seam_unmatched=1.0).summary["poisson_pieces"] == 2
+    strict = fringe.mesh(fused_cloud, poisson_pieces=2, max_seam_unmatched=0.0).summary
+    assert strict["seam_refused"] == (strict["seam_unmatched"] > 0)
     mesh_options = fringe.MeshOptions(library=fringe.MeshLibrary.cgal, resolution_mm=0.5,
                                       cell_spacings=3.0, max_auto_depth=9)
     assert mesh_options.library == fringe.MeshLibrary.cgal

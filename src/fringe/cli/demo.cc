@@ -35,6 +35,11 @@ void AddDemoCommand(CLI::App& app) {
   sub->add_option("--mesh-resolution", a->options.scan.mesh.resolution_mm,
                   "Wanted mesh resolution, mm (0: as fine as the points allow)")
       ->capture_default_str();
+  sub->add_option("--poisson-pieces", a->options.scan.mesh.poisson_pieces,
+                  "Poisson in two pieces side by side, joined on a grid plane: 0 automatic "
+                  "(surfaces of 20,000 finest cells and more), 1 never, 2 always")
+      ->check(CLI::Range(0, 2))
+      ->capture_default_str();
   sub->add_option("--seed", a->options.seed, "Random seed")->capture_default_str();
   sub->add_option("--calibration-images", a->options.calibration_images,
                   "Board poses for calibration")

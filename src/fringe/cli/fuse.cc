@@ -69,6 +69,16 @@ void AddFuseCommand(CLI::App& app) {
   sub->add_option("--poisson-depth", a->meshing.poisson_depth,
                   "Poisson octree depth (0: from the point spacing and the extent)")
       ->capture_default_str();
+  sub->add_option("--mesh-resolution", a->meshing.resolution_mm,
+                  "Wanted mesh resolution, mm: the automatic depth's finest cell is this, or 2 "
+                  "point spacings if coarser (0: as fine as the points allow)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  sub->add_option("--poisson-pieces", a->meshing.poisson_pieces,
+                  "Poisson in two pieces side by side, joined on a grid plane: 0 automatic "
+                  "(surfaces of 20,000 finest cells and more), 1 never, 2 always")
+      ->check(CLI::Range(0, 2))
+      ->capture_default_str();
   sub->add_option("--registration-rms", a->fusion.registration_rms_mm,
                   "Registration residual (mm): widens the overlap radius")
       ->capture_default_str();

@@ -52,8 +52,13 @@ void AddScanCommand(CLI::App& app) {
          "10: ~0.3 mm cells on 300 mm)")
       ->capture_default_str();
   sub->add_option("--mesh-resolution", a->options.mesh.resolution_mm,
-                  "Wanted mesh resolution, mm: the automatic Poisson depth's finest cell is at "
-                  "most this (or 2 point spacings if coarser; 0: as fine as the points allow)")
+                  "Wanted mesh resolution, mm: the automatic Poisson depth's finest cell is "
+                  "this (or 2 point spacings if coarser; 0: as fine as the points allow)")
+      ->capture_default_str();
+  sub->add_option("--poisson-pieces", a->options.mesh.poisson_pieces,
+                  "Poisson in two pieces side by side, joined on a grid plane: 0 automatic "
+                  "(surfaces of 20,000 finest cells and more), 1 never, 2 always")
+      ->check(CLI::Range(0, 2))
       ->capture_default_str();
   sub->add_flag(
       "--no-markers", [a](int64_t) { a->options.registration.use_markers = false; },

@@ -67,6 +67,9 @@ struct MeshOptions {
   // piece_margin_cells cells of the other side's points.
   int poisson_pieces = 0;
   int64_t min_cells_per_piece = 10000;
+  // The two pieces' mesh is kept only when at most this fraction of the seam's vertices stayed
+  // unjoined (else the one problem is solved: seam_refused).
+  double max_seam_unmatched = 0.02;
   int piece_margin_cells = 16;
 
   void Check() const;
@@ -92,8 +95,10 @@ struct MeshSummary {
   // Two pieces: the second piece's vertices on the joining plane, and the vertices on it of
   // either piece without the other's on the same grid edge (one-cell cracks in the seam).
   int64_t seam_vertices = 0, seam_unmatched = 0;
-  double spacing_mm = 0;  // median nearest-neighbour distance of the cloud
-  std::string library;    // "open3d" or "cgal"
+  int64_t seam_holes_closed = 0;  // cracks (small boundary loops at the plane) fanned shut
+  bool seam_refused = false;      // too many unjoined: solved as one problem instead
+  double spacing_mm = 0;          // median nearest-neighbour distance of the cloud
+  std::string library;            // "open3d" or "cgal"
   int64_t trimmed_vertices = 0;
   int64_t closed_holes = 0;  // watertight: border cycles closed by CGAL's hole triangulation
   int64_t vertices = 0;

@@ -279,6 +279,20 @@ TEST(Mesh, TwoPiecesJoinIntoOneSurfaceAsCloseToTheSphereAsOnePiece) {
   EXPECT_EQ(MeshPoisson(fused.fused, automatic).summary.poisson_pieces, 1);  // ~4,500 cells
   automatic.min_cells_per_piece = static_cast<int64_t>(0.3 * one.summary.surface_cells);
   EXPECT_EQ(MeshPoisson(fused.fused, automatic).summary.poisson_pieces, 2);
+  // A seam with unjoined vertices is refused when none may stay unjoined (a thin margin makes
+  // the pieces disagree more): the one problem's mesh instead, the seam's figures reported.
+  MeshOptions strict = two_options;
+  strict.piece_margin_cells = 2;
+  strict.max_seam_unmatched = 0;
+  const MeshResult refused = MeshPoisson(fused.fused, strict);
+  ASSERT_TRUE(refused.summary.ok());
+  EXPECT_GT(refused.summary.seam_vertices, 50);
+  EXPECT_EQ(refused.summary.seam_refused, refused.summary.seam_unmatched > 0);
+  EXPECT_EQ(refused.summary.poisson_pieces, refused.summary.seam_refused ? 1 : 2);
+  if (refused.summary.seam_refused) {
+    EXPECT_EQ(refused.mesh.vertices, one.mesh.vertices);
+    EXPECT_EQ(refused.mesh.triangles, one.mesh.triangles);
+  }
   MeshOptions bad;
   bad.poisson_pieces = 3;
   EXPECT_THROW(bad.Check(), Error);

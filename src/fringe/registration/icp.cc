@@ -6,6 +6,7 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <memory>
 #include <nanoflann.hpp>
 #include <numeric>
@@ -117,9 +118,16 @@ struct PreparedView {
   std::vector<Vector3d> normals;  // unit, sensor frame
   std::vector<uint32_t> order;    // seeded random order of the usable points
   std::unique_ptr<KdTree> tree;   // built when some level searches this view by k-d tree
-  // Projective association (a grid that fits): the usable point of every slot (-1: none).
+  // Projective association (a grid that fits): the usable point of every slot (-1: none), and
+  // the slots' coordinates in slot order (float, relative to slot_origin; NaN: no point): the
+  // window search reads a few contiguous bytes per row instead of an index and then a point
+  // elsewhere (the search is bound by memory latency; double coordinates relative to the
+  // sensor doubled what it streams). Relative to a point of the view, float resolves ~1e-5 mm:
+  // nearest-point choices change only between points that close, the residuals stay double.
   const GridProjection* projection = nullptr;
   std::vector<int32_t> point_of_slot;
+  std::vector<float> slot_xyz;
+  Vector3d slot_origin = Vector3d::Zero();
 
   // Index of the usable point nearest to q (sensor frame) within sqrt(radius_sq): exact, k-d.
   int32_t NearestByTree(const Vector3d& q, double radius_sq) const {
@@ -138,21 +146,22 @@ struct PreparedView {
     const int c = static_cast<int>(c0), r = static_cast<int>(r0);
     const int rb = std::max(0, r - w), re = std::min(height - 1, r + w);
     const int cb = std::max(0, c - w), ce = std::min(width - 1, c + w);
-    int32_t best = -1;
-    double best_d2 = radius_sq;
+    const Eigen::Vector3f ql = (q - slot_origin).cast<float>();
+    int64_t best = -1;
+    float best_d2 = static_cast<float>(radius_sq);
     for (int y = rb; y <= re; ++y) {
-      const int32_t* row = point_of_slot.data() + static_cast<size_t>(y) * width;
-      for (int x = cb; x <= ce; ++x) {
-        const int32_t j = row[x];
-        if (j < 0) continue;
-        const double d2 = (data.pts[j] - q).squaredNorm();
+      const size_t row = static_cast<size_t>(y) * width;
+      const float* xyz = slot_xyz.data() + 3 * (row + cb);
+      for (int x = cb; x <= ce; ++x, xyz += 3) {
+        const float dx = xyz[0] - ql.x(), dy = xyz[1] - ql.y(), dz = xyz[2] - ql.z();
+        const float d2 = dx * dx + dy * dy + dz * dz;  // NaN for an empty slot: never < best
         if (d2 < best_d2) {
           best_d2 = d2;
-          best = j;
+          best = static_cast<int64_t>(row + x);
         }
       }
     }
-    return best;
+    return best < 0 ? -1 : point_of_slot[best];
   }
 };
 
@@ -280,6 +289,16 @@ IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& o
       pv.data.pts.push_back(p);
       pv.normals.push_back(n);
     }
+    if (projective && !pv.data.pts.empty()) {
+      pv.slot_origin = pv.data.pts.front();
+      pv.slot_xyz.assign(3 * pv.point_of_slot.size(), std::numeric_limits<float>::quiet_NaN());
+      for (size_t slot = 0; slot < pv.point_of_slot.size(); ++slot) {
+        const int32_t j = pv.point_of_slot[slot];
+        if (j < 0) continue;
+        const Eigen::Vector3f p = (pv.data.pts[j] - pv.slot_origin).cast<float>();
+        std::copy(p.data(), p.data() + 3, pv.slot_xyz.data() + 3 * slot);
+      }
+    }
     const uint64_t order_seed = options.seed * 1000003u + static_cast<uint64_t>(i);
     if (options.normal_space_sampling) {
       pv.order = NormalSpaceOrder(pv.normals, order_seed);
@@ -321,6 +340,8 @@ IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& o
   // missing the cache on every sample (the loop is memory-bound). Rebuilt when the level's
   // sample count changes.
   std::vector<std::vector<uint32_t>> samples(nv);
+  // The samples' points and normals gathered in that order: the loop reads them sequentially.
+  std::vector<std::vector<Vector3d>> sample_pts(nv), sample_normals(nv);
   int samples_points = -1;
   // One iteration at the schedule's sample count and threshold: associate every view's samples
   // with every other view, one simultaneous step of all free views.
@@ -337,9 +358,16 @@ IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& o
       if (samples_points != points) {
         samples[v].assign(sv.order.begin(), sv.order.begin() + ns);
         std::sort(samples[v].begin(), samples[v].end());
+        sample_pts[v].resize(ns);
+        sample_normals[v].resize(ns);
+        for (int s = 0; s < ns; ++s) {
+          sample_pts[v][s] = sv.data.pts[samples[v][s]];
+          sample_normals[v][s] = sv.normals[samples[v][s]];
+        }
         if (v == nv - 1) samples_points = points;
       }
       const std::vector<uint32_t>& sample = samples[v];
+      const std::vector<Vector3d>&sp = sample_pts[v], &sn = sample_normals[v];
       for (int u = 0; u < nv; ++u) {
         if (u == v || (block[v] < 0 && block[u] < 0)) continue;
         if (block[v] < 0 && !options.sample_fixed_views) continue;
@@ -361,17 +389,16 @@ IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& o
               for (int s = rg.begin(); s != rg.end(); ++s) {
                 Match& m = found[s];
                 m.idx = -1;
-                const uint32_t k = sample[s];
-                const Vector3d q = r_uv * sv.data.pts[k] + t_uv;
+                const Vector3d q = r_uv * sp[s] + t_uv;
                 const int32_t idx = projective ? tv.NearestByProjection(q, w, search_sq)
                                                : tv.NearestByTree(q, search_sq);
                 if (idx < 0) continue;
                 const Vector3d& nt = tv.normals[idx];
-                if ((r_uv * sv.normals[k]).dot(nt) < cos_max) continue;
+                if ((r_uv * sn[s]).dot(nt) < cos_max) continue;
                 // Point-to-plane distance in the target's frame (the same in the world's).
                 const double r = nt.dot(q - tv.data.pts[idx]);
                 if (std::abs(r) > threshold) continue;
-                m.k = static_cast<int32_t>(k);
+                m.k = static_cast<int32_t>(sample[s]);
                 m.idx = idx;
                 m.r = r;
               }

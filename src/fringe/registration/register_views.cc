@@ -1,5 +1,7 @@
 #include "fringe/registration/register_views.h"
 
+#include <tbb/parallel_for.h>
+
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
@@ -99,6 +101,7 @@ class Registrar {
 
   RegistrationResult Run() {
     util::Timer timer;
+    util::CpuTimer cpu_;
     CheckInputs();
     int world = -1;
     for (int v = 0; v < n_ && world < 0; ++v) {
@@ -237,13 +240,24 @@ class Registrar {
       int best = -1;
       MarkerMatchResult best_match;
       const std::vector<MarkerPoint> map = MapPoints();
+      // The pending views are matched against the map concurrently (MatchMarkers is reentrant
+      // and deterministic); the best is then chosen in view order, as before.
+      std::vector<int> pending;
       for (int v = 0; v < n_; ++v) {
         if (r_.views[v].path != ViewPath::kUnplaced) continue;
         if (in_[v].markers.size() < 3) {
           last[v] = StrCat("only ", in_[v].markers.size(), " markers");
           continue;
         }
-        MarkerMatchResult m = MatchMarkers(ViewPoints(v), map, o_.matching);
+        pending.push_back(v);
+      }
+      std::vector<MarkerMatchResult> matches(pending.size());
+      tbb::parallel_for(size_t{0}, pending.size(), [&](size_t k) {
+        matches[k] = MatchMarkers(ViewPoints(pending[k]), map, o_.matching);
+      });
+      for (size_t k = 0; k < pending.size(); ++k) {
+        const int v = pending[k];
+        MarkerMatchResult& m = matches[k];
         last[v] = m.BriefReport();
         if (m.ok() && (best < 0 || m.pairs.size() > best_match.pairs.size())) {
           best = v;

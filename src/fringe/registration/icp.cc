@@ -34,6 +34,8 @@ void IcpOptions::Check() const {
                     "must be >= 0");
   util::CheckOption(projective_window_px >= 0, o, "projective_window_px", projective_window_px,
                     "must be >= 0");
+  util::CheckOption(start_misalignment_mm >= 0, o, "start_misalignment_mm", start_misalignment_mm,
+                    "must be >= 0");
   util::CheckOption(max_grid_fit_error_px > 0, o, "max_grid_fit_error_px", max_grid_fit_error_px,
                     "must be > 0");
 }
@@ -80,8 +82,9 @@ namespace {
 
 // nanoflann adaptor over a list of points (usable ones only).
 struct PointsAdaptor {
-  std::vector<Vector3d> pts;
-  size_t kdtree_get_point_count() const { return pts.size(); }
+  const Vector3d* pts = nullptr;
+  size_t n = 0;
+  size_t kdtree_get_point_count() const { return n; }
   double kdtree_get_pt(size_t i, size_t d) const { return pts[i][static_cast<int>(d)]; }
   template <class B>
   bool kdtree_get_bbox(B&) const {
@@ -114,10 +117,17 @@ struct NearestWithin {
 };
 
 struct PreparedView {
-  PointsAdaptor data;             // usable points, sensor frame
-  std::vector<Vector3d> normals;  // unit, sensor frame
-  std::vector<uint32_t> order;    // seeded random order of the usable points
-  std::unique_ptr<KdTree> tree;   // built when some level searches this view by k-d tree
+  PointsAdaptor data;                 // usable points, sensor frame
+  const Vector3d* normals = nullptr;  // unit, sensor frame
+  // The usable points and normals when some of the cloud's are not; when all are, data and
+  // normals point into the cloud (no copy of 48 bytes per point and view).
+  std::vector<Vector3d> own_pts, own_normals;
+  void Own() {
+    data = {own_pts.data(), own_pts.size()};
+    normals = own_normals.data();
+  }
+  std::vector<uint32_t> order;   // seeded random order of the usable points
+  std::unique_ptr<KdTree> tree;  // built when some level searches this view by k-d tree
   // Projective association (a grid that fits): the usable point of every slot (-1: none), and
   // the slots' coordinates in slot order (float, relative to slot_origin; NaN: no point): the
   // window search reads a few contiguous bytes per row instead of an index and then a point
@@ -125,6 +135,7 @@ struct PreparedView {
   // sensor doubled what it streams). Relative to a point of the view, float resolves ~1e-5 mm:
   // nearest-point choices change only between points that close, the residuals stay double.
   const GridProjection* projection = nullptr;
+  bool projective_from_start = false;  // see IcpOptions::start_misalignment_mm
   std::vector<int32_t> point_of_slot;
   std::vector<float> slot_xyz;
   Vector3d slot_origin = Vector3d::Zero();
@@ -278,20 +289,36 @@ IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& o
       pv.point_of_slot.assign(static_cast<size_t>(pv.projection->width()) * pv.projection->height(),
                               -1);
     }
-    for (size_t k = 0; k < c->size(); ++k) {
-      if (k >= c->normals.size()) break;
+    const size_t cn = std::min(c->size(), c->normals.size());
+    const auto usable = [&](size_t k) {
       const Vector3d& p = c->points[k];
       const Vector3d& n = c->normals[k];
-      if (!p.allFinite() || !n.allFinite() || std::abs(n.norm() - 1) > 1e-3) continue;
-      if (projective) {
-        pv.point_of_slot[views[i].grid->slot_of_point[k]] =
-            static_cast<int32_t>(pv.data.pts.size());
+      return p.allFinite() && n.allFinite() && std::abs(n.norm() - 1) <= 1e-3;
+    };
+    std::vector<uint8_t> use(cn);
+    size_t n_usable = 0;
+    for (size_t k = 0; k < cn; ++k) n_usable += use[k] = usable(k);
+    if (n_usable == c->size()) {
+      pv.data = {c->points.data(), n_usable};
+      pv.normals = c->normals.data();
+    } else {
+      pv.own_pts.reserve(n_usable);
+      pv.own_normals.reserve(n_usable);
+      for (size_t k = 0; k < cn; ++k) {
+        if (!use[k]) continue;
+        pv.own_pts.push_back(c->points[k]);
+        pv.own_normals.push_back(c->normals[k]);
       }
-      pv.data.pts.push_back(p);
-      pv.normals.push_back(n);
+      pv.Own();
     }
-    if (projective && !pv.data.pts.empty()) {
-      pv.slot_origin = pv.data.pts.front();
+    if (projective) {
+      int32_t j = 0;
+      for (size_t k = 0; k < cn; ++k) {
+        if (use[k]) pv.point_of_slot[views[i].grid->slot_of_point[k]] = j++;
+      }
+    }
+    if (projective && pv.data.n > 0) {
+      pv.slot_origin = pv.data.pts[0];
       pv.slot_xyz.assign(3 * pv.point_of_slot.size(), std::numeric_limits<float>::quiet_NaN());
       for (size_t slot = 0; slot < pv.point_of_slot.size(); ++slot) {
         const int32_t j = pv.point_of_slot[slot];
@@ -302,21 +329,35 @@ IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& o
     }
     const uint64_t order_seed = options.seed * 1000003u + static_cast<uint64_t>(i);
     if (options.normal_space_sampling) {
-      pv.order = NormalSpaceOrder(pv.normals, order_seed);
+      pv.order =
+          NormalSpaceOrder(std::vector<Vector3d>(pv.normals, pv.normals + pv.data.n), order_seed);
     } else {
-      pv.order.resize(pv.data.pts.size());
+      pv.order.resize(pv.data.n);
       std::iota(pv.order.begin(), pv.order.end(), 0u);
       std::mt19937_64 rng(order_seed);
       std::shuffle(pv.order.begin(), pv.order.end(), rng);
     }
-    const bool needs_tree = !projective || options.projective_from_level > 0;
-    if (needs_tree && !pv.data.pts.empty()) {
+    if (projective && options.start_misalignment_mm > 0 && pv.data.n > 0) {
+      // The window [round(c) - w, round(c) + w] holds every slot within w - 0.5 px of c.
+      const float reach = static_cast<float>(options.projective_window_px) - 0.5f;
+      pv.projective_from_start = true;
+      for (size_t k = 0; k < pv.data.n && pv.projective_from_start; k += 64) {
+        GridProjection::Disc d;
+        pv.projective_from_start =
+            pv.projection->DiscOf(pv.data.pts[k].cast<float>(),
+                                  static_cast<float>(options.start_misalignment_mm), &d) &&
+            d.radius_px <= reach;
+      }
+    }
+    const bool needs_tree =
+        !projective || (options.projective_from_level > 0 && !pv.projective_from_start);
+    if (needs_tree && pv.data.n > 0) {
       pv.tree = std::make_unique<KdTree>(3, pv.data, nanoflann::KDTreeSingleIndexAdaptorParams(16));
     }
   });
   for (int i = 0; i < nv; ++i) {
-    if (prep[i].data.pts.size() < 10) {
-      throw Error(StrCat("RefineMultiView: view ", i, " has ", prep[i].data.pts.size(),
+    if (prep[i].data.n < 10) {
+      throw Error(StrCat("RefineMultiView: view ", i, " has ", prep[i].data.n,
                          " points with normals; at least 10 are needed"));
     }
   }
@@ -382,7 +423,8 @@ IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& o
         const double search = std::max(threshold, options.initial_threshold_mm);
         const double search_sq = search * search;
         const PreparedView& tv = prep[u];
-        const bool projective = projective_level && tv.projection != nullptr;
+        const bool projective =
+            tv.projection != nullptr && (projective_level || tv.projective_from_start);
         const int w = options.projective_window_px;
         found.resize(ns);
         tbb::parallel_for(
@@ -576,11 +618,13 @@ std::vector<SurfaceAgreement> MeasureAgreement(const PointCloud& source, const P
     }
   };
   PreparedView src, tgt;
-  usable(source, &src.data.pts, &src.normals);
-  usable(target, &tgt.data.pts, &tgt.normals);
+  usable(source, &src.own_pts, &src.own_normals);
+  usable(target, &tgt.own_pts, &tgt.own_normals);
+  src.Own();
+  tgt.Own();
   std::vector<SurfaceAgreement> out(target_from_source.size());
-  if (src.data.pts.empty() || tgt.data.pts.empty()) return out;
-  const std::vector<uint32_t> order = NormalSpaceOrder(src.normals, seed);
+  if (src.data.n == 0 || tgt.data.n == 0) return out;
+  const std::vector<uint32_t> order = NormalSpaceOrder(src.own_normals, seed);
   const int ns = std::min<int>(samples, static_cast<int>(order.size()));
   const KdTree tree(3, tgt.data, nanoflann::KDTreeSingleIndexAdaptorParams(16));
   const double cos_max = std::cos(max_normal_angle_deg * M_PI / 180);

@@ -429,15 +429,22 @@ class Registrar {
   void Refine() {
     std::vector<int> ids;
     double start = o_.icp_min_start_threshold_mm;
+    // What the marker fits bound the views' misalignment by (the first threshold before its
+    // floor, which is for the spacing and noise); unknown (0) once a view was placed otherwise.
+    double misalignment = 0;
+    bool markers_only = true;
     for (int v = 0; v < n_; ++v) {
       const ViewRegistration& vr = r_.views[v];
       if (!vr.placed()) continue;
       ids.push_back(v);
       if (vr.path == ViewPath::kMarkers) {
-        start = std::max(start,
-                         o_.icp_threshold_factor * std::max(vr.marker_rms_mm, vr.adjusted_rms_mm));
+        const double bound =
+            o_.icp_threshold_factor * std::max(vr.marker_rms_mm, vr.adjusted_rms_mm);
+        start = std::max(start, bound);
+        misalignment = std::max(misalignment, bound);
       } else if (vr.path != ViewPath::kWorld) {
         start = std::max(start, o_.icp.initial_threshold_mm);
+        markers_only = false;
       }
     }
     if (ids.size() < 2) {
@@ -457,6 +464,7 @@ class Registrar {
     IcpOptions io = o_.icp;
     io.initial_threshold_mm = start;
     io.min_threshold_mm = std::min(io.min_threshold_mm, start);
+    io.start_misalignment_mm = markers_only ? misalignment : 0.0;
     const IcpResult res = RefineMultiView(iv, io);
     r_.summary.icp = res.summary;
     if (res.summary.status == IcpStatus::kNoOverlap) return;

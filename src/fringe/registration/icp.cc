@@ -128,16 +128,19 @@ struct PreparedView {
   }
   std::vector<uint32_t> order;   // seeded random order of the usable points
   std::unique_ptr<KdTree> tree;  // built when some level searches this view by k-d tree
-  // Projective association (a grid that fits): the usable point of every slot (-1: none), and
-  // the slots' coordinates in slot order (float, relative to slot_origin; NaN: no point): the
-  // window search reads a few contiguous bytes per row instead of an index and then a point
-  // elsewhere (the search is bound by memory latency; double coordinates relative to the
-  // sensor doubled what it streams). Relative to a point of the view, float resolves ~1e-5 mm:
-  // nearest-point choices change only between points that close, the residuals stay double.
+  // Projective association (a grid that fits): per slot in grid order, its usable point's
+  // coordinates (float, relative to slot_origin; NaN: no point) and index (-1: none), 16 bytes:
+  // the window search reads a few contiguous bytes per row instead of an index and then a
+  // point elsewhere (the search is bound by memory latency). Relative to a point of the view,
+  // float resolves ~1e-5 mm: nearest-point choices change only between points that close; the
+  // residuals stay double.
+  struct Slot {
+    float x, y, z;
+    int32_t point;
+  };
   const GridProjection* projection = nullptr;
   bool projective_from_start = false;  // see IcpOptions::start_misalignment_mm
-  std::vector<int32_t> point_of_slot;
-  std::vector<float> slot_xyz;
+  std::vector<Slot> slots;
   Vector3d slot_origin = Vector3d::Zero();
 
   // Index of the usable point nearest to q (sensor frame) within sqrt(radius_sq): exact, k-d.
@@ -158,33 +161,30 @@ struct PreparedView {
     const int rb = std::max(0, r - w), re = std::min(height - 1, r + w);
     const int cb = std::max(0, c - w), ce = std::min(width - 1, c + w);
     const Eigen::Vector3f ql = (q - slot_origin).cast<float>();
-    int64_t best = -1;
+    int32_t best = -1;
     float best_d2 = static_cast<float>(radius_sq);
     for (int y = rb; y <= re; ++y) {
-      const size_t row = static_cast<size_t>(y) * width;
-      const float* xyz = slot_xyz.data() + 3 * (row + cb);
-      for (int x = cb; x <= ce; ++x, xyz += 3) {
-        const float dx = xyz[0] - ql.x(), dy = xyz[1] - ql.y(), dz = xyz[2] - ql.z();
+      const Slot* slot = slots.data() + static_cast<size_t>(y) * width + cb;
+      for (int x = cb; x <= ce; ++x, ++slot) {
+        const float dx = slot->x - ql.x(), dy = slot->y - ql.y(), dz = slot->z - ql.z();
         const float d2 = dx * dx + dy * dy + dz * dz;  // NaN for an empty slot: never < best
         if (d2 < best_d2) {
           best_d2 = d2;
-          best = static_cast<int64_t>(row + x);
+          best = slot->point;
         }
       }
     }
-    return best < 0 ? -1 : point_of_slot[best];
+    return best;
   }
 };
 
-// A correspondence: usable point k of the source view, point idx of the target view, and the
-// point-to-plane residual (idx < 0: none). The world positions are recomputed from the indices
-// where needed (storing them tripled the memory the search loop streams through).
+// A correspondence: usable point k of the source view, point idx of the target view, the
+// point-to-plane residual (idx < 0: none) and the pair in the world frame. The world positions
+// are computed in the search, where the target's point and normal have just been read (a pass
+// of their own afterwards re-read them at random); the per-pair search buffer stays in cache.
 struct Match {
   int32_t k = 0, idx = -1;
   double r = 0;
-};
-// A kept pair in the world frame.
-struct Corr {
   Vector3d p_world, q_world, n_world;
 };
 struct PairMatches {
@@ -284,11 +284,7 @@ IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& o
     const PointCloud* c = views[i].cloud;
     PreparedView& pv = prep[i];
     const bool projective = projective_view(views[i]);
-    if (projective) {
-      pv.projection = &views[i].grid->projection;
-      pv.point_of_slot.assign(static_cast<size_t>(pv.projection->width()) * pv.projection->height(),
-                              -1);
-    }
+    if (projective) pv.projection = &views[i].grid->projection;
     const size_t cn = std::min(c->size(), c->normals.size());
     const auto usable = [&](size_t k) {
       const Vector3d& p = c->points[k];
@@ -311,20 +307,16 @@ IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& o
       }
       pv.Own();
     }
-    if (projective) {
+    if (projective && pv.data.n > 0) {
+      const float nan = std::numeric_limits<float>::quiet_NaN();
+      pv.slot_origin = pv.data.pts[0];
+      pv.slots.assign(static_cast<size_t>(pv.projection->width()) * pv.projection->height(),
+                      {nan, nan, nan, -1});
       int32_t j = 0;
       for (size_t k = 0; k < cn; ++k) {
-        if (use[k]) pv.point_of_slot[views[i].grid->slot_of_point[k]] = j++;
-      }
-    }
-    if (projective && pv.data.n > 0) {
-      pv.slot_origin = pv.data.pts[0];
-      pv.slot_xyz.assign(3 * pv.point_of_slot.size(), std::numeric_limits<float>::quiet_NaN());
-      for (size_t slot = 0; slot < pv.point_of_slot.size(); ++slot) {
-        const int32_t j = pv.point_of_slot[slot];
-        if (j < 0) continue;
+        if (!use[k]) continue;
         const Eigen::Vector3f p = (pv.data.pts[j] - pv.slot_origin).cast<float>();
-        std::copy(p.data(), p.data() + 3, pv.slot_xyz.data() + 3 * slot);
+        pv.slots[views[i].grid->slot_of_point[k]] = {p.x(), p.y(), p.z(), j++};
       }
     }
     const uint64_t order_seed = options.seed * 1000003u + static_cast<uint64_t>(i);
@@ -376,7 +368,6 @@ IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& o
   std::vector<Match> found, kept;
   std::vector<PairMatches> pairs;
   std::vector<double> dist;
-  std::vector<Corr> corr_buffer;
   // Per view, the samples of the current level in ascending point order (the grid order of a
   // compacted view): the association then walks both clouds nearly sequentially instead of
   // missing the cache on every sample (the loop is memory-bound). Rebuilt when the level's
@@ -417,6 +408,8 @@ IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& o
         const Rigid3d u_from_v_pose = pose[u].Inverse() * pose[v];
         const Matrix3d r_uv = u_from_v_pose.rotation_matrix();
         const Vector3d t_uv = u_from_v_pose.translation();
+        const Matrix3d r_u = pose[u].rotation_matrix();
+        const Vector3d t_u = pose[u].translation();
         // Neighbours are searched within the larger of the threshold and the first one: the
         // threshold bounds the point-to-plane distance, which falls below the sampling
         // spacing long before the Euclidean neighbour distance does.
@@ -439,11 +432,15 @@ IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& o
                 const Vector3d& nt = tv.normals[idx];
                 if ((r_uv * sn[s]).dot(nt) < cos_max) continue;
                 // Point-to-plane distance in the target's frame (the same in the world's).
-                const double r = nt.dot(q - tv.data.pts[idx]);
+                const Vector3d& pt = tv.data.pts[idx];
+                const double r = nt.dot(q - pt);
                 if (std::abs(r) > threshold) continue;
                 m.k = static_cast<int32_t>(sample[s]);
                 m.idx = idx;
                 m.r = r;
+                m.p_world = r_u * q + t_u;
+                m.q_world = r_u * pt + t_u;
+                m.n_world = r_u * nt;
               }
             });
         const size_t begin = kept.size();
@@ -475,29 +472,12 @@ IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& o
     }
     if (kept.empty()) return out;
     out.overlap = true;
-    // World positions and normals of the kept pairs (the lever arms need the centroid first).
-    std::vector<Corr>& corr = corr_buffer;
-    corr.resize(kept.size());
-    for (const PairMatches& pm : pairs) {
-      const Matrix3d rv = pose[pm.v].rotation_matrix(), ru = pose[pm.u].rotation_matrix();
-      const Vector3d tv = pose[pm.v].translation(), tu = pose[pm.u].translation();
-      const PreparedView &sv = prep[pm.v], &dv = prep[pm.u];
-      tbb::parallel_for(tbb::blocked_range<size_t>(pm.begin, pm.end, 1024),
-                        [&](const tbb::blocked_range<size_t>& rg) {
-                          for (size_t i = rg.begin(); i != rg.end(); ++i) {
-                            const Match& m = kept[i];
-                            corr[i].p_world = rv * sv.data.pts[m.k] + tv;
-                            corr[i].q_world = ru * dv.data.pts[m.idx] + tu;
-                            corr[i].n_world = ru * dv.normals[m.idx];
-                          }
-                        });
-    }
     double ss = 0;
     Vector3d centroid = Vector3d::Zero();
     out.residuals_mm.reserve(kept.size());
     for (size_t i = 0; i < kept.size(); ++i) {
       ss += kept[i].r * kept[i].r;
-      centroid += corr[i].p_world;
+      centroid += kept[i].p_world;
       out.residuals_mm.push_back(kept[i].r);
     }
     centroid /= static_cast<double>(kept.size());
@@ -529,8 +509,8 @@ IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& o
         Sums& su = sums[ch];
         const size_t e = std::min(pm.end, pm.begin + (ch + 1) * kChunk);
         for (size_t i = pm.begin + ch * kChunk; i < e; ++i) {
-          const Corr& c = corr[i];
-          const double r = kept[i].r;
+          const Match& c = kept[i];
+          const double r = c.r;
           Vec6 jv, ju;
           jv << (c.p_world - centroid).cross(c.n_world), c.n_world;
           ju << -(c.q_world - centroid).cross(c.n_world), -c.n_world;

@@ -151,6 +151,17 @@ struct PreparedView {
   }
   // The same among the points of the (2w + 1)^2 slots around q's projection (row by row, the
   // first of equal distances: deterministic).
+  // The grid row q's window is centred on, or -1 when NearestByProjection finds nothing
+  // (the same tests).
+  int RowOf(const Vector3d& q, int w) const {
+    Eigen::Vector2f cr;
+    if (!projection->Project(q.cast<float>(), &cr)) return -1;
+    const float c0 = std::round(cr.x()), r0 = std::round(cr.y());
+    if (!(c0 >= -w && c0 < projection->width() + w && r0 >= -w && r0 < projection->height() + w)) {
+      return -1;
+    }
+    return std::clamp(static_cast<int>(r0), 0, projection->height() - 1);
+  }
   int32_t NearestByProjection(const Vector3d& q, int w, double radius_sq) const {
     Eigen::Vector2f cr;
     if (!projection->Project(q.cast<float>(), &cr)) return -1;
@@ -366,6 +377,7 @@ IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& o
   const double cos_max = std::cos(options.max_normal_angle_deg * M_PI / 180);
   // Buffers reused by every iteration (a fresh vector per pair and iteration was page faults).
   std::vector<Match> found, kept;
+  std::vector<int> row_of, row_start, visit;  // the search order of a pair's samples
   std::vector<PairMatches> pairs;
   std::vector<double> dist;
   // Per view, the samples of the current level in ascending point order (the grid order of a
@@ -420,11 +432,41 @@ IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& o
             tv.projection != nullptr && (projective_level || tv.projective_from_start);
         const int w = options.projective_window_px;
         found.resize(ns);
+        for (Match& m : found) m.idx = -1;
+        // Projectively, the samples are searched in the order of the target rows they fall on
+        // (a counting sort): the windows then slide down the target's grid, each row read
+        // from memory about once, instead of jumping across ~20 MB of slots per sample. Each
+        // sample's search is the same whatever the order; those that fall outside the grid
+        // are not searched at all.
+        int n_visit = ns;
+        if (projective) {
+          const int height = tv.projection->height();
+          row_of.resize(ns);
+          tbb::parallel_for(tbb::blocked_range<int>(0, ns, 1024),
+                            [&](const tbb::blocked_range<int>& rg) {
+                              for (int s = rg.begin(); s != rg.end(); ++s) {
+                                row_of[s] = tv.RowOf(r_uv * sp[s] + t_uv, w);
+                              }
+                            });
+          row_start.assign(height + 1, 0);
+          for (int s = 0; s < ns; ++s) {
+            if (row_of[s] >= 0) ++row_start[row_of[s] + 1];
+          }
+          for (int y = 0; y < height; ++y) row_start[y + 1] += row_start[y];
+          n_visit = row_start[height];
+          visit.resize(n_visit);
+          for (int s = 0; s < ns; ++s) {
+            if (row_of[s] >= 0) visit[row_start[row_of[s]]++] = s;
+          }
+        } else {
+          visit.resize(ns);
+          std::iota(visit.begin(), visit.end(), 0);
+        }
         tbb::parallel_for(
-            tbb::blocked_range<int>(0, ns, 256), [&](const tbb::blocked_range<int>& rg) {
-              for (int s = rg.begin(); s != rg.end(); ++s) {
+            tbb::blocked_range<int>(0, n_visit, 256), [&](const tbb::blocked_range<int>& rg) {
+              for (int t = rg.begin(); t != rg.end(); ++t) {
+                const int s = visit[t];
                 Match& m = found[s];
-                m.idx = -1;
                 const Vector3d q = r_uv * sp[s] + t_uv;
                 const int32_t idx = projective ? tv.NearestByProjection(q, w, search_sq)
                                                : tv.NearestByTree(q, search_sq);

@@ -253,7 +253,6 @@ namespace {}  // namespace
 IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& options) {
   options.Check();
   util::Timer timer;
-  util::CpuTimer trace_cpu;
   const int nv = static_cast<int>(views.size());
   IcpResult result;
   result.overlap.assign(nv, std::vector<double>(nv, 0.0));

@@ -101,7 +101,6 @@ class Registrar {
 
   RegistrationResult Run() {
     util::Timer timer;
-    util::CpuTimer cpu_;
     CheckInputs();
     int world = -1;
     for (int v = 0; v < n_ && world < 0; ++v) {

@@ -1328,16 +1328,21 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
     Model m;
     for (size_t i = 0; i < results.size(); ++i) {
       if (!results[i].summary.ok) continue;
-      registration::RegistrationView rv;
-      rv.name = names[i];
-      rv.cloud = results[i].cloud.Compact();
-      rv.grid = registration::IndexViewGrid(results[i].cloud);  // projective ICP association
-      rv.markers = results[i].markers;
       m.view_of.push_back(static_cast<int>(i));
       m.grid_valid.push_back(results[i].cloud.valid);
       m.grid_size.emplace_back(results[i].cloud.width, results[i].cloud.height);
-      m.inputs.push_back(std::move(rv));
     }
+    // The views' compact clouds and grids (a copy of the cloud and a projection fit per view,
+    // counted in register_s), one view per task: they are independent.
+    m.inputs.resize(m.view_of.size());
+    tbb::parallel_for(size_t{0}, m.inputs.size(), [&](size_t k) {
+      const ViewResult& v = results[static_cast<size_t>(m.view_of[k])];
+      registration::RegistrationView& rv = m.inputs[k];
+      rv.name = names[static_cast<size_t>(m.view_of[k])];
+      rv.cloud = v.cloud.Compact();
+      rv.grid = registration::IndexViewGrid(v.cloud);  // projective ICP association
+      rv.markers = v.markers;
+    });
     m.registration = registration::RegisterViews(m.inputs, options.registration);
     const registration::RegistrationSummary& rs = m.registration.summary;
     s.registration_status = registration::ToString(rs.status);

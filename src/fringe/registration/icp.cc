@@ -6,6 +6,7 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <memory>
 #include <nanoflann.hpp>
 #include <numeric>
@@ -32,6 +33,8 @@ void IcpOptions::Check() const {
   util::CheckOption(projective_from_level >= 0, o, "projective_from_level", projective_from_level,
                     "must be >= 0");
   util::CheckOption(projective_window_px >= 0, o, "projective_window_px", projective_window_px,
+                    "must be >= 0");
+  util::CheckOption(start_misalignment_mm >= 0, o, "start_misalignment_mm", start_misalignment_mm,
                     "must be >= 0");
   util::CheckOption(max_grid_fit_error_px > 0, o, "max_grid_fit_error_px", max_grid_fit_error_px,
                     "must be > 0");
@@ -79,8 +82,9 @@ namespace {
 
 // nanoflann adaptor over a list of points (usable ones only).
 struct PointsAdaptor {
-  std::vector<Vector3d> pts;
-  size_t kdtree_get_point_count() const { return pts.size(); }
+  const Vector3d* pts = nullptr;
+  size_t n = 0;
+  size_t kdtree_get_point_count() const { return n; }
   double kdtree_get_pt(size_t i, size_t d) const { return pts[i][static_cast<int>(d)]; }
   template <class B>
   bool kdtree_get_bbox(B&) const {
@@ -113,13 +117,31 @@ struct NearestWithin {
 };
 
 struct PreparedView {
-  PointsAdaptor data;             // usable points, sensor frame
-  std::vector<Vector3d> normals;  // unit, sensor frame
-  std::vector<uint32_t> order;    // seeded random order of the usable points
-  std::unique_ptr<KdTree> tree;   // built when some level searches this view by k-d tree
-  // Projective association (a grid that fits): the usable point of every slot (-1: none).
+  PointsAdaptor data;                 // usable points, sensor frame
+  const Vector3d* normals = nullptr;  // unit, sensor frame
+  // The usable points and normals when some of the cloud's are not; when all are, data and
+  // normals point into the cloud (no copy of 48 bytes per point and view).
+  std::vector<Vector3d> own_pts, own_normals;
+  void Own() {
+    data = {own_pts.data(), own_pts.size()};
+    normals = own_normals.data();
+  }
+  std::vector<uint32_t> order;   // seeded random order of the usable points
+  std::unique_ptr<KdTree> tree;  // built when some level searches this view by k-d tree
+  // Projective association (a grid that fits): per slot in grid order, its usable point's
+  // coordinates (float, relative to slot_origin; NaN: no point) and index (-1: none), 16 bytes:
+  // the window search reads a few contiguous bytes per row instead of an index and then a
+  // point elsewhere (the search is bound by memory latency). Relative to a point of the view,
+  // float resolves ~1e-5 mm: nearest-point choices change only between points that close; the
+  // residuals stay double.
+  struct Slot {
+    float x, y, z;
+    int32_t point;
+  };
   const GridProjection* projection = nullptr;
-  std::vector<int32_t> point_of_slot;
+  bool projective_from_start = false;  // see IcpOptions::start_misalignment_mm
+  std::vector<Slot> slots;
+  Vector3d slot_origin = Vector3d::Zero();
 
   // Index of the usable point nearest to q (sensor frame) within sqrt(radius_sq): exact, k-d.
   int32_t NearestByTree(const Vector3d& q, double radius_sq) const {
@@ -129,6 +151,17 @@ struct PreparedView {
   }
   // The same among the points of the (2w + 1)^2 slots around q's projection (row by row, the
   // first of equal distances: deterministic).
+  // The grid row q's window is centred on, or -1 when NearestByProjection finds nothing
+  // (the same tests).
+  int RowOf(const Vector3d& q, int w) const {
+    Eigen::Vector2f cr;
+    if (!projection->Project(q.cast<float>(), &cr)) return -1;
+    const float c0 = std::round(cr.x()), r0 = std::round(cr.y());
+    if (!(c0 >= -w && c0 < projection->width() + w && r0 >= -w && r0 < projection->height() + w)) {
+      return -1;
+    }
+    return std::clamp(static_cast<int>(r0), 0, projection->height() - 1);
+  }
   int32_t NearestByProjection(const Vector3d& q, int w, double radius_sq) const {
     Eigen::Vector2f cr;
     if (!projection->Project(q.cast<float>(), &cr)) return -1;
@@ -138,17 +171,17 @@ struct PreparedView {
     const int c = static_cast<int>(c0), r = static_cast<int>(r0);
     const int rb = std::max(0, r - w), re = std::min(height - 1, r + w);
     const int cb = std::max(0, c - w), ce = std::min(width - 1, c + w);
+    const Eigen::Vector3f ql = (q - slot_origin).cast<float>();
     int32_t best = -1;
-    double best_d2 = radius_sq;
+    float best_d2 = static_cast<float>(radius_sq);
     for (int y = rb; y <= re; ++y) {
-      const int32_t* row = point_of_slot.data() + static_cast<size_t>(y) * width;
-      for (int x = cb; x <= ce; ++x) {
-        const int32_t j = row[x];
-        if (j < 0) continue;
-        const double d2 = (data.pts[j] - q).squaredNorm();
+      const Slot* slot = slots.data() + static_cast<size_t>(y) * width + cb;
+      for (int x = cb; x <= ce; ++x, ++slot) {
+        const float dx = slot->x - ql.x(), dy = slot->y - ql.y(), dz = slot->z - ql.z();
+        const float d2 = dx * dx + dy * dy + dz * dz;  // NaN for an empty slot: never < best
         if (d2 < best_d2) {
           best_d2 = d2;
-          best = j;
+          best = slot->point;
         }
       }
     }
@@ -156,15 +189,13 @@ struct PreparedView {
   }
 };
 
-// A correspondence: usable point k of the source view, point idx of the target view, and the
-// point-to-plane residual (idx < 0: none). The world positions are recomputed from the indices
-// where needed (storing them tripled the memory the search loop streams through).
+// A correspondence: usable point k of the source view, point idx of the target view, the
+// point-to-plane residual (idx < 0: none) and the pair in the world frame. The world positions
+// are computed in the search, where the target's point and normal have just been read (a pass
+// of their own afterwards re-read them at random); the per-pair search buffer stays in cache.
 struct Match {
   int32_t k = 0, idx = -1;
   double r = 0;
-};
-// A kept pair in the world frame.
-struct Corr {
   Vector3d p_world, q_world, n_world;
 };
 struct PairMatches {
@@ -263,40 +294,72 @@ IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& o
     const PointCloud* c = views[i].cloud;
     PreparedView& pv = prep[i];
     const bool projective = projective_view(views[i]);
-    if (projective) {
-      pv.projection = &views[i].grid->projection;
-      pv.point_of_slot.assign(static_cast<size_t>(pv.projection->width()) * pv.projection->height(),
-                              -1);
-    }
-    for (size_t k = 0; k < c->size(); ++k) {
-      if (k >= c->normals.size()) break;
+    if (projective) pv.projection = &views[i].grid->projection;
+    const size_t cn = std::min(c->size(), c->normals.size());
+    const auto usable = [&](size_t k) {
       const Vector3d& p = c->points[k];
       const Vector3d& n = c->normals[k];
-      if (!p.allFinite() || !n.allFinite() || std::abs(n.norm() - 1) > 1e-3) continue;
-      if (projective) {
-        pv.point_of_slot[views[i].grid->slot_of_point[k]] =
-            static_cast<int32_t>(pv.data.pts.size());
+      return p.allFinite() && n.allFinite() && std::abs(n.norm() - 1) <= 1e-3;
+    };
+    std::vector<uint8_t> use(cn);
+    size_t n_usable = 0;
+    for (size_t k = 0; k < cn; ++k) n_usable += use[k] = usable(k);
+    if (n_usable == c->size()) {
+      pv.data = {c->points.data(), n_usable};
+      pv.normals = c->normals.data();
+    } else {
+      pv.own_pts.reserve(n_usable);
+      pv.own_normals.reserve(n_usable);
+      for (size_t k = 0; k < cn; ++k) {
+        if (!use[k]) continue;
+        pv.own_pts.push_back(c->points[k]);
+        pv.own_normals.push_back(c->normals[k]);
       }
-      pv.data.pts.push_back(p);
-      pv.normals.push_back(n);
+      pv.Own();
+    }
+    if (projective && pv.data.n > 0) {
+      const float nan = std::numeric_limits<float>::quiet_NaN();
+      pv.slot_origin = pv.data.pts[0];
+      pv.slots.assign(static_cast<size_t>(pv.projection->width()) * pv.projection->height(),
+                      {nan, nan, nan, -1});
+      int32_t j = 0;
+      for (size_t k = 0; k < cn; ++k) {
+        if (!use[k]) continue;
+        const Eigen::Vector3f p = (pv.data.pts[j] - pv.slot_origin).cast<float>();
+        pv.slots[views[i].grid->slot_of_point[k]] = {p.x(), p.y(), p.z(), j++};
+      }
     }
     const uint64_t order_seed = options.seed * 1000003u + static_cast<uint64_t>(i);
     if (options.normal_space_sampling) {
-      pv.order = NormalSpaceOrder(pv.normals, order_seed);
+      pv.order =
+          NormalSpaceOrder(std::vector<Vector3d>(pv.normals, pv.normals + pv.data.n), order_seed);
     } else {
-      pv.order.resize(pv.data.pts.size());
+      pv.order.resize(pv.data.n);
       std::iota(pv.order.begin(), pv.order.end(), 0u);
       std::mt19937_64 rng(order_seed);
       std::shuffle(pv.order.begin(), pv.order.end(), rng);
     }
-    const bool needs_tree = !projective || options.projective_from_level > 0;
-    if (needs_tree && !pv.data.pts.empty()) {
+    if (projective && options.start_misalignment_mm > 0 && pv.data.n > 0) {
+      // The window [round(c) - w, round(c) + w] holds every slot within w - 0.5 px of c.
+      const float reach = static_cast<float>(options.projective_window_px) - 0.5f;
+      pv.projective_from_start = true;
+      for (size_t k = 0; k < pv.data.n && pv.projective_from_start; k += 64) {
+        GridProjection::Disc d;
+        pv.projective_from_start =
+            pv.projection->DiscOf(pv.data.pts[k].cast<float>(),
+                                  static_cast<float>(options.start_misalignment_mm), &d) &&
+            d.radius_px <= reach;
+      }
+    }
+    const bool needs_tree =
+        !projective || (options.projective_from_level > 0 && !pv.projective_from_start);
+    if (needs_tree && pv.data.n > 0) {
       pv.tree = std::make_unique<KdTree>(3, pv.data, nanoflann::KDTreeSingleIndexAdaptorParams(16));
     }
   });
   for (int i = 0; i < nv; ++i) {
-    if (prep[i].data.pts.size() < 10) {
-      throw Error(StrCat("RefineMultiView: view ", i, " has ", prep[i].data.pts.size(),
+    if (prep[i].data.n < 10) {
+      throw Error(StrCat("RefineMultiView: view ", i, " has ", prep[i].data.n,
                          " points with normals; at least 10 are needed"));
     }
   }
@@ -313,14 +376,16 @@ IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& o
   const double cos_max = std::cos(options.max_normal_angle_deg * M_PI / 180);
   // Buffers reused by every iteration (a fresh vector per pair and iteration was page faults).
   std::vector<Match> found, kept;
+  std::vector<int> row_of, row_start, visit;  // the search order of a pair's samples
   std::vector<PairMatches> pairs;
   std::vector<double> dist;
-  std::vector<Corr> corr_buffer;
   // Per view, the samples of the current level in ascending point order (the grid order of a
   // compacted view): the association then walks both clouds nearly sequentially instead of
   // missing the cache on every sample (the loop is memory-bound). Rebuilt when the level's
   // sample count changes.
   std::vector<std::vector<uint32_t>> samples(nv);
+  // The samples' points and normals gathered in that order: the loop reads them sequentially.
+  std::vector<std::vector<Vector3d>> sample_pts(nv), sample_normals(nv);
   int samples_points = -1;
   // One iteration at the schedule's sample count and threshold: associate every view's samples
   // with every other view, one simultaneous step of all free views.
@@ -337,9 +402,16 @@ IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& o
       if (samples_points != points) {
         samples[v].assign(sv.order.begin(), sv.order.begin() + ns);
         std::sort(samples[v].begin(), samples[v].end());
+        sample_pts[v].resize(ns);
+        sample_normals[v].resize(ns);
+        for (int s = 0; s < ns; ++s) {
+          sample_pts[v][s] = sv.data.pts[samples[v][s]];
+          sample_normals[v][s] = sv.normals[samples[v][s]];
+        }
         if (v == nv - 1) samples_points = points;
       }
       const std::vector<uint32_t>& sample = samples[v];
+      const std::vector<Vector3d>&sp = sample_pts[v], &sn = sample_normals[v];
       for (int u = 0; u < nv; ++u) {
         if (u == v || (block[v] < 0 && block[u] < 0)) continue;
         if (block[v] < 0 && !options.sample_fixed_views) continue;
@@ -347,33 +419,69 @@ IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& o
         const Rigid3d u_from_v_pose = pose[u].Inverse() * pose[v];
         const Matrix3d r_uv = u_from_v_pose.rotation_matrix();
         const Vector3d t_uv = u_from_v_pose.translation();
+        const Matrix3d r_u = pose[u].rotation_matrix();
+        const Vector3d t_u = pose[u].translation();
         // Neighbours are searched within the larger of the threshold and the first one: the
         // threshold bounds the point-to-plane distance, which falls below the sampling
         // spacing long before the Euclidean neighbour distance does.
         const double search = std::max(threshold, options.initial_threshold_mm);
         const double search_sq = search * search;
         const PreparedView& tv = prep[u];
-        const bool projective = projective_level && tv.projection != nullptr;
+        const bool projective =
+            tv.projection != nullptr && (projective_level || tv.projective_from_start);
         const int w = options.projective_window_px;
         found.resize(ns);
+        for (Match& m : found) m.idx = -1;
+        // Projectively, the samples are searched in the order of the target rows they fall on
+        // (a counting sort): the windows then slide down the target's grid, each row read
+        // from memory about once, instead of jumping across ~20 MB of slots per sample. Each
+        // sample's search is the same whatever the order; those that fall outside the grid
+        // are not searched at all.
+        int n_visit = ns;
+        if (projective) {
+          const int height = tv.projection->height();
+          row_of.resize(ns);
+          tbb::parallel_for(tbb::blocked_range<int>(0, ns, 1024),
+                            [&](const tbb::blocked_range<int>& rg) {
+                              for (int s = rg.begin(); s != rg.end(); ++s) {
+                                row_of[s] = tv.RowOf(r_uv * sp[s] + t_uv, w);
+                              }
+                            });
+          row_start.assign(height + 1, 0);
+          for (int s = 0; s < ns; ++s) {
+            if (row_of[s] >= 0) ++row_start[row_of[s] + 1];
+          }
+          for (int y = 0; y < height; ++y) row_start[y + 1] += row_start[y];
+          n_visit = row_start[height];
+          visit.resize(n_visit);
+          for (int s = 0; s < ns; ++s) {
+            if (row_of[s] >= 0) visit[row_start[row_of[s]]++] = s;
+          }
+        } else {
+          visit.resize(ns);
+          std::iota(visit.begin(), visit.end(), 0);
+        }
         tbb::parallel_for(
-            tbb::blocked_range<int>(0, ns, 256), [&](const tbb::blocked_range<int>& rg) {
-              for (int s = rg.begin(); s != rg.end(); ++s) {
+            tbb::blocked_range<int>(0, n_visit, 256), [&](const tbb::blocked_range<int>& rg) {
+              for (int t = rg.begin(); t != rg.end(); ++t) {
+                const int s = visit[t];
                 Match& m = found[s];
-                m.idx = -1;
-                const uint32_t k = sample[s];
-                const Vector3d q = r_uv * sv.data.pts[k] + t_uv;
+                const Vector3d q = r_uv * sp[s] + t_uv;
                 const int32_t idx = projective ? tv.NearestByProjection(q, w, search_sq)
                                                : tv.NearestByTree(q, search_sq);
                 if (idx < 0) continue;
                 const Vector3d& nt = tv.normals[idx];
-                if ((r_uv * sv.normals[k]).dot(nt) < cos_max) continue;
+                if ((r_uv * sn[s]).dot(nt) < cos_max) continue;
                 // Point-to-plane distance in the target's frame (the same in the world's).
-                const double r = nt.dot(q - tv.data.pts[idx]);
+                const Vector3d& pt = tv.data.pts[idx];
+                const double r = nt.dot(q - pt);
                 if (std::abs(r) > threshold) continue;
-                m.k = static_cast<int32_t>(k);
+                m.k = static_cast<int32_t>(sample[s]);
                 m.idx = idx;
                 m.r = r;
+                m.p_world = r_u * q + t_u;
+                m.q_world = r_u * pt + t_u;
+                m.n_world = r_u * nt;
               }
             });
         const size_t begin = kept.size();
@@ -405,29 +513,12 @@ IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& o
     }
     if (kept.empty()) return out;
     out.overlap = true;
-    // World positions and normals of the kept pairs (the lever arms need the centroid first).
-    std::vector<Corr>& corr = corr_buffer;
-    corr.resize(kept.size());
-    for (const PairMatches& pm : pairs) {
-      const Matrix3d rv = pose[pm.v].rotation_matrix(), ru = pose[pm.u].rotation_matrix();
-      const Vector3d tv = pose[pm.v].translation(), tu = pose[pm.u].translation();
-      const PreparedView &sv = prep[pm.v], &dv = prep[pm.u];
-      tbb::parallel_for(tbb::blocked_range<size_t>(pm.begin, pm.end, 1024),
-                        [&](const tbb::blocked_range<size_t>& rg) {
-                          for (size_t i = rg.begin(); i != rg.end(); ++i) {
-                            const Match& m = kept[i];
-                            corr[i].p_world = rv * sv.data.pts[m.k] + tv;
-                            corr[i].q_world = ru * dv.data.pts[m.idx] + tu;
-                            corr[i].n_world = ru * dv.normals[m.idx];
-                          }
-                        });
-    }
     double ss = 0;
     Vector3d centroid = Vector3d::Zero();
     out.residuals_mm.reserve(kept.size());
     for (size_t i = 0; i < kept.size(); ++i) {
       ss += kept[i].r * kept[i].r;
-      centroid += corr[i].p_world;
+      centroid += kept[i].p_world;
       out.residuals_mm.push_back(kept[i].r);
     }
     centroid /= static_cast<double>(kept.size());
@@ -459,8 +550,8 @@ IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& o
         Sums& su = sums[ch];
         const size_t e = std::min(pm.end, pm.begin + (ch + 1) * kChunk);
         for (size_t i = pm.begin + ch * kChunk; i < e; ++i) {
-          const Corr& c = corr[i];
-          const double r = kept[i].r;
+          const Match& c = kept[i];
+          const double r = c.r;
           Vec6 jv, ju;
           jv << (c.p_world - centroid).cross(c.n_world), c.n_world;
           ju << -(c.q_world - centroid).cross(c.n_world), -c.n_world;
@@ -548,11 +639,13 @@ std::vector<SurfaceAgreement> MeasureAgreement(const PointCloud& source, const P
     }
   };
   PreparedView src, tgt;
-  usable(source, &src.data.pts, &src.normals);
-  usable(target, &tgt.data.pts, &tgt.normals);
+  usable(source, &src.own_pts, &src.own_normals);
+  usable(target, &tgt.own_pts, &tgt.own_normals);
+  src.Own();
+  tgt.Own();
   std::vector<SurfaceAgreement> out(target_from_source.size());
-  if (src.data.pts.empty() || tgt.data.pts.empty()) return out;
-  const std::vector<uint32_t> order = NormalSpaceOrder(src.normals, seed);
+  if (src.data.n == 0 || tgt.data.n == 0) return out;
+  const std::vector<uint32_t> order = NormalSpaceOrder(src.own_normals, seed);
   const int ns = std::min<int>(samples, static_cast<int>(order.size()));
   const KdTree tree(3, tgt.data, nanoflann::KDTreeSingleIndexAdaptorParams(16));
   const double cos_max = std::cos(max_normal_angle_deg * M_PI / 180);

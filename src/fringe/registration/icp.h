@@ -29,7 +29,9 @@
 // costs a fixed few slot reads instead of a tree descent and needs no tree; it finds the nearest
 // point only when that point lies inside the window, i.e. once the views are aligned to a few
 // point spacings: it is used from level projective_from_level on (bench_registration measures
-// both; docs/benchmarks.md). The same distance, normal and trimming tests follow either way.
+// both; docs/benchmarks.md), or from the first level when the caller bounds the starting
+// misalignment within the window (start_misalignment_mm). The same distance, normal and
+// trimming tests follow either way.
 //
 // Frames: each view's cloud in its own sensor frame; poses world_from_sensor. Millimetres.
 // Deterministic for a seed and independent of the thread count (parallel search, serial sums).
@@ -66,6 +68,14 @@ struct IcpOptions : IcpSchedule {
   // value >= the number of levels: never).
   int projective_from_level = 1;
   int projective_window_px = 2;  // w: (2w + 1)^2 slots, >= 0
+  // The largest misalignment of any point at the starting poses, when the caller knows one
+  // (RegisterViews: from the marker fits), else 0. A grid view whose window of
+  // projective_window_px holds every slot within this distance of its points (checked on
+  // every 64th point with GridProjection::DiscOf) is associated projectively on the levels
+  // before projective_from_level too and needs no k-d tree: the nearest point the tree would
+  // find lies in the window anyway (a tree over all points of a view costs more than all of
+  // its level-0 searches; on the 8-view scan 5 of the 8 views qualify). >= 0.
+  double start_misalignment_mm = 0;
   // A grid whose projection fits its own points worse than this (px) is searched with the
   // k-d tree instead (a window that misses the sample's own slot finds a wrong neighbour), > 0.
   double max_grid_fit_error_px = 0.5;

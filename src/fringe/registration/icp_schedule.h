@@ -19,7 +19,14 @@
 // deviations of the estimate itself (sigma^2 H^-1, sigma the residual RMS): a fixed length
 // cannot suit both 2000 samples, whose estimate is uncertain to ~1e-3 mm and whose
 // correspondences still flip by that much from one iteration to the next, and 30000; a step a
-// tenth of the estimate's own uncertainty changes nothing that the data can tell.
+// tenth of the estimate's own uncertainty changes nothing that the data can tell. With
+// coarse_levels_to_next_sigma a level that is not the last stops once its step is below the
+// NEXT level's standard deviation, i.e. below sqrt(points_per_level[l] / points_per_level[l + 1])
+// of its own: the next level re-estimates the poses from more samples and moves them by about
+// its own deviation whatever the coarse level's last digits were (RegisterViews: from the
+// marker starts of the 8-view scan the first step of every level is ~2 of its sigmas and,
+// the trimming re-selecting the kept pairs, each step ~0.45 of the one before, so the coarse
+// levels ran 2-3 iterations more for nothing; docs/benchmarks.md, reg7).
 //
 // Thread safety: free functions without shared state.
 #pragma once
@@ -45,6 +52,7 @@ struct IcpSchedule {
   double convergence_rotation_deg = 1e-4;    // > 0
   double convergence_translation_mm = 1e-4;  // > 0
   double convergence_step_sigmas = 0.1;      // >= 0 (0: only the fixed limits)
+  bool coarse_levels_to_next_sigma = false;  // see above (with convergence_step_sigmas > 0)
   // Throws fringe::Error naming `owner` and the field.
   void Check(const char* owner) const;
 };

@@ -1,5 +1,7 @@
 #include "fringe/registration/register_views.h"
 
+#include <tbb/parallel_for.h>
+
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
@@ -237,13 +239,24 @@ class Registrar {
       int best = -1;
       MarkerMatchResult best_match;
       const std::vector<MarkerPoint> map = MapPoints();
+      // The pending views are matched against the map concurrently (MatchMarkers is reentrant
+      // and deterministic); the best is then chosen in view order, as before.
+      std::vector<int> pending;
       for (int v = 0; v < n_; ++v) {
         if (r_.views[v].path != ViewPath::kUnplaced) continue;
         if (in_[v].markers.size() < 3) {
           last[v] = StrCat("only ", in_[v].markers.size(), " markers");
           continue;
         }
-        MarkerMatchResult m = MatchMarkers(ViewPoints(v), map, o_.matching);
+        pending.push_back(v);
+      }
+      std::vector<MarkerMatchResult> matches(pending.size());
+      tbb::parallel_for(size_t{0}, pending.size(), [&](size_t k) {
+        matches[k] = MatchMarkers(ViewPoints(pending[k]), map, o_.matching);
+      });
+      for (size_t k = 0; k < pending.size(); ++k) {
+        const int v = pending[k];
+        MarkerMatchResult& m = matches[k];
         last[v] = m.BriefReport();
         if (m.ok() && (best < 0 || m.pairs.size() > best_match.pairs.size())) {
           best = v;
@@ -415,15 +428,22 @@ class Registrar {
   void Refine() {
     std::vector<int> ids;
     double start = o_.icp_min_start_threshold_mm;
+    // What the marker fits bound the views' misalignment by (the first threshold before its
+    // floor, which is for the spacing and noise); unknown (0) once a view was placed otherwise.
+    double misalignment = 0;
+    bool markers_only = true;
     for (int v = 0; v < n_; ++v) {
       const ViewRegistration& vr = r_.views[v];
       if (!vr.placed()) continue;
       ids.push_back(v);
       if (vr.path == ViewPath::kMarkers) {
-        start = std::max(start,
-                         o_.icp_threshold_factor * std::max(vr.marker_rms_mm, vr.adjusted_rms_mm));
+        const double bound =
+            o_.icp_threshold_factor * std::max(vr.marker_rms_mm, vr.adjusted_rms_mm);
+        start = std::max(start, bound);
+        misalignment = std::max(misalignment, bound);
       } else if (vr.path != ViewPath::kWorld) {
         start = std::max(start, o_.icp.initial_threshold_mm);
+        markers_only = false;
       }
     }
     if (ids.size() < 2) {
@@ -443,6 +463,7 @@ class Registrar {
     IcpOptions io = o_.icp;
     io.initial_threshold_mm = start;
     io.min_threshold_mm = std::min(io.min_threshold_mm, start);
+    io.start_misalignment_mm = markers_only ? misalignment : 0.0;
     const IcpResult res = RefineMultiView(iv, io);
     r_.summary.icp = res.summary;
     if (res.summary.status == IcpStatus::kNoOverlap) return;

@@ -77,10 +77,13 @@ struct RegistrationOptions {
   // error (IcpOptions' own 1e-5 is for starts with no such knowledge). Uniform sampling for the
   // same reason: normal-space samples make those directions look constrained (bench_registration
   // from the marker poses: 0.013 mm centroid error with them, 0.0027 mm without).
+  // The coarse levels stop at the next level's resolution (icp_schedule.h): their last
+  // iterations changed nothing the fine level kept (docs/benchmarks.md, reg7).
   IcpOptions icp = [] {
     IcpOptions o;
     o.degeneracy_ratio = 1e-3;
     o.normal_space_sampling = false;
+    o.coarse_levels_to_next_sigma = true;
     return o;
   }();
   void Check() const;

@@ -8,6 +8,7 @@
 #include <atomic>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <opencv2/imgproc.hpp>
 
 #include "fringe/geometry/grid_projection.h"
@@ -244,7 +245,7 @@ double Median(std::vector<float> v) {
 
 // Candidate centres (FuseViews, step 3): for every overlap point i, the k nearest seeds (by
 // seed distance, then centre index) within radius_mm[i] + travel_mm, of any view, into
-// candidates[i * k ...] (kNone-padded).
+// candidates[i * k ...] (kNone-padded; the rows of other points are not written).
 // The seeds are splatted into every view's grid: each seed projected by the view's fitted
 // projection into a bucket of its nearest slot (clamped to the frame). A point then reads the
 // buckets of its OWN view within the pixel disc of its search radius (plus the rounding and
@@ -253,7 +254,7 @@ double Median(std::vector<float> v) {
 // slot by slot (ForEachNear).
 void FindCandidates(const Points& pts, const std::vector<ViewGrid>& grids,
                     const std::vector<uint8_t>& in_overlap, const std::vector<uint32_t>& seeds,
-                    float travel_mm, int k_max, std::vector<int32_t>* candidates) {
+                    float travel_mm, int k_max, int32_t* candidates) {
   constexpr int kMaxCandidates = 16;
   if (k_max < 1 || k_max > kMaxCandidates) throw Error("FindCandidates: k_max out of range");
   const size_t n_views = grids.size(), nc = seeds.size();
@@ -336,8 +337,9 @@ void FindCandidates(const Points& pts, const std::vector<ViewGrid>& grids,
             static_cast<int32_t>(g.width * std::lround(row) + std::lround(col));
       }
     });
-    for (size_t v = 0; v < n_views; ++v) {
-      if (!grids[v].fitted || reach_px[v] <= 0) continue;
+    // Views are independent: sorted in parallel (each serial, in centre order).
+    tbb::parallel_for(size_t{0}, n_views, [&](size_t v) {
+      if (!grids[v].fitted || reach_px[v] <= 0) return;
       std::vector<uint32_t>& start = bucket_start[v];
       start.assign(grids[v].pos.size() + 1, 0);
       for (size_t c = 0; c < nc; ++c) {
@@ -351,7 +353,7 @@ void FindCandidates(const Points& pts, const std::vector<ViewGrid>& grids,
         if (slot != kNone)
           bucket[v][fill[slot]++] = Entry{pts.pos[seeds[c]], static_cast<int32_t>(c)};
       }
-    }
+    });
   }
 
   std::vector<int32_t> seed_at;  // for the slot-by-slot fallback: per view, per slot
@@ -433,7 +435,8 @@ void FindCandidates(const Points& pts, const std::vector<ViewGrid>& grids,
                   });
             }
           }
-          for (int k = 0; k < n; ++k) (*candidates)[i * k_max + k] = list[k].second;
+          for (int k = 0; k < k_max; ++k)
+            candidates[i * k_max + k] = k < n ? list[k].second : kNone;
         }
       });
 }
@@ -1051,9 +1054,11 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
     travel_mm[c] = std::min(pts.seed_radius_mm[seeds[c]], travel_limit_mm);
     max_travel_mm = std::max(max_travel_mm, static_cast<double>(travel_mm[c]));
   }
-  std::vector<int32_t> candidates(pts.size() * kCandidates, kNone);
+  // Not initialized: only the overlap points' rows are written and read (the pages are first
+  // touched by the parallel search, not cleared by one thread beforehand).
+  const std::unique_ptr<int32_t[]> candidates(new int32_t[pts.size() * kCandidates]);
   FindCandidates(pts, grids, in_overlap, seeds, static_cast<float>(max_travel_mm), kCandidates,
-                 &candidates);
+                 candidates.get());
   s.candidates_s = stage.ElapsedSeconds();
 
   stage.Restart();

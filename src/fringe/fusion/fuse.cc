@@ -441,6 +441,42 @@ void FindCandidates(const Points& pts, const std::vector<ViewGrid>& grids,
       });
 }
 
+// The members of every centre (assign: per point its centre or kNone) in ascending point order,
+// centre c's in members[start[c] .. start[c + 1]) (a fixed summation order): a counting sort in
+// parallel over a fixed number of point chunks, each counted and then placed in order after the
+// chunks before it, so the result does not depend on the threads. count: scratch.
+void SortMembers(const std::vector<int32_t>& assign, size_t nc, std::vector<uint32_t>* start,
+                 std::vector<uint32_t>* members, std::vector<uint32_t>* count) {
+  constexpr size_t kChunks = 4;
+  const size_t n = assign.size(), chunk = (n + kChunks - 1) / kChunks;
+  count->assign(kChunks * nc, 0);
+  tbb::parallel_for(size_t{0}, kChunks, [&](size_t j) {
+    uint32_t* cnt = count->data() + j * nc;
+    for (size_t k = j * chunk; k < std::min(n, (j + 1) * chunk); ++k) {
+      if (assign[k] != kNone) ++cnt[assign[k]];
+    }
+  });
+  // Per centre: its start, and each chunk's first place in it (in the counts' place).
+  start->assign(nc + 1, 0);
+  uint32_t total = 0;
+  for (size_t c = 0; c < nc; ++c) {
+    (*start)[c] = total;
+    for (size_t j = 0; j < kChunks; ++j) {
+      const uint32_t m = (*count)[j * nc + c];
+      (*count)[j * nc + c] = total;
+      total += m;
+    }
+  }
+  (*start)[nc] = total;
+  members->resize(total);
+  tbb::parallel_for(size_t{0}, kChunks, [&](size_t j) {
+    uint32_t* next = count->data() + j * nc;
+    for (size_t k = j * chunk; k < std::min(n, (j + 1) * chunk); ++k) {
+      if (assign[k] != kNone) (*members)[next[assign[k]]++] = static_cast<uint32_t>(k);
+    }
+  });
+}
+
 // Single-coverage smoothing (FusionOptions::smooth_radius_px): a passed-through point has no
 // other view to average with, so it is averaged with its own view's grid neighbours within
 // radius_px (a (2r+1)^2 window) ALONG ITS NORMAL only: it moves by the weighted mean of the
@@ -1036,7 +1072,7 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
   }
   std::vector<int32_t> assign(pts.size(), kNone);
   std::vector<uint8_t> keep_own(nc, 0);
-  std::vector<uint32_t> member_start(nc + 1, 0), members;
+  std::vector<uint32_t> member_start(nc + 1, 0), members, member_count;
   // Candidate centres of every overlap point, found once: centres move along their normals by
   // noise and registration error, a fraction of a spacing; each centre's total travel from its
   // seed is bounded (half a median spacing + the registration term, at most the seed radius: a
@@ -1114,19 +1150,7 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
       assign[k] = new_assign[k];
       any_change = true;
     }
-    if (any_change) {
-      // Members per centre in ascending point order (counting sort): fixed summation order.
-      std::fill(member_start.begin(), member_start.end(), 0);
-      for (size_t k = 0; k < pts.size(); ++k) {
-        if (assign[k] != kNone) ++member_start[assign[k] + 1];
-      }
-      for (size_t c = 0; c < nc; ++c) member_start[c + 1] += member_start[c];
-      members.resize(member_start[nc]);
-      std::vector<uint32_t> fill(member_start.begin(), member_start.end() - 1);
-      for (size_t k = 0; k < pts.size(); ++k) {
-        if (assign[k] != kNone) members[fill[assign[k]]++] = static_cast<uint32_t>(k);
-      }
-    }
+    if (any_change) SortMembers(assign, nc, &member_start, &members, &member_count);
     tbb::parallel_for(size_t{0}, nc, [&](size_t c) {
       evaluate[c] = changed[c] || moved[c];
       if (!evaluate[c]) return;
@@ -1255,8 +1279,15 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
 
   // Output: centres with members, then the passed-through points.
   PointCloud& out = result.fused;
-  for (size_t c = 0; c < nc; ++c) {
-    if (member_start[c + 1] == member_start[c]) continue;
+  // Per centre (in parallel): its views, weighted intensity and quality, and whether it is kept.
+  struct Cluster {
+    float intensity = 0, quality = 0;
+    uint16_t distinct = 0;
+    uint8_t keep = 0, absorbed = 0;
+  };
+  std::vector<Cluster> cluster(nc);
+  tbb::parallel_for(size_t{0}, nc, [&](size_t c) {
+    if (member_start[c + 1] == member_start[c]) return;
     double sw = 0, si = 0, sq = 0;
     uint64_t view_bits[4] = {0, 0, 0, 0};  // distinct views among the first 256
     int distinct = 0;
@@ -1277,15 +1308,28 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
     // seed is typically a mixed pixel off the surface, beyond the others' seed radius).
     if (distinct == 1 && ((flags[seeds[c]] & kOutranked) ||
                           pts.border[seeds[c]] < options.one_view_cluster_border_px)) {
-      ++s.absorbed_clusters;
-      continue;
+      cluster[c].absorbed = 1;
+      return;
     }
+    cluster[c] = {static_cast<float>(si / sw), static_cast<float>(sq / sw),
+                  static_cast<uint16_t>(distinct), 1, 0};
+  });
+  for (size_t c = 0; c < nc; ++c) {
+    s.absorbed_clusters += cluster[c].absorbed;
+    s.clusters += cluster[c].keep;
+  }
+  out.points.reserve(static_cast<size_t>(s.clusters));
+  out.normals.reserve(static_cast<size_t>(s.clusters));
+  out.intensity.reserve(static_cast<size_t>(s.clusters));
+  out.quality.reserve(static_cast<size_t>(s.clusters));
+  result.support.reserve(static_cast<size_t>(s.clusters));
+  for (size_t c = 0; c < nc; ++c) {
+    if (!cluster[c].keep) continue;
     out.points.push_back(centre[c].cast<double>());
     out.normals.push_back(centre_n[c].cast<double>());
-    out.intensity.push_back(static_cast<float>(si / sw));
-    out.quality.push_back(static_cast<float>(sq / sw));
-    result.support.push_back(static_cast<uint16_t>(distinct));
-    ++s.clusters;
+    out.intensity.push_back(cluster[c].intensity);
+    out.quality.push_back(cluster[c].quality);
+    result.support.push_back(cluster[c].distinct);
   }
   std::vector<uint32_t> passed;
   for (size_t k = 0; k < pts.size(); ++k) {

@@ -284,6 +284,11 @@ void FindCandidates(const Points& pts, const std::vector<ViewGrid>& grids,
     const Eigen::Vector3f x = g.sensor_from_world_r * pts.pos[i] + g.sensor_from_world_t;
     return x.z() > pts.radius_mm[i] + travel_mm && g.projection.BoundAt(x, b);
   };
+  // The bound itself where full_radius_px is set, for the query (not initialized elsewhere).
+  struct Local {
+    float col, row, scale, norm, z;
+  };
+  const std::unique_ptr<Local[]> local(new Local[pts.size()]);
   tbb::parallel_for(size_t{0}, pts.size(), [&](size_t i) {
     if (!in_overlap[i] || !grids[pts.view[i]].fitted) return;
     GridProjection::Bound b;
@@ -291,6 +296,7 @@ void FindCandidates(const Points& pts, const std::vector<ViewGrid>& grids,
     const float radius_px = b.RadiusPx(pts.radius_mm[i] + travel_mm);
     if (!std::isfinite(radius_px)) return;
     full_radius_px[i] = radius_px + bucket_slack(grids[pts.view[i]], b);
+    local[i] = {b.col, b.row, b.scale, b.norm, b.z};
   });
 
   // Per view: the largest disc (px) and search radius (mm) of its points.
@@ -382,9 +388,14 @@ void FindCandidates(const Points& pts, const std::vector<ViewGrid>& grids,
           const Eigen::Vector3f p = pts.pos[i];
           const float r = pts.radius_mm[i] + travel_mm;
           if (full_radius_px[i] >= 0) {
-            GridProjection::Bound b;
-            bound_of(i, &b);  // as when full_radius_px was set
             const ViewGrid& g = grids[pts.view[i]];
+            GridProjection::Bound b;
+            b.col = local[i].col;
+            b.row = local[i].row;
+            b.scale = local[i].scale;
+            b.norm = local[i].norm;
+            b.z = local[i].z;
+            b.fit_error_px = static_cast<float>(g.projection.fit_error_px());
             const std::vector<uint32_t>& start = bucket_start[pts.view[i]];
             const std::vector<Entry>& entries = bucket[pts.view[i]];
             const float r_sq = r * r, slack = bucket_slack(g, b), full_px = full_radius_px[i];
@@ -1064,10 +1075,17 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
   // 3: clustering. Centres start at the seeds and move along their normals only.
   const size_t nc = seeds.size();
   std::vector<Eigen::Vector3f> centre(nc), centre_n(nc);
+  // Each centre's position and normal side by side (a copy, kept with them): the assignment
+  // reads both for eight candidates per point, at scattered centres — one cache line each.
+  struct Placed {
+    Eigen::Vector3f pos, nrm;
+  };
+  std::vector<Placed> placed(nc);
   std::vector<float> centre_spacing(nc);
   for (size_t c = 0; c < nc; ++c) {
     centre[c] = pts.pos[seeds[c]];
     centre_n[c] = pts.nrm[seeds[c]];
+    placed[c] = {centre[c], centre_n[c]};
     centre_spacing[c] = pts.spacing_mm[seeds[c]];
   }
   std::vector<int32_t> assign(pts.size(), kNone);
@@ -1130,8 +1148,8 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
                           float best_d = std::numeric_limits<float>::infinity();
                           for (int k = 0; k < kCandidates && cand[k] != kNone; ++k) {
                             const int32_t c = cand[k];
-                            const float dist_sq = (centre[c] - pts.pos[i]).squaredNorm();
-                            if (dist_sq > r_sq || pts.nrm[i].dot(centre_n[c]) < cos_max) continue;
+                            const float dist_sq = (placed[c].pos - pts.pos[i]).squaredNorm();
+                            if (dist_sq > r_sq || pts.nrm[i].dot(placed[c].nrm) < cos_max) continue;
                             if (dist_sq < best_d || (dist_sq == best_d && c < best)) {
                               best = c;
                               best_d = dist_sq;
@@ -1257,6 +1275,7 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
       moved[c] = 1;
       centre[c] = moved_to.cast<float>();
       if (!disagree) centre_n[c] = new_normal[c];
+      placed[c] = {centre[c], centre_n[c]};
     });
     s.iterations = it + 1;
     s.last_max_shift_mm = *std::max_element(shift.begin(), shift.end());

@@ -1122,6 +1122,7 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
   // settles (stays where it is) and is not evaluated again until its membership changes.
   // Every decision depends on the input only: the result does not depend on the threads.
   std::vector<uint8_t> moved(nc, 1), changed(nc, 1);
+  std::vector<uint64_t> moved_bits((nc + 63) / 64, 0);
   std::vector<int32_t> new_assign(pts.size(), kNone);
   // Per centre, from its last evaluation: the combined step along the normal, the step by the
   // seed's own view alone, the spread of the views' steps (NaN with one view) and the combined
@@ -1132,6 +1133,15 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
   std::vector<float> shift(nc, 0.f);
   s.converged = nc == 0;
   for (int it = 0; it < options.max_iterations && nc > 0; ++it) {
+    // `moved` as bits (an eighth of the bytes: the eight scattered reads per point below stay
+    // in the cache).
+    tbb::parallel_for(size_t{0}, moved_bits.size(), [&](size_t w) {
+      uint64_t bits = 0;
+      for (size_t c = 64 * w; c < std::min(nc, 64 * w + 64); ++c) {
+        bits |= static_cast<uint64_t>(moved[c] != 0) << (c - 64 * w);
+      }
+      moved_bits[w] = bits;
+    });
     tbb::parallel_for(tbb::blocked_range<size_t>(0, pts.size(), 4096),
                       [&](const tbb::blocked_range<size_t>& range) {
                         for (size_t i = range.begin(); i != range.end(); ++i) {
@@ -1140,7 +1150,7 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
                           const int32_t* cand = &candidates[i * kCandidates];
                           bool stale = it == 0;
                           for (int k = 0; k < kCandidates && cand[k] != kNone && !stale; ++k) {
-                            stale = moved[cand[k]] != 0;
+                            stale = (moved_bits[cand[k] / 64] >> (cand[k] % 64) & 1) != 0;
                           }
                           if (!stale) continue;
                           const float r_sq = pts.radius_mm[i] * pts.radius_mm[i];

@@ -978,9 +978,9 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
   });
   // Two passes per block, each view by view. A point that is no seed has a compatible point of
   // another view that outranks it within its seed radius: the first pass reads only the discs
-  // of the seed radius (a fifth of the overlap radius' area on the demo part), and about four
-  // points in five settle there. The second pass (full radius) is for the points that did not:
-  // their seed flag is final after the first pass (no outranking compatible point within the
+  // of the seed radius (a fifth of the overlap radius' area or less on the demo part), and about
+  // three points in four settle there. The second pass (full radius) is for the points that did
+  // not: their seed flag is final after the first pass (no outranking compatible point within the
   // seed radius in any view), what remains is whether they overlap and are outranked at all —
   // a point that is both stops — and, for a border point outside every overlap, whether a
   // better point lies within its radius. Every flag is the same OR over the same neighbours as

@@ -8,6 +8,7 @@
 #include <atomic>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <opencv2/imgproc.hpp>
 
 #include "fringe/geometry/grid_projection.h"
@@ -58,6 +59,9 @@ struct ViewGrid {
   static constexpr int kTile = 8;
   int tiles_w = 0, tiles_h = 0;
   std::vector<float> tile_zmin, tile_zmax;
+  // Per tile: the largest weight of its usable points (-inf without one): a point no point of
+  // the tiles within its reach can outrank needs no slot of them read to find an outranking one.
+  std::vector<float> tile_wmax;
   Eigen::Matrix3f sensor_from_world_r = Eigen::Matrix3f::Identity();
   Eigen::Vector3f sensor_from_world_t = Eigen::Vector3f::Zero();
   Eigen::Vector3f origin_in_world = Eigen::Vector3f::Zero();  // the sensor's origin
@@ -86,6 +90,7 @@ void FillTileDepths(ViewGrid* g) {
   const size_t n = static_cast<size_t>(g->tiles_w) * static_cast<size_t>(g->tiles_h);
   g->tile_zmin.assign(n, std::numeric_limits<float>::infinity());
   g->tile_zmax.assign(n, -std::numeric_limits<float>::infinity());
+  g->tile_wmax.assign(n, -std::numeric_limits<float>::infinity());
   for (uint32_t slot : g->usable_slots) {
     const int c = static_cast<int>(slot % static_cast<uint32_t>(g->width));
     const int r = static_cast<int>(slot / static_cast<uint32_t>(g->width));
@@ -93,6 +98,7 @@ void FillTileDepths(ViewGrid* g) {
     const float z = g->sensor_from_world_r.row(2).dot(g->pos[slot]) + g->sensor_from_world_t.z();
     g->tile_zmin[k] = std::min(g->tile_zmin[k], z);
     g->tile_zmax[k] = std::max(g->tile_zmax[k], z);
+    g->tile_wmax[k] = std::max(g->tile_wmax[k], g->weight[slot]);
   }
 }
 
@@ -135,6 +141,24 @@ bool AnyTileNear(const ViewGrid& g, const SlotWindow& w, float depth, float radi
     }
   }
   return false;
+}
+
+// The largest weight of the grid's points in the tiles overlapping the (non-empty) window that
+// hold a depth within radius_mm (+ slack) of `depth` (-inf when none does).
+float MaxWeightNear(const ViewGrid& g, const SlotWindow& w, float depth, float radius_mm) {
+  constexpr int t = ViewGrid::kTile;
+  const float lo = depth - radius_mm - DepthSlack(depth),
+              hi = depth + radius_mm + DepthSlack(depth);
+  float best = -std::numeric_limits<float>::infinity();
+  for (int tr = w.r0 / t; tr <= w.r1 / t; ++tr) {
+    const size_t row = static_cast<size_t>(tr) * static_cast<size_t>(g.tiles_w);
+    for (int tc = w.c0 / t; tc <= w.c1 / t; ++tc) {
+      if (g.tile_zmin[row + tc] <= hi && g.tile_zmax[row + tc] >= lo) {
+        best = std::max(best, g.tile_wmax[row + tc]);
+      }
+    }
+  }
+  return best;
 }
 
 // Calls f(slot, squared distance) for every slot of the grid in the disc around p that `keep`
@@ -221,7 +245,7 @@ double Median(std::vector<float> v) {
 
 // Candidate centres (FuseViews, step 3): for every overlap point i, the k nearest seeds (by
 // seed distance, then centre index) within radius_mm[i] + travel_mm, of any view, into
-// candidates[i * k ...] (kNone-padded).
+// candidates[i * k ...] (kNone-padded; the rows of other points are not written).
 // The seeds are splatted into every view's grid: each seed projected by the view's fitted
 // projection into a bucket of its nearest slot (clamped to the frame). A point then reads the
 // buckets of its OWN view within the pixel disc of its search radius (plus the rounding and
@@ -230,7 +254,7 @@ double Median(std::vector<float> v) {
 // slot by slot (ForEachNear).
 void FindCandidates(const Points& pts, const std::vector<ViewGrid>& grids,
                     const std::vector<uint8_t>& in_overlap, const std::vector<uint32_t>& seeds,
-                    float travel_mm, int k_max, std::vector<int32_t>* candidates) {
+                    float travel_mm, int k_max, int32_t* candidates) {
   constexpr int kMaxCandidates = 16;
   if (k_max < 1 || k_max > kMaxCandidates) throw Error("FindCandidates: k_max out of range");
   const size_t n_views = grids.size(), nc = seeds.size();
@@ -243,37 +267,43 @@ void FindCandidates(const Points& pts, const std::vector<ViewGrid>& grids,
     for (; k > 0 && f < list[k - 1]; --k) list[k] = list[k - 1];
     list[k] = f;
   };
-  // Each point's disc in its own view; per view the largest radius plus slack (seeds projecting
-  // farther outside the frame can be near no point of the view).
-  std::vector<GridProjection::Disc> disc(pts.size());
-  // The disc of the radius without the travel: most points find their k_max nearest seeds in it
-  // (see the query below).
-  std::vector<float> inner_radius_px(pts.size(), 0.f);
-  std::vector<uint8_t> has_disc(pts.size(), 0);
+  // Each point's disc in its own view (the full search radius, with the buckets' slack below;
+  // negative where the point has none); per view the largest radius plus slack (seeds
+  // projecting farther outside the frame can be near no point of the view).
+  std::vector<float> full_radius_px(pts.size(), -1.f);
+  // Seeds sit in the bucket of their rounded, frame-clamped projection: rounding moves them by at
+  // most 0.71 px; clamping moves no seed farther from a place inside the frame, and the disc's
+  // centre lies within `out` of the frame.
+  auto bucket_slack = [](const ViewGrid& g, const GridProjection::Bound& b) {
+    const float out = std::hypot(b.col - std::clamp(b.col, 0.f, g.width - 1.f),
+                                 b.row - std::clamp(b.row, 0.f, g.height - 1.f));
+    return 0.71f + 2 * out;
+  };
+  auto bound_of = [&](size_t i, GridProjection::Bound* b) {
+    const ViewGrid& g = grids[pts.view[i]];
+    const Eigen::Vector3f x = g.sensor_from_world_r * pts.pos[i] + g.sensor_from_world_t;
+    return x.z() > pts.radius_mm[i] + travel_mm && g.projection.BoundAt(x, b);
+  };
+  // The bound itself where full_radius_px is set, for the query (not initialized elsewhere).
+  struct Local {
+    float col, row, scale, norm, z;
+  };
+  const std::unique_ptr<Local[]> local(new Local[pts.size()]);
   tbb::parallel_for(size_t{0}, pts.size(), [&](size_t i) {
     if (!in_overlap[i] || !grids[pts.view[i]].fitted) return;
-    const ViewGrid& g = grids[pts.view[i]];
-    GridProjection::Disc d, inner;
-    if (!DiscOf(g, pts.pos[i], pts.radius_mm[i] + travel_mm, &d) ||
-        !DiscOf(g, pts.pos[i], pts.radius_mm[i], &inner)) {
-      return;
-    }
-    // Seeds sit in the bucket of their rounded, frame-clamped projection: rounding moves them
-    // by at most 0.71 px; clamping moves no seed farther from a place inside the frame, and the
-    // disc's centre lies within `out` of the frame.
-    const float out = std::hypot(d.col - std::clamp(d.col, 0.f, g.width - 1.f),
-                                 d.row - std::clamp(d.row, 0.f, g.height - 1.f));
-    d.radius_px += 0.71f + 2 * out;
-    disc[i] = d;
-    inner_radius_px[i] = inner.radius_px + 0.71f + 2 * out;
-    has_disc[i] = 1;
+    GridProjection::Bound b;
+    if (!bound_of(i, &b)) return;
+    const float radius_px = b.RadiusPx(pts.radius_mm[i] + travel_mm);
+    if (!std::isfinite(radius_px)) return;
+    full_radius_px[i] = radius_px + bucket_slack(grids[pts.view[i]], b);
+    local[i] = {b.col, b.row, b.scale, b.norm, b.z};
   });
 
   // Per view: the largest disc (px) and search radius (mm) of its points.
   std::vector<float> reach_px(n_views, 0), reach_mm(n_views, 0);
   for (size_t i = 0; i < pts.size(); ++i) {
-    if (!has_disc[i]) continue;
-    reach_px[pts.view[i]] = std::max(reach_px[pts.view[i]], disc[i].radius_px);
+    if (full_radius_px[i] < 0) continue;
+    reach_px[pts.view[i]] = std::max(reach_px[pts.view[i]], full_radius_px[i]);
     reach_mm[pts.view[i]] = std::max(reach_mm[pts.view[i]], pts.radius_mm[i] + travel_mm);
   }
   // Buckets per view: counting sort of the seeds by slot (ascending centre index per slot).
@@ -313,8 +343,9 @@ void FindCandidates(const Points& pts, const std::vector<ViewGrid>& grids,
             static_cast<int32_t>(g.width * std::lround(row) + std::lround(col));
       }
     });
-    for (size_t v = 0; v < n_views; ++v) {
-      if (!grids[v].fitted || reach_px[v] <= 0) continue;
+    // Views are independent: sorted in parallel (each serial, in centre order).
+    tbb::parallel_for(size_t{0}, n_views, [&](size_t v) {
+      if (!grids[v].fitted || reach_px[v] <= 0) return;
       std::vector<uint32_t>& start = bucket_start[v];
       start.assign(grids[v].pos.size() + 1, 0);
       for (size_t c = 0; c < nc; ++c) {
@@ -328,7 +359,7 @@ void FindCandidates(const Points& pts, const std::vector<ViewGrid>& grids,
         if (slot != kNone)
           bucket[v][fill[slot]++] = Entry{pts.pos[seeds[c]], static_cast<int32_t>(c)};
       }
-    }
+    });
   }
 
   std::vector<int32_t> seed_at;  // for the slot-by-slot fallback: per view, per slot
@@ -337,7 +368,7 @@ void FindCandidates(const Points& pts, const std::vector<ViewGrid>& grids,
     seed_at_start[v + 1] = seed_at_start[v] + grids[v].pos.size();
   const bool any_fallback = [&] {
     for (size_t i = 0; i < pts.size(); ++i) {
-      if (in_overlap[i] && !has_disc[i]) return true;
+      if (in_overlap[i] && full_radius_px[i] < 0) return true;
     }
     return false;
   }();
@@ -356,37 +387,53 @@ void FindCandidates(const Points& pts, const std::vector<ViewGrid>& grids,
           uint8_t n = 0;
           const Eigen::Vector3f p = pts.pos[i];
           const float r = pts.radius_mm[i] + travel_mm;
-          if (has_disc[i]) {
+          if (full_radius_px[i] >= 0) {
             const ViewGrid& g = grids[pts.view[i]];
+            GridProjection::Bound b;
+            b.col = local[i].col;
+            b.row = local[i].row;
+            b.scale = local[i].scale;
+            b.norm = local[i].norm;
+            b.z = local[i].z;
+            b.fit_error_px = static_cast<float>(g.projection.fit_error_px());
             const std::vector<uint32_t>& start = bucket_start[pts.view[i]];
             const std::vector<Entry>& entries = bucket[pts.view[i]];
-            const GridProjection::Disc& d = disc[i];
-            // The seeds within dist of p (radius_px: a disc holding them all) into the list.
-            auto scan = [&](float radius_px, float dist) {
-              const float dist_sq = dist * dist;
-              const int r0 = std::max(0, Clamped(std::ceil(d.row - radius_px), g.height));
-              const int r1 =
-                  std::min(g.height - 1, Clamped(std::floor(d.row + radius_px), g.height));
-              for (int row = r0; row <= r1; ++row) {
-                const float dr = static_cast<float>(row) - d.row;
-                const float half = std::sqrt(std::max(0.f, radius_px * radius_px - dr * dr));
-                const int c0 = std::max(0, Clamped(std::ceil(d.col - half), g.width));
-                const int c1 = std::min(g.width - 1, Clamped(std::floor(d.col + half), g.width));
-                if (c0 > c1) continue;
-                const size_t base = static_cast<size_t>(row) * static_cast<size_t>(g.width);
-                for (uint32_t m = start[base + c0]; m < start[base + c1 + 1]; ++m) {
-                  const float e_sq = (entries[m].pos - p).squaredNorm();
-                  if (e_sq <= dist_sq) insert(list, &n, Found(e_sq, entries[m].centre));
-                }
-              }
+            const float r_sq = r * r, slack = bucket_slack(g, b), full_px = full_radius_px[i];
+            // The disc shrinks as the list fills: once it holds k_max seeds, a nearer one lies
+            // within the k_max-th's distance, so within that distance's disc. Rows are read
+            // from the disc's centre outwards (the nearest seeds first); a row beyond the
+            // current disc ends its side.
+            auto radius_px = [&] {
+              if (n < k_max) return full_px;
+              const float kth = std::min(r, std::sqrt(list[k_max - 1].first) * (1 + 1e-5f));
+              return std::min(full_px, b.RadiusPx(kth) + slack);
             };
-            // k_max seeds within the radius without the travel are the k_max nearest of all
-            // (every other seed is farther): the same list as the full search, on a disc about
-            // half its area; otherwise the full radius.
-            scan(inner_radius_px[i], pts.radius_mm[i]);
-            if (n < k_max) {
-              n = 0;
-              scan(d.radius_px, r);
+            // The seeds of one row within the current disc into the list; false when the row
+            // lies beyond it.
+            auto scan_row = [&](int row) {
+              const float rad = radius_px();
+              const float dr = static_cast<float>(row) - b.row;
+              if (!(std::abs(dr) <= rad)) return false;
+              const float half = std::sqrt(std::max(0.f, rad * rad - dr * dr));
+              const int c0 = std::max(0, Clamped(std::ceil(b.col - half), g.width));
+              const int c1 = std::min(g.width - 1, Clamped(std::floor(b.col + half), g.width));
+              if (c0 > c1) return true;
+              const size_t base = static_cast<size_t>(row) * static_cast<size_t>(g.width);
+              for (uint32_t m = start[base + c0]; m < start[base + c1 + 1]; ++m) {
+                const float e_sq = (entries[m].pos - p).squaredNorm();
+                if (e_sq <= r_sq) insert(list, &n, Found(e_sq, entries[m].centre));
+              }
+              return true;
+            };
+            const int r0 = std::max(0, Clamped(std::ceil(b.row - full_px), g.height));
+            const int r1 = std::min(g.height - 1, Clamped(std::floor(b.row + full_px), g.height));
+            if (r0 <= r1) {
+              int lo = std::clamp(static_cast<int>(std::lround(b.row)), r0, r1), hi = lo + 1;
+              bool lo_open = true, hi_open = hi <= r1;
+              while (lo_open || hi_open) {
+                if (lo_open) lo_open = scan_row(lo) && --lo >= r0;
+                if (hi_open) hi_open = scan_row(hi) && ++hi <= r1;
+              }
             }
           } else {
             for (size_t v = 0; v < n_views; ++v) {
@@ -399,9 +446,46 @@ void FindCandidates(const Points& pts, const std::vector<ViewGrid>& grids,
                   });
             }
           }
-          for (int k = 0; k < n; ++k) (*candidates)[i * k_max + k] = list[k].second;
+          for (int k = 0; k < k_max; ++k)
+            candidates[i * k_max + k] = k < n ? list[k].second : kNone;
         }
       });
+}
+
+// The members of every centre (assign: per point its centre or kNone) in ascending point order,
+// centre c's in members[start[c] .. start[c + 1]) (a fixed summation order): a counting sort in
+// parallel over a fixed number of point chunks, each counted and then placed in order after the
+// chunks before it, so the result does not depend on the threads. count: scratch.
+void SortMembers(const std::vector<int32_t>& assign, size_t nc, std::vector<uint32_t>* start,
+                 std::vector<uint32_t>* members, std::vector<uint32_t>* count) {
+  constexpr size_t kChunks = 4;
+  const size_t n = assign.size(), chunk = (n + kChunks - 1) / kChunks;
+  count->assign(kChunks * nc, 0);
+  tbb::parallel_for(size_t{0}, kChunks, [&](size_t j) {
+    uint32_t* cnt = count->data() + j * nc;
+    for (size_t k = j * chunk; k < std::min(n, (j + 1) * chunk); ++k) {
+      if (assign[k] != kNone) ++cnt[assign[k]];
+    }
+  });
+  // Per centre: its start, and each chunk's first place in it (in the counts' place).
+  start->assign(nc + 1, 0);
+  uint32_t total = 0;
+  for (size_t c = 0; c < nc; ++c) {
+    (*start)[c] = total;
+    for (size_t j = 0; j < kChunks; ++j) {
+      const uint32_t m = (*count)[j * nc + c];
+      (*count)[j * nc + c] = total;
+      total += m;
+    }
+  }
+  (*start)[nc] = total;
+  members->resize(total);
+  tbb::parallel_for(size_t{0}, kChunks, [&](size_t j) {
+    uint32_t* next = count->data() + j * nc;
+    for (size_t k = j * chunk; k < std::min(n, (j + 1) * chunk); ++k) {
+      if (assign[k] != kNone) (*members)[next[assign[k]]++] = static_cast<uint32_t>(k);
+    }
+  });
 }
 
 // Single-coverage smoothing (FusionOptions::smooth_radius_px): a passed-through point has no
@@ -852,7 +936,11 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
   // bounding box, widened by their largest radius, projects outside the other view's frame or
   // onto tiles without a depth within reach): its points skip that view without computing a
   // disc each (a third of the overlap search's discs found nothing on the demo part).
+  // Beside it the largest weight of that view's points there (+inf where no bound was taken):
+  // a point with a larger weight (or an equal one and a smaller view index) has no point of
+  // that view that outranks it.
   std::vector<std::vector<uint8_t>> far_view(views.size());
+  std::vector<std::vector<float>> near_wmax(views.size());
   tbb::parallel_for(size_t{0}, views.size(), [&](size_t u) {
     const ViewGrid& gu = grids[u];
     const size_t n_tiles = static_cast<size_t>(gu.tiles_w) * static_cast<size_t>(gu.tiles_h);
@@ -866,6 +954,8 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
     }
     std::vector<uint8_t>& far = far_view[u];
     far.assign(n_tiles * views.size(), 0);
+    std::vector<float>& wmax = near_wmax[u];
+    wmax.assign(n_tiles * views.size(), std::numeric_limits<float>::infinity());
     for (size_t t = 0; t < n_tiles; ++t) {
       if (box[t].isEmpty()) continue;
       const Eigen::Vector3f centre = box[t].center();
@@ -881,9 +971,20 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
         // and a pixel so that the skip never depends on the Jacobian's change across it.
         const SlotWindow window = WindowAround(g, d.row, d.col, 1.1f * d.radius_px + 1);
         far[t * views.size() + v] = window.empty() || !AnyTileNear(g, window, depth, rho);
+        if (!far[t * views.size() + v])
+          wmax[t * views.size() + v] = MaxWeightNear(g, window, depth, rho);
       }
     }
   });
+  // Two passes per block, each view by view. A point that is no seed has a compatible point of
+  // another view that outranks it within its seed radius: the first pass reads only the discs
+  // of the seed radius (a fifth of the overlap radius' area or less on the demo part), and about
+  // three points in four settle there. The second pass (full radius) is for the points that did
+  // not: their seed flag is final after the first pass (no outranking compatible point within the
+  // seed radius in any view), what remains is whether they overlap and are outranked at all —
+  // a point that is both stops — and, for a border point outside every overlap, whether a
+  // better point lies within its radius. Every flag is the same OR over the same neighbours as
+  // one full pass.
   constexpr size_t kBlock = 2048;
   tbb::parallel_for(
       tbb::blocked_range<size_t>(0, pts.size(), kBlock),
@@ -893,40 +994,55 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
         };
         std::vector<State> state(range.size());
         std::vector<const uint8_t*> far_of(range.size());
+        std::vector<const float*> wmax_of(range.size());
         for (size_t i = range.begin(); i != range.end(); ++i) {
-          far_of[i - range.begin()] =
-              &far_view[pts.view[i]][TileOf(grids[pts.view[i]], pts.grid[i]) * views.size()];
+          const size_t t = TileOf(grids[pts.view[i]], pts.grid[i]) * views.size();
+          far_of[i - range.begin()] = &far_view[pts.view[i]][t];
+          wmax_of[i - range.begin()] = &near_wmax[pts.view[i]][t];
         }
-        for (size_t v = 0; v < views.size(); ++v) {
-          const ViewGrid& grid = grids[v];
-          for (size_t i = range.begin(); i != range.end(); ++i) {
-            if (!pts.usable[i] || v == pts.view[i]) continue;
-            State& st = state[i - range.begin()];
-            if (st.overlap && !st.seed) continue;  // settled
-            if (far_of[i - range.begin()][v]) continue;
-            const Eigen::Vector3f p = pts.pos[i];
-            const Eigen::Vector3f n = pts.nrm[i];
-            const bool border = pts.border[i] < options.border_trim_px;
-            // Normals face their sensor: a view that sees p's side from behind by
-            // more than the compatibility angle has no compatible point there (only a
-            // border point needs the others: `better`).
-            if (!border && n.dot((grid.origin_in_world - p).normalized()) < -sin_max) continue;
-            const float w = pts.weight[i];
-            ForEachNear(
-                grid, p, pts.radius_mm[i], [](uint32_t) { return true; },
-                [&](uint32_t slot, float dist_sq) {
-                  if (st.overlap && !st.seed) return false;  // settled
-                  const float wj = grid.weight[slot];
-                  st.better = st.better || wj > w;
-                  if (n.dot(grid.nrm[slot]) < cos_max) return true;
-                  st.overlap = true;
-                  // Outranks(j, i): weight, then view index (v != the point's view).
-                  if (wj > w || (wj == w && v < pts.view[i])) {
-                    st.outranked = true;
-                    if (dist_sq <= pts.seed_radius_mm[i] * pts.seed_radius_mm[i]) st.seed = false;
-                  }
-                  return true;
-                });
+        for (int pass = 0; pass < 2; ++pass) {
+          for (size_t v = 0; v < views.size(); ++v) {
+            const ViewGrid& grid = grids[v];
+            for (size_t i = range.begin(); i != range.end(); ++i) {
+              if (!pts.usable[i] || v == pts.view[i]) continue;
+              State& st = state[i - range.begin()];
+              // Settled: no seed (first pass), or overlapping and outranked (second pass).
+              auto settled = [&] { return st.overlap && (!st.seed || st.outranked); };
+              if (st.overlap && !st.seed) continue;
+              if (pass == 1 && st.overlap && st.outranked) continue;
+              if (far_of[i - range.begin()][v]) continue;
+              const float w = pts.weight[i];
+              // No point of view v here can outrank this one: it cannot settle it (first pass),
+              // nor make it outranked, and once it overlaps that is all v could add.
+              const float wv = wmax_of[i - range.begin()][v];
+              const bool can_outrank = wv > w || (wv == w && v < pts.view[i]);
+              if (!can_outrank && (pass == 0 || st.overlap)) continue;
+              const Eigen::Vector3f p = pts.pos[i];
+              const Eigen::Vector3f n = pts.nrm[i];
+              const bool border = pts.border[i] < options.border_trim_px;
+              // Normals face their sensor: a view that sees p's side from behind by
+              // more than the compatibility angle has no compatible point there (only a
+              // border point needs the others: `better`).
+              if (!border && n.dot((grid.origin_in_world - p).normalized()) < -sin_max) continue;
+              const float seed_sq = pts.seed_radius_mm[i] * pts.seed_radius_mm[i];
+              const float radius =
+                  pass == 0 ? std::min(pts.seed_radius_mm[i], pts.radius_mm[i]) : pts.radius_mm[i];
+              ForEachNear(
+                  grid, p, radius, [](uint32_t) { return true; },
+                  [&](uint32_t slot, float dist_sq) {
+                    if (pass == 0 ? st.overlap && !st.seed : settled()) return false;
+                    const float wj = grid.weight[slot];
+                    st.better = st.better || wj > w;
+                    if (n.dot(grid.nrm[slot]) < cos_max) return true;
+                    st.overlap = true;
+                    // Outranks(j, i): weight, then view index (v != the point's view).
+                    if (wj > w || (wj == w && v < pts.view[i])) {
+                      st.outranked = true;
+                      if (dist_sq <= seed_sq) st.seed = false;
+                    }
+                    return true;
+                  });
+            }
           }
         }
         for (size_t i = range.begin(); i != range.end(); ++i) {
@@ -959,15 +1075,22 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
   // 3: clustering. Centres start at the seeds and move along their normals only.
   const size_t nc = seeds.size();
   std::vector<Eigen::Vector3f> centre(nc), centre_n(nc);
+  // Each centre's position and normal side by side (a copy, kept with them): the assignment
+  // reads both for eight candidates per point, at scattered centres — one cache line each.
+  struct Placed {
+    Eigen::Vector3f pos, nrm;
+  };
+  std::vector<Placed> placed(nc);
   std::vector<float> centre_spacing(nc);
   for (size_t c = 0; c < nc; ++c) {
     centre[c] = pts.pos[seeds[c]];
     centre_n[c] = pts.nrm[seeds[c]];
+    placed[c] = {centre[c], centre_n[c]};
     centre_spacing[c] = pts.spacing_mm[seeds[c]];
   }
   std::vector<int32_t> assign(pts.size(), kNone);
   std::vector<uint8_t> keep_own(nc, 0);
-  std::vector<uint32_t> member_start(nc + 1, 0), members;
+  std::vector<uint32_t> member_start(nc + 1, 0), members, member_count;
   // Candidate centres of every overlap point, found once: centres move along their normals by
   // noise and registration error, a fraction of a spacing; each centre's total travel from its
   // seed is bounded (half a median spacing + the registration term, at most the seed radius: a
@@ -985,9 +1108,11 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
     travel_mm[c] = std::min(pts.seed_radius_mm[seeds[c]], travel_limit_mm);
     max_travel_mm = std::max(max_travel_mm, static_cast<double>(travel_mm[c]));
   }
-  std::vector<int32_t> candidates(pts.size() * kCandidates, kNone);
+  // Not initialized: only the overlap points' rows are written and read (the pages are first
+  // touched by the parallel search, not cleared by one thread beforehand).
+  const std::unique_ptr<int32_t[]> candidates(new int32_t[pts.size() * kCandidates]);
   FindCandidates(pts, grids, in_overlap, seeds, static_cast<float>(max_travel_mm), kCandidates,
-                 &candidates);
+                 candidates.get());
   s.candidates_s = stage.ElapsedSeconds();
 
   stage.Restart();
@@ -997,6 +1122,7 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
   // settles (stays where it is) and is not evaluated again until its membership changes.
   // Every decision depends on the input only: the result does not depend on the threads.
   std::vector<uint8_t> moved(nc, 1), changed(nc, 1);
+  std::vector<uint64_t> moved_bits((nc + 63) / 64, 0);
   std::vector<int32_t> new_assign(pts.size(), kNone);
   // Per centre, from its last evaluation: the combined step along the normal, the step by the
   // seed's own view alone, the spread of the views' steps (NaN with one view) and the combined
@@ -1007,6 +1133,15 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
   std::vector<float> shift(nc, 0.f);
   s.converged = nc == 0;
   for (int it = 0; it < options.max_iterations && nc > 0; ++it) {
+    // `moved` as bits (an eighth of the bytes: the eight scattered reads per point below stay
+    // in the cache).
+    tbb::parallel_for(size_t{0}, moved_bits.size(), [&](size_t w) {
+      uint64_t bits = 0;
+      for (size_t c = 64 * w; c < std::min(nc, 64 * w + 64); ++c) {
+        bits |= static_cast<uint64_t>(moved[c] != 0) << (c - 64 * w);
+      }
+      moved_bits[w] = bits;
+    });
     tbb::parallel_for(tbb::blocked_range<size_t>(0, pts.size(), 4096),
                       [&](const tbb::blocked_range<size_t>& range) {
                         for (size_t i = range.begin(); i != range.end(); ++i) {
@@ -1015,7 +1150,7 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
                           const int32_t* cand = &candidates[i * kCandidates];
                           bool stale = it == 0;
                           for (int k = 0; k < kCandidates && cand[k] != kNone && !stale; ++k) {
-                            stale = moved[cand[k]] != 0;
+                            stale = (moved_bits[cand[k] / 64] >> (cand[k] % 64) & 1) != 0;
                           }
                           if (!stale) continue;
                           const float r_sq = pts.radius_mm[i] * pts.radius_mm[i];
@@ -1023,8 +1158,8 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
                           float best_d = std::numeric_limits<float>::infinity();
                           for (int k = 0; k < kCandidates && cand[k] != kNone; ++k) {
                             const int32_t c = cand[k];
-                            const float dist_sq = (centre[c] - pts.pos[i]).squaredNorm();
-                            if (dist_sq > r_sq || pts.nrm[i].dot(centre_n[c]) < cos_max) continue;
+                            const float dist_sq = (placed[c].pos - pts.pos[i]).squaredNorm();
+                            if (dist_sq > r_sq || pts.nrm[i].dot(placed[c].nrm) < cos_max) continue;
                             if (dist_sq < best_d || (dist_sq == best_d && c < best)) {
                               best = c;
                               best_d = dist_sq;
@@ -1043,19 +1178,7 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
       assign[k] = new_assign[k];
       any_change = true;
     }
-    if (any_change) {
-      // Members per centre in ascending point order (counting sort): fixed summation order.
-      std::fill(member_start.begin(), member_start.end(), 0);
-      for (size_t k = 0; k < pts.size(); ++k) {
-        if (assign[k] != kNone) ++member_start[assign[k] + 1];
-      }
-      for (size_t c = 0; c < nc; ++c) member_start[c + 1] += member_start[c];
-      members.resize(member_start[nc]);
-      std::vector<uint32_t> fill(member_start.begin(), member_start.end() - 1);
-      for (size_t k = 0; k < pts.size(); ++k) {
-        if (assign[k] != kNone) members[fill[assign[k]]++] = static_cast<uint32_t>(k);
-      }
-    }
+    if (any_change) SortMembers(assign, nc, &member_start, &members, &member_count);
     tbb::parallel_for(size_t{0}, nc, [&](size_t c) {
       evaluate[c] = changed[c] || moved[c];
       if (!evaluate[c]) return;
@@ -1162,6 +1285,7 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
       moved[c] = 1;
       centre[c] = moved_to.cast<float>();
       if (!disagree) centre_n[c] = new_normal[c];
+      placed[c] = {centre[c], centre_n[c]};
     });
     s.iterations = it + 1;
     s.last_max_shift_mm = *std::max_element(shift.begin(), shift.end());
@@ -1184,8 +1308,15 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
 
   // Output: centres with members, then the passed-through points.
   PointCloud& out = result.fused;
-  for (size_t c = 0; c < nc; ++c) {
-    if (member_start[c + 1] == member_start[c]) continue;
+  // Per centre (in parallel): its views, weighted intensity and quality, and whether it is kept.
+  struct Cluster {
+    float intensity = 0, quality = 0;
+    uint16_t distinct = 0;
+    uint8_t keep = 0, absorbed = 0;
+  };
+  std::vector<Cluster> cluster(nc);
+  tbb::parallel_for(size_t{0}, nc, [&](size_t c) {
+    if (member_start[c + 1] == member_start[c]) return;
     double sw = 0, si = 0, sq = 0;
     uint64_t view_bits[4] = {0, 0, 0, 0};  // distinct views among the first 256
     int distinct = 0;
@@ -1206,15 +1337,28 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
     // seed is typically a mixed pixel off the surface, beyond the others' seed radius).
     if (distinct == 1 && ((flags[seeds[c]] & kOutranked) ||
                           pts.border[seeds[c]] < options.one_view_cluster_border_px)) {
-      ++s.absorbed_clusters;
-      continue;
+      cluster[c].absorbed = 1;
+      return;
     }
+    cluster[c] = {static_cast<float>(si / sw), static_cast<float>(sq / sw),
+                  static_cast<uint16_t>(distinct), 1, 0};
+  });
+  for (size_t c = 0; c < nc; ++c) {
+    s.absorbed_clusters += cluster[c].absorbed;
+    s.clusters += cluster[c].keep;
+  }
+  out.points.reserve(static_cast<size_t>(s.clusters));
+  out.normals.reserve(static_cast<size_t>(s.clusters));
+  out.intensity.reserve(static_cast<size_t>(s.clusters));
+  out.quality.reserve(static_cast<size_t>(s.clusters));
+  result.support.reserve(static_cast<size_t>(s.clusters));
+  for (size_t c = 0; c < nc; ++c) {
+    if (!cluster[c].keep) continue;
     out.points.push_back(centre[c].cast<double>());
     out.normals.push_back(centre_n[c].cast<double>());
-    out.intensity.push_back(static_cast<float>(si / sw));
-    out.quality.push_back(static_cast<float>(sq / sw));
-    result.support.push_back(static_cast<uint16_t>(distinct));
-    ++s.clusters;
+    out.intensity.push_back(cluster[c].intensity);
+    out.quality.push_back(cluster[c].quality);
+    result.support.push_back(cluster[c].distinct);
   }
   std::vector<uint32_t> passed;
   for (size_t k = 0; k < pts.size(); ++k) {

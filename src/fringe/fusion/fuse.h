@@ -57,9 +57,13 @@
 // radius is missed). The cost per point is a fixed number of slot reads per view instead of a
 // k-d tree descent over all points; the work runs in parallel over blocks of points, view by
 // view (a block's windows stay in the cache), and a point outranked within its seed radius
-// stops searching. The candidate centres of a point are found in its OWN view's grid: every
-// seed is projected once into every view's grid (a bucket per slot), so a point reads one
-// window instead of one per view.
+// stops searching: a first pass reads only the seed radius' windows (most points settle there),
+// and a view none of whose points within reach can outrank a point (per tile, their largest
+// weight) is skipped where it could add nothing. The candidate centres of a point are found in
+// its OWN view's grid: every seed is projected once into every view's grid (a bucket per slot),
+// so a point reads one window instead of one per view, from its centre outwards, shrinking to
+// the k-th nearest seed found. These shortcuts are exact: the output is that of reading every
+// window whole (docs/benchmarks.md, "Fusion, session 7").
 // Clustering iterations only revisit what changed: a point's assignment when one of its
 // candidate centres moved, a centre when its membership changed or it moved; a centre whose
 // update is below convergence_mm with unchanged members settles.

@@ -72,17 +72,17 @@ bool GridProjection::Project(const Eigen::Vector3f& p_in_sensor, Eigen::Vector2f
   return col_row->allFinite();
 }
 
-bool GridProjection::DiscOf(const Eigen::Vector3f& x, float radius_mm, Disc* d) const {
-  if (!fitted_ || !(x.z() > radius_mm)) return false;
+bool GridProjection::BoundAt(const Eigen::Vector3f& x, Bound* b) const {
+  if (!fitted_ || !(x.z() > 0)) return false;
   const float u = x.x() / x.z(), v = x.y() / x.z();
   const Coefficients m = Monomials(u, v);
   Coefficients mu, mv;  // derivatives of the monomials by u and v
   mu << 0, 1, 0, 2 * u, v, 0, 3 * u * u, 2 * u * v, v * v, 0;
   mv << 0, 0, 1, 0, u, 2 * v, 0, u * u, 2 * u * v, 3 * v * v;
   // The projection's Jacobian and its largest singular value.
-  const float a = col_poly_.dot(mu), b = col_poly_.dot(mv);
+  const float a = col_poly_.dot(mu), bu = col_poly_.dot(mv);
   const float c = row_poly_.dot(mu), e = row_poly_.dot(mv);
-  const float t = a * a + b * b + c * c + e * e, det = a * e - b * c;
+  const float t = a * a + bu * bu + c * c + e * e, det = a * e - bu * c;
   const float sigma = std::sqrt(0.5f * (t + std::sqrt(std::max(0.f, t * t - 4 * det * det))));
   // A point q = p + d, |d| <= R, has normalized coordinates (u, v) + [I | -(u, v)] d / (z + d_z):
   // the 2x3 matrix's largest singular value is sqrt(1 + u^2 + v^2) (M M^T = I + (u, v)(u, v)^T),
@@ -90,11 +90,22 @@ bool GridProjection::DiscOf(const Eigen::Vector3f& x, float radius_mm, Disc* d) 
   // R (1 + |(u, v)|) made the discs at a frame's corners ~1.6 times the area). sigma (+ 5 % for
   // its change across the disc) bounds the distance of q's projection, the fit error that of q's
   // slot from its projection.
-  const float duv = radius_mm * std::sqrt(1 + u * u + v * v) / (x.z() - radius_mm);
-  d->col = col_poly_.dot(m);
-  d->row = row_poly_.dot(m);
-  d->radius_px = 1.05f * sigma * duv + static_cast<float>(fit_error_px_);
-  return std::isfinite(d->col) && std::isfinite(d->row) && std::isfinite(d->radius_px);
+  b->col = col_poly_.dot(m);
+  b->row = row_poly_.dot(m);
+  b->scale = 1.05f * sigma;
+  b->norm = std::sqrt(1 + u * u + v * v);
+  b->z = x.z();
+  b->fit_error_px = static_cast<float>(fit_error_px_);
+  return std::isfinite(b->col) && std::isfinite(b->row) && std::isfinite(b->scale);
+}
+
+bool GridProjection::DiscOf(const Eigen::Vector3f& x, float radius_mm, Disc* d) const {
+  Bound b;
+  if (!(x.z() > radius_mm) || !BoundAt(x, &b)) return false;
+  d->col = b.col;
+  d->row = b.row;
+  d->radius_px = b.RadiusPx(radius_mm);
+  return std::isfinite(d->radius_px);
 }
 
 }  // namespace fringe

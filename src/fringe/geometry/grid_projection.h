@@ -53,6 +53,18 @@ class GridProjection {
   // or the result is not finite.
   bool DiscOf(const Eigen::Vector3f& p_in_sensor, float radius_mm, Disc* disc) const;
 
+  // DiscOf's bound at p for every radius at once (a search whose radius shrinks as it finds
+  // points, e.g. the k nearest): the disc of radius R (0 <= R < z) is centred on (col, row) with
+  // radius RadiusPx(R), the same value DiscOf gives.
+  struct Bound {
+    float col = 0, row = 0, scale = 0, norm = 0, z = 0, fit_error_px = 0;
+    float RadiusPx(float radius_mm) const {
+      return scale * (radius_mm * norm / (z - radius_mm)) + fit_error_px;
+    }
+  };
+  // False when not fitted, p is not in front of the sensor (z <= 0) or the result is not finite.
+  bool BoundAt(const Eigen::Vector3f& p_in_sensor, Bound* bound) const;
+
  private:
   int width_ = 0, height_ = 0;
   Coefficients col_poly_ = Coefficients::Zero(), row_poly_ = Coefficients::Zero();

@@ -67,12 +67,22 @@ MeshResult Fail(MeshResult r, MeshStatus status, std::string message) {
   return r;
 }
 
-// Open3D's screened Poisson with the finest cell `width_mm` (its cube: 2^depth cells around the
-// bounding box's centre).
+// Open3D's screened Poisson: with width_mm > 0 the finest cell is width_mm (the cube: 2^depth
+// such cells around the bounding box's centre, `depth` ignored), else the cube is scale * the
+// box's largest side and `depth` its levels. threads 0: all.
 std::tuple<std::shared_ptr<open3d::geometry::TriangleMesh>, std::vector<double>> Poisson(
-    const open3d::geometry::PointCloud& pcd, double width_mm, float scale, int threads) {
+    const open3d::geometry::PointCloud& pcd, int depth, double width_mm, float scale, int threads) {
   return open3d::geometry::TriangleMesh::CreateFromPointCloudPoisson(
-      pcd, 0, static_cast<float>(width_mm), scale, false, threads == 0 ? -1 : threads);
+      pcd, static_cast<size_t>(depth), static_cast<float>(width_mm), scale, false,
+      threads == 0 ? -1 : threads);
+}
+
+// PoissonRecon's depth for a cube of `cells` finest cells along the largest side (its
+// GetBoundingBoxXForm with `width`): the smallest with 2^depth >= cells.
+int DepthForCells(double cells) {
+  int depth = 0;
+  while (depth < 30 && std::ldexp(1.0, depth) < cells) ++depth;
+  return depth;
 }
 
 // Two pieces of one Poisson problem, solved concurrently (Open3D's Poisson is deterministic on
@@ -125,15 +135,15 @@ int64_t CloseSeamCracks(const std::vector<uint8_t>& near, open3d::geometry::Tria
         (i > 0 && edges[i - 1] == edges[i]) || (i + 1 < edges.size() && edges[i + 1] == edges[i]);
     if (!twice && !has(b, a)) next[a].push_back(b);
   }
-  std::map<int, bool> used;
+  std::vector<uint8_t> used(m->vertices_.size(), 0);
   int64_t closed = 0;
   for (const auto& [start, outs] : next) {
-    if (used[start] || outs.size() != 1) continue;
+    if (used[static_cast<size_t>(start)] || outs.size() != 1) continue;
     std::vector<int> loop = {start};
     bool ok = false;
     while (loop.size() <= kMaxLoop) {
       const auto it = next.find(loop.back());
-      if (it == next.end() || it->second.size() != 1 || used[it->first]) break;
+      if (it == next.end() || it->second.size() != 1 || used[static_cast<size_t>(it->first)]) break;
       const int b = it->second[0];
       if (b == start) {
         ok = loop.size() >= 3;
@@ -150,7 +160,7 @@ int64_t CloseSeamCracks(const std::vector<uint8_t>& near, open3d::geometry::Tria
       fresh = !has(loop[0], loop[k]) && !has(loop[k], loop[0]);
     }
     if (!fresh) continue;
-    for (int v : loop) used[v] = true;
+    for (int v : loop) used[static_cast<size_t>(v)] = 1;
     for (size_t k = loop.size() - 1; k >= 2; --k) {
       m->triangles_.emplace_back(loop[0], loop[k], loop[k - 1]);
     }
@@ -169,9 +179,7 @@ PiecewisePoisson TwoPiecePoisson(const open3d::geometry::PointCloud& pcd, double
   const Eigen::Vector3d lo = lo0.array() - delta, hi = hi0.array() + delta;
   // PoissonRecon's cube for `width` (GetBoundingBoxXForm): 2^depth cells, the smallest depth
   // with 2^depth >= scale * largest side / width, centred on the box.
-  const double cells = scale * (hi - lo).maxCoeff() / width_mm;
-  int depth = 0;
-  while (depth < 30 && std::ldexp(1.0, depth) < cells) ++depth;
+  const int depth = DepthForCells(scale * (hi - lo).maxCoeff() / width_mm);
   const double side = std::ldexp(width_mm, depth);
   const Eigen::Vector3d cube_min = 0.5 * (lo + hi).array() - 0.5 * side;
   // The plane: the grid plane at an odd cell index (not a face of the next coarser level's
@@ -204,8 +212,8 @@ PiecewisePoisson TwoPiecePoisson(const open3d::geometry::PointCloud& pcd, double
     }
   }
   std::tuple<std::shared_ptr<open3d::geometry::TriangleMesh>, std::vector<double>> solved[2];
-  tbb::parallel_invoke([&] { solved[0] = Poisson(pieces[0], width_mm, scale, threads); },
-                       [&] { solved[1] = Poisson(pieces[1], width_mm, scale, threads); });
+  tbb::parallel_invoke([&] { solved[0] = Poisson(pieces[0], 0, width_mm, scale, threads); },
+                       [&] { solved[1] = Poisson(pieces[1], 0, width_mm, scale, threads); });
 
   // Join: piece 0 keeps the triangles up to the plane, piece 1 those beyond (a triangle lies in
   // one cell; one flat on the plane goes to piece 0). Piece 1's vertices on the plane take
@@ -434,11 +442,7 @@ MeshResult MeshPoisson(const PointCloud& cloud, const MeshOptions& options) {
   double width_mm = 0;
   if (s.poisson_depth == 0) {
     const double cell_mm = std::max(options.cell_spacings * s.spacing_mm, options.resolution_mm);
-    // Open3D's own depth for `width` (PoissonRecon's GetBoundingBoxXForm): the smallest with
-    // 2^depth >= kScale * extent / width.
-    const double cells = cube_mm / std::max(cell_mm, 1e-9);
-    int depth = 0;
-    while (depth < 30 && std::ldexp(1.0, depth) < cells) ++depth;
+    const int depth = DepthForCells(cube_mm / std::max(cell_mm, 1e-9));
     if (depth < 5 || depth > options.max_auto_depth) {
       s.poisson_depth = std::clamp(depth, 5, options.max_auto_depth);
     } else {
@@ -480,9 +484,8 @@ MeshResult MeshPoisson(const PointCloud& cloud, const MeshOptions& options) {
     }
   }
   if (one_piece && options.library == MeshLibrary::kOpen3d) {
-    std::tie(mesh, densities) = open3d::geometry::TriangleMesh::CreateFromPointCloudPoisson(
-        pcd, static_cast<size_t>(s.poisson_depth), static_cast<float>(width_mm),
-        static_cast<float>(kScale), false, options.threads == 0 ? -1 : options.threads);
+    std::tie(mesh, densities) =
+        Poisson(pcd, s.poisson_depth, width_mm, static_cast<float>(kScale), options.threads);
   } else if (one_piece) {
     internal::IndexedMesh m;
     mesh = std::make_shared<open3d::geometry::TriangleMesh>();

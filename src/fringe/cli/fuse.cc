@@ -72,7 +72,7 @@ void AddFuseCommand(CLI::App& app) {
   sub->add_option("--mesh-resolution", a->meshing.resolution_mm,
                   "Wanted mesh resolution, mm: the automatic depth's finest cell is this, or 2 "
                   "point spacings if coarser (0: as fine as the points allow)")
-      ->check(CLI::NonNegativeNumber)
+      ->check(CLI::Range(0.0, 10000.0))
       ->capture_default_str();
   sub->add_option("--poisson-pieces", a->meshing.poisson_pieces,
                   "Poisson in two pieces side by side, joined on a grid plane: 0 automatic "

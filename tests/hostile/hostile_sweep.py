@@ -287,6 +287,31 @@ def build_cases(s):
            ["000.ply", "001.ply"], names=["000.ply"],
            prepare=chain(s.copy("000.ply", "000.ply"), s.copy("001.ply", "001.ply"),
                          s.copy("scan/truth/poses.json", "poses.json")))
+    # An earlier scan's output folder (fringe wrote it: it holds the marker, so it may be
+    # replaced) given as --out while its own view clouds or poses are the inputs (issue 30).
+    earlier_output = chain(write("o/.fringe-output", "written by fringe\n"),
+                           s.copy("000.ply", "o/views/000.ply"), s.copy("001.ply", "o/views/001.ply"),
+                           s.copy("scan/truth/poses.json", "o/poses.json"))
+    s.case("1 data loss", "register --out an earlier output folder holding its clouds",
+           ["register", "o/views/000.ply", "o/views/001.ply", "--out", "o"], ["o"], names=["o"],
+           prepare=earlier_output)
+    s.case("1 data loss", "register --out the folder of its --initial poses",
+           ["register", "000.ply", "001.ply", "--initial", "o/poses.json", "--out", "o"], ["o"],
+           names=["o"], prepare=chain(earlier_output, s.copy("000.ply", "000.ply"),
+                                      s.copy("001.ply", "001.ply")))
+    s.case("1 data loss", "scan --out a new folder inside its project",
+           ["scan", "proj", "--calib", "proj/truth/rig.json", "--out", "proj/views/002"], ["proj"],
+           names=["proj"], prepare=s.copy("scan", "proj"))
+    s.case("1 data loss", "fuse --out into the registration folder it reads",
+           ["fuse", "r", "--out", "r/fused.ply"], ["r"], names=["r"],
+           prepare=chain(s.copy("000.ply", "r/registered/000.ply"),
+                         s.copy("001.ply", "r/registered/001.ply"),
+                         s.copy("scan/truth/poses.json", "r/poses.json")))
+    s.case("1 data loss", "fuse --mesh the poses file",
+           ["fuse", "000.ply", "001.ply", "--poses", "poses.json", "--out", "{out}/f.ply",
+            "--mesh", "poses.json"], ["000.ply", "001.ply", "poses.json"], names=["poses.json"],
+           prepare=chain(s.copy("000.ply", "000.ply"), s.copy("001.ply", "001.ply"),
+                         s.copy("scan/truth/poses.json", "poses.json")))
     s.case("1 data loss", "calibrate --out the target",
            ["calibrate", "board/calibration", "--target", "board/calibration/target.json", "--out",
             "board/calibration/target.json"], ["board"], names=["target.json"],
@@ -583,6 +608,17 @@ def build_cases(s):
     cp_view = ["reconstruct", "proj/views/000", "--calib", "rig.json", "--out", "{out}/r.ply"]
     cp_calib = ["calibrate", "proj/calibration", "--target", "proj/calibration/target.json",
                 "--out", "{out}/rig.json"]
+    # The scheme's and the rig's projector sizes disagree (a rig calibrated for another
+    # projector): refused naming both, not reconstructed with wrong geometry (issue 30).
+    def double_projector(j):
+        j["cameras"]["projector"]["width"] *= 2
+        j["cameras"]["projector"]["height"] *= 2
+        return j
+    s.case("camera + projector", "reconstruct: the rig's projector is another size than the scheme's",
+           ["reconstruct", "proj/views/000", "--mode", "camera-projector", "--calib", "rig.json",
+            "--out", "{out}/r.ply"], ["proj", "rig.json"], names=["rig.json"],
+           prepare=chain(s.copy("cp", "proj"), s.copy("cp/truth/rig.json", "rig.json"),
+                         edit_json("rig.json", double_projector)))
     for label, val, ok in (("0", 0, False), ("3", 3, False), ("-1", -1, False),
                            ("4294967297", 4294967297, False), ("1.5", 1.5, False),
                            ("a string", "1", False), ("null", None, False), ("2", 2, False)):

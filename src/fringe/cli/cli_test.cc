@@ -65,6 +65,26 @@ TEST(Cli, InfoOnPlyAndTruncatedPly) {
   EXPECT_EQ(std::count(err.begin(), err.end(), '\n'), 1) << "one-line error: " << err;
 }
 
+// A body of garbage or NaN is said to be one (issue 30), not described with NaN bounds: a few NaN
+// vertices (how PCL keeps invalid pixels) are counted apart, a file of nothing else is refused.
+TEST(Cli, InfoSaysWhenAPlyBodyIsNotPoints) {
+  test::TempDir dir;
+  const std::string header =
+      "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+      "property float z\nend_header\n";
+  std::ofstream(dir / "some.ply") << header << "nan nan nan\n1 2 3\ninf 0 0\n";
+  std::ofstream(dir / "none.ply") << header << "nan nan nan\n1e30 2 3\n-inf 0 0\n";
+  std::string out, err;
+  EXPECT_EQ(RunCli({"info", (dir / "some.ply").string()}, &out), 0);
+  EXPECT_NE(out.find("damaged: 2 vertices NaN or infinite"), std::string::npos) << out;
+  EXPECT_NE(out.find("bounds: [1.000 2.000 3.000] .. [1.000 2.000 3.000]"), std::string::npos)
+      << out;
+  EXPECT_EQ(out.find("nan"), std::string::npos) << out;
+  EXPECT_EQ(RunCli({"info", (dir / "none.ply").string()}, &out, &err), 1);
+  EXPECT_NE(err.find("none.ply: none of its 3 vertices is a usable point"), std::string::npos)
+      << err;
+}
+
 // A small scan: quarter-size rig, 2 views of the sphere (truth maps when `truth_maps`).
 void SimulateSmallSphereScan(const std::filesystem::path& scan_dir, bool truth_maps) {
   sim::ScanOptions o;

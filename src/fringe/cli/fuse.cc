@@ -28,11 +28,6 @@ std::map<std::string, Rigid3d> ReadPoses(const fs::path& path) {
   return poses;
 }
 
-bool SameFile(const fs::path& a, const fs::path& b) {
-  std::error_code ec;
-  return fs::weakly_canonical(a, ec) == fs::weakly_canonical(b, ec);
-}
-
 }  // namespace
 
 void AddFuseCommand(CLI::App& app) {
@@ -87,6 +82,17 @@ void AddFuseCommand(CLI::App& app) {
   sub->callback([a] {
     a->fusion.Check();
     a->meshing.Check();
+    // The output rule before any work: no output is, contains or lies inside an input (the
+    // clouds, a registration folder, the poses).
+    {
+      std::vector<fs::path> inputs(a->inputs.begin(), a->inputs.end());
+      if (!a->poses.empty()) inputs.push_back(a->poses);
+      util::CheckOutputFile(a->out, inputs);
+      if (!a->mesh.empty()) {
+        util::CheckOutputFile(a->mesh, inputs);
+        util::CheckDistinctOutputs({a->out, a->mesh});
+      }
+    }
     std::vector<fusion::FusionView> views;
     std::vector<fs::path> read;
     if (a->inputs.size() == 1 && fs::is_directory(a->inputs[0])) {
@@ -133,14 +139,10 @@ void AddFuseCommand(CLI::App& app) {
         read.push_back(cloud);
       }
     }
-    for (const auto& p : read) {
-      if (SameFile(p, a->out) || (!a->mesh.empty() && SameFile(p, a->mesh))) {
-        throw Error(util::StrCat("fuse: output would overwrite the input ", p.string()));
-      }
-    }
-    if (!a->mesh.empty() && SameFile(a->out, a->mesh)) {
-      throw Error("fuse: --out and --mesh name the same file");
-    }
+    // The clouds a registration folder names were read too (through links, they may lie
+    // elsewhere).
+    util::CheckOutputFile(a->out, read);
+    if (!a->mesh.empty()) util::CheckOutputFile(a->mesh, read);
 
     const fusion::FusionResult fused = fusion::FuseViews(views, a->fusion);
     nlohmann::json summary = {{"fusion", fusion::SummaryToJson(fused.summary)}};
@@ -162,11 +164,18 @@ void AddFuseCommand(CLI::App& app) {
                                  mesh.summary.message));
       }
     }
-    io::WritePly(a->out, fused.fused,
-                 a->ascii ? io::PlyFormat::kAscii : io::PlyFormat::kBinaryLittleEndian,
-                 {"fringe fuse: world frame (the first view's sensor frame after fringe register), "
-                  "mm; intensity = texture (also as grey colour), quality = weighted modulation"});
-    if (!a->mesh.empty()) fusion::WriteMeshFile(a->mesh, mesh);
+    // Both outputs or neither: a failed mesh write leaves no fused cloud either.
+    util::OutputTransaction outputs;
+    outputs.Write(a->out, [&](const fs::path& tmp) {
+      io::WritePly(
+          tmp, fused.fused, a->ascii ? io::PlyFormat::kAscii : io::PlyFormat::kBinaryLittleEndian,
+          {"fringe fuse: world frame (the first view's sensor frame after fringe register), "
+           "mm; intensity = texture (also as grey colour), quality = weighted modulation"});
+    });
+    if (!a->mesh.empty()) {
+      outputs.Write(a->mesh, [&](const fs::path& tmp) { fusion::WriteMeshFile(tmp, mesh); });
+    }
+    outputs.Commit();
     if (a->json) {
       std::cout << summary.dump(2) << "\n";
     } else {

@@ -287,6 +287,23 @@ void AddReconstructCommand(CLI::App& app) {
                                                  : ":",
                                " the rig has no calibrated projector for ", a->mode, " mode"));
     }
+    // The scheme and the rig both describe the projector: a scheme made for another projector
+    // decodes to columns of that one, and the points come out wrong, not missing.
+    if ((camera_projector || trinocular) && rig.projector) {
+      for (size_t k = 0; k < schemes.size(); ++k) {
+        const phase::PatternScheme& s = schemes[k];
+        if (s.projector_width != rig.projector->width ||
+            s.projector_height != rig.projector->height) {
+          throw Error(util::StrCat("reconstruct: ", k == 0 ? scheme_arg : left_dirs[k].string(),
+                                   ": the scheme '", s.name, "' is for a ", s.projector_width,
+                                   " x ", s.projector_height, " projector, but ", rig_name,
+                                   " calibrates a ", rig.projector->width, " x ",
+                                   rig.projector->height,
+                                   " projector; give the scheme the patterns were made with "
+                                   "and the rig of that projector"));
+        }
+      }
+    }
     if (!camera_projector && two_directions) {
       throw Error(util::StrCat("reconstruct: ", left_dir.string(),
                                ": vertical/ and horizontal/ stacks are read in camera-projector "

@@ -10,6 +10,7 @@
 #include "fringe/cli/cli.h"
 #include "fringe/io/calibration_io.h"
 #include "fringe/io/ply.h"
+#include "fringe/registration/markers.h"
 #include "fringe/registration/register_views.h"
 #include "fringe/registration/registration_io.h"
 #include "fringe/scan/truth.h"
@@ -56,31 +57,44 @@ void AddRegisterCommand(CLI::App& app) {
     std::vector<registration::RegistrationView> views;
     std::set<std::string> names;
     std::vector<fs::path> inputs;
-    for (const std::string& c : a->clouds) {
-      const fs::path p = fs::absolute(c).lexically_normal();
-      inputs.push_back(p);
-      if (p.parent_path() == out_dir) {
-        throw Error(util::StrCat("register: ", c, " lies in the output folder ", a->out,
-                                 ", which is replaced; choose another --out"));
-      }
+    for (const std::string& c : a->clouds) inputs.push_back(fs::absolute(c).lexically_normal());
+    // The output rule before any work: the folder is replaced at the end, so it must not hold a
+    // cloud, its markers file or the initial poses (an earlier scan's output folder does).
+    util::OutputFolderOptions output;
+    output.inputs = inputs;
+    for (const fs::path& p : inputs) {
+      output.inputs.push_back(registration::MarkersPathForCloud(p));
+    }
+    if (!a->initial.empty()) output.inputs.push_back(a->initial);
+    util::CheckOutputFolder(out_dir, output);
+    for (size_t i = 0; i < inputs.size(); ++i) {
       std::string note;
       registration::RegistrationView v =
-          registration::ReadRegistrationView(p, scale, !a->no_markers, &note);
+          registration::ReadRegistrationView(inputs[i], scale, !a->no_markers, &note);
       if (!names.insert(v.name).second) {
         throw Error(util::StrCat("register: two inputs are named '", v.name,
                                  "' (view names are file stems and must be unique)"));
       }
-      if (!note.empty() && !a->json) std::cout << c << ": " << note << "\n";
+      if (!note.empty() && !a->json) std::cout << a->clouds[i] << ": " << note << "\n";
       views.push_back(std::move(v));
     }
     if (!a->initial.empty()) {
       const scan::TruthPoses poses = scan::ReadTruthPoses(a->initial);
+      size_t found = 0;
       for (auto& v : views) {
         if (const scan::ViewPose* p = poses.Find(v.name)) {
           Rigid3d t = p->world_from_sensor;
           if (scale != 1) t = Rigid3d(t.rotation(), t.translation() * scale);
           v.initial_world_from_sensor = t;
+          ++found;
         }
+      }
+      // Initial poses for some views only are a valid start; for none, the file belongs to
+      // other clouds (view names are the clouds' file stems).
+      if (found == 0) {
+        throw Error(util::StrCat("register: ", a->initial, " has a pose for none of the ",
+                                 views.size(), " clouds (views are named by file stem, e.g. '",
+                                 views.front().name, "' for ", a->clouds.front(), ")"));
       }
     }
     registration::RegistrationOptions options;
@@ -98,7 +112,7 @@ void AddRegisterCommand(CLI::App& app) {
       placed_names.push_back(v.name);
       placed_poses.push_back(v.world_from_sensor);
     }
-    util::WriteFolderAtomically(out_dir, [&](const fs::path& tmp) {
+    util::WriteFolderAtomically(out_dir, output, [&](const fs::path& tmp) {
       registration::WritePoses(tmp / "poses.json", placed_names, placed_poses);
       registration::WriteMarkerMap(tmp / "markers.json", r, views);
       io::WriteJson(tmp / "summary.json", registration::SummaryToJson(r));

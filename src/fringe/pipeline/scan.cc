@@ -98,6 +98,38 @@ void RequireProjector(const scan::ScanFolder& folder, const Calibration& c) {
                      "calibration folder, docs/scan-folder.md)"));
 }
 
+// The rig and the scan folder both describe the sensor: each camera's image size must be the
+// manifest's, and a camera + projector scan's schemes must be for the rig's projector (a scheme
+// for another projector decodes to columns of that one: every point wrong, none missing).
+// Checked before any view is read; the error names both files.
+void CheckRigFitsScan(const scan::ScanFolder& folder,
+                      const std::vector<phase::PatternScheme>& schemes, const Calibration& c) {
+  const scan::ScanManifest& m = folder.manifest();
+  const std::string manifest = folder.layout().Manifest().string();
+  auto camera = [&](const CameraModel& cam, const char* name) {
+    if (cam.width != m.image_width || cam.height != m.image_height) {
+      throw Error(StrCat("scan: ", c.source, ": the ", name, " camera is calibrated at ", cam.width,
+                         " x ", cam.height, " px, but ", manifest, " says the images are ",
+                         m.image_width, " x ", m.image_height));
+    }
+  };
+  camera(c.rig.left, "left");
+  if (folder.stereo()) camera(c.rig.right, "right");
+  if (folder.stereo() || !c.rig.projector) return;
+  for (size_t k = 0; k < schemes.size(); ++k) {
+    const phase::PatternScheme& s = schemes[k];
+    if (s.projector_width != c.rig.projector->width ||
+        s.projector_height != c.rig.projector->height) {
+      throw Error(
+          StrCat("scan: ",
+                 (k == 0 ? folder.layout().Scheme() : folder.layout().HorizontalScheme()).string(),
+                 ": the scheme '", s.name, "' is for a ", s.projector_width, " x ",
+                 s.projector_height, " projector, but ", c.source, " calibrates a ",
+                 c.rig.projector->width, " x ", c.rig.projector->height, " projector"));
+    }
+  }
+}
+
 // The rig: options first, then PROJECT/rig.json, then PROJECT/calibration/ board images (a
 // stereo calibration, or for one camera a camera + projector calibration of board pose folders).
 Calibration ResolveCalibration(const scan::ScanFolder& folder, const phase::PatternScheme& scheme,
@@ -1257,6 +1289,7 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
     // The image size from the manifest (every stack is checked against it when read).
     const Calibration cal = ResolveCalibration(
         folder, scheme, options, folder.manifest().image_width, folder.manifest().image_height);
+    CheckRigFitsScan(folder, schemes, cal);
     s.stereo = folder.stereo();
     s.calibration_source = cal.source;
     if (cal.folder) {

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <iomanip>
+#include <limits>
 #include <map>
 #include <sstream>
 
@@ -34,9 +35,34 @@ std::string DescribePly(const fs::path& path) {
      << (d.cloud.has_colors() ? ", colours" : "") << (d.cloud.has_intensity() ? ", intensity" : "")
      << (d.cloud.has_quality() ? ", quality" : "") << "\n";
   if (!d.triangles.empty()) os << "  triangles: " << d.triangles.size() << "\n";
-  if (!d.cloud.empty()) {
-    Eigen::Vector3d lo, hi;
-    d.cloud.Bounds(&lo, &hi);
+  // A body of garbage reads as numbers too: say what is not a coordinate instead of printing
+  // bounds of NaN or 1e38. NaN vertices are also how other tools (PCL) keep an organized
+  // cloud's invalid pixels, so a few are reported, not refused; a cloud of nothing else is.
+  constexpr double kAbsurdMm = 1e9;  // a thousand kilometres: no measurement, in mm or m
+  size_t non_finite = 0, absurd = 0;
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+  Eigen::Vector3d hi = -lo;
+  for (const Eigen::Vector3d& p : d.cloud.points) {
+    if (!p.allFinite()) {
+      ++non_finite;
+    } else if (p.cwiseAbs().maxCoeff() > kAbsurdMm) {
+      ++absurd;
+    } else {
+      lo = lo.cwiseMin(p);
+      hi = hi.cwiseMax(p);
+    }
+  }
+  const size_t bad = non_finite + absurd;
+  if (!d.cloud.empty() && bad == d.cloud.size()) {
+    throw Error(StrCat(path.string(), ": none of its ", d.cloud.size(),
+                       " vertices is a usable point (", non_finite, " NaN or infinite, ", absurd,
+                       " beyond 1e9 in magnitude): the body is damaged or is not point data"));
+  }
+  if (bad > 0) {
+    os << "  damaged: " << non_finite << " vertices NaN or infinite, " << absurd
+       << " beyond 1e9 in magnitude (not counted in the bounds)\n";
+  }
+  if (bad < d.cloud.size()) {
     os << std::fixed << std::setprecision(3) << "  bounds: [" << lo.transpose() << "] .. ["
        << hi.transpose() << "], size " << (hi - lo).transpose() << "\n";
   }

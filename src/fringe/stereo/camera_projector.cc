@@ -137,6 +137,20 @@ TriangulatedPoint TriangulateCameraProjector(const CameraProjectorRig& rig,
 namespace {
 
 // Camera ray against the projector, per valid pixel (of every stack); see the header.
+// The scheme's absolute phase is a projector coordinate only for the projector it was made for:
+// a scheme for a 1280 x 800 projector decoded against a projector calibrated at 640 x 400 gives
+// points, all wrong. Both sizes are compared (the images are the projector's size).
+void CheckSchemeFitsProjector(const phase::PatternScheme& scheme, const CameraModel& projector) {
+  if (scheme.projector_width != projector.width || scheme.projector_height != projector.height) {
+    throw Error(util::StrCat("camera-projector: the pattern scheme '", scheme.name, "' is for a ",
+                             scheme.projector_width, " x ", scheme.projector_height,
+                             " projector, but the rig's projector is calibrated at ",
+                             projector.width, " x ", projector.height,
+                             " px; use the scheme the patterns were made with and the rig of "
+                             "that projector"));
+  }
+}
+
 class CameraProjectorCorrespondence : public Correspondence {
  public:
   CameraProjectorCorrespondence(const CameraProjectorRig& rig, const MatchingOptions& options)
@@ -167,6 +181,7 @@ class CameraProjectorCorrespondence : public Correspondence {
                                phase::DirectionName(schemes[0].direction),
                                "); two schemes must be one vertical and one horizontal"));
     }
+    for (const phase::PatternScheme& s : schemes) CheckSchemeFitsProjector(s, rig_.projector);
   }
   void Correspond(const std::vector<phase::PatternScheme>& schemes, const DecodedView& view,
                   ViewReconstruction* out) const override;
@@ -296,6 +311,8 @@ class TrinocularCorrespondence : public Correspondence {
   const CameraModel* Right() const override { return &rig_.right; }
   void CheckSchemes(const std::vector<phase::PatternScheme>& schemes) const override {
     stereo_->CheckSchemes(schemes);
+    // The projector fills pixels from its columns: the scheme must be for this projector.
+    for (const phase::PatternScheme& s : schemes) CheckSchemeFitsProjector(s, *rig_.projector);
   }
   void Correspond(const std::vector<phase::PatternScheme>& schemes, const DecodedView& view,
                   ViewReconstruction* out) const override {

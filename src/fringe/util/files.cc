@@ -235,14 +235,15 @@ void CheckNotAnInput(const fs::path& output, const std::vector<fs::path>& inputs
                            "; replacing the folder would delete it (choose another output "
                            "folder)"));
       }
-      // A file that already exists inside an input folder (a view's image, a scan's
-      // calibration), also through a link, may be read by this command: never replace it. New
-      // files there are fine.
-      if (!output_is_folder && fs::exists(output, ec) && IsWithin(out, place)) {
-        throw Error(StrCat(output.string(), ": exists inside the input folder ", input.string(),
+      // Nothing is written inside an input folder, also through a link: a file there (a view's
+      // image, a scan's calibration) may be read by this command, and a new file or folder
+      // changes what the folder holds (a scan folder with an extra view folder no longer matches
+      // its scan.json; a registration folder with an extra cloud fuses it next time).
+      if (IsWithin(out, place)) {
+        throw Error(StrCat(output.string(), ": lies inside the input folder ", input.string(),
                            place == in ? "" : StrCat(" (linked from it: ", place.string(), ")"),
-                           "; an output never replaces a file of its inputs (choose another "
-                           "name)"));
+                           "; an output is never written into an input (choose a place outside "
+                           "it)"));
       }
     }
     if (output_is_folder && places.empty() && IsWithin(in, out)) {
@@ -295,6 +296,44 @@ void NamingTheOutput(const fs::path& tmp, const fs::path& path, const std::funct
   }
 }
 
+// Crash consistency: the bytes of an output reach the disk before its name does. Without this a
+// power cut after the rename can leave a "complete" output holding empty or torn files (the
+// rename's metadata is journaled before the data is written back). fsync(2) on a file opened
+// read-only flushes its data; on a folder, its entries (the rename). An error is reported as a
+// write error of `shown` (the user's name, not the temporary's).
+void SyncPath(const fs::path& path, const fs::path& shown) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) throw Error(StrCat(shown.string(), ": cannot write: ", std::strerror(errno)));
+  // EINVAL/EROFS: the file system does not support syncing (a pseudo or read-only one): nothing
+  // to make durable there.
+  if (::fsync(fd) != 0 && errno != EINVAL && errno != EROFS) {
+    const int err = errno;
+    ::close(fd);
+    throw Error(StrCat(shown.string(), ": cannot write: ", std::strerror(err)));
+  }
+  ::close(fd);
+}
+
+// Every file and folder below `root` (a finished temporary output folder), then `root` itself.
+void SyncTree(const fs::path& root, const fs::path& shown) {
+  std::error_code ec;
+  for (fs::recursive_directory_iterator it(root, ec), end; !ec && it != end; it.increment(ec)) {
+    std::error_code sec;
+    const fs::file_status st = it->symlink_status(sec);
+    if (fs::is_regular_file(st) || fs::is_directory(st)) {
+      SyncPath(it->path(), shown / it->path().lexically_relative(root));
+    }
+  }
+  if (ec) throw Error(StrCat(shown.string(), ": cannot write: ", ec.message()));
+  SyncPath(root, shown);
+}
+
+// The folder holding `path`, after a rename into it.
+void SyncParent(const fs::path& path) {
+  const fs::path parent = fs::absolute(path).parent_path();
+  SyncPath(parent.empty() ? fs::path(".") : parent, path);
+}
+
 }  // namespace
 
 void CloseOutput(std::ofstream& out, const fs::path& path) {
@@ -323,9 +362,11 @@ void WriteAtomically(const fs::path& path, const std::function<void(const fs::pa
   try {
     NamingTheOutput(tmp, path, [&] {
       write(tmp);
+      SyncPath(tmp, path);
       std::error_code ec;
       fs::rename(tmp, path, ec);
       if (ec) throw Error(StrCat(path.string(), ": cannot write: ", ec.message()));
+      SyncParent(path);
     });
   } catch (...) {
     std::error_code ignored;
@@ -349,6 +390,7 @@ void WriteFolderAtomically(const fs::path& dir, const OutputFolderOptions& optio
         CloseOutput(marker, dir / kOutputMarkerName);
       }
       write(tmp);
+      SyncTree(tmp, dir);
       std::error_code ec;
       if (fs::exists(fs::symlink_status(dir))) {
         // Keep the old folder until the new one is in place.
@@ -361,10 +403,12 @@ void WriteFolderAtomically(const fs::path& dir, const OutputFolderOptions& optio
           fs::rename(old, dir);
           throw Error(StrCat(dir.string(), ": cannot write: ", ec.message()));
         }
+        SyncParent(dir);
         fs::remove_all(old, ec);
       } else {
         fs::rename(tmp, dir, ec);
         if (ec) throw Error(StrCat(dir.string(), ": cannot write: ", ec.message()));
+        SyncParent(dir);
       }
     });
   } catch (...) {
@@ -407,12 +451,18 @@ void OutputTransaction::Commit() {
   for (const Entry& e : entries_) {
     std::error_code ec;
     if (!fs::exists(e.tmp, ec)) throw Error(StrCat(e.path.string(), ": was not written"));
+    if (fs::is_directory(e.tmp, ec)) {
+      SyncTree(e.tmp, e.path);
+    } else {
+      SyncPath(e.tmp, e.path);
+    }
   }
   for (const Entry& e : entries_) {
     std::error_code ec;
     fs::rename(e.tmp, e.path, ec);
     if (ec) throw Error(StrCat(e.path.string(), ": cannot write: ", ec.message()));
   }
+  for (const Entry& e : entries_) SyncParent(e.path);
   entries_.clear();
 }
 

@@ -88,11 +88,13 @@ class OutputTransaction {
   std::vector<Entry> entries_;
 };
 
-// Early checks for a command's outputs, to run before any computation (docs/formats.md):
-// CheckOutputFile: the parent folder exists and is writable, `path` is not a folder and is not
-// one of `inputs` (same file, also through links). CheckOutputFolder: the parent exists and is
-// writable, `dir` is not an input and contains no input, and an existing `dir` is empty, holds
-// kOutputMarkerName or matches options.legacy_layout. Both throw fringe::Error naming the path.
+// Early checks for a command's outputs, to run before any computation (docs/formats.md). The one
+// output rule of every command: an output is not, does not contain, and does not lie inside any
+// of the command's inputs (files and folders, also through links).
+// CheckOutputFile: the parent folder exists and is writable, `path` is not a folder, and the rule
+// holds for `inputs`. CheckOutputFolder: the parent exists and is writable, the rule holds for
+// options.inputs, and an existing `dir` is empty, holds kOutputMarkerName or matches
+// options.legacy_layout. Both throw fringe::Error naming the path.
 void CheckOutputFile(const fs::path& path, const std::vector<fs::path>& inputs = {});
 void CheckOutputFolder(const fs::path& dir, const OutputFolderOptions& options = {});
 // Several output files of one command must be distinct (two flags naming one file would make

@@ -138,7 +138,8 @@ TEST(OutputTransaction, FullDiskNamesTheUsersFileNotTheTemporary) {
 
 // An input folder whose parts are links (a view's left/ linking to the capture's own folder, an
 // image linking to a file elsewhere, a link loop): an output that resolves into them is refused
-// like one inside the folder itself; new files there stay allowed, and the loop ends the walk.
+// like one inside the folder itself, a new file there too (the one output rule: nothing is
+// written inside an input), and the loop ends the walk.
 TEST(CheckOutputFile, FilesReachedThroughLinksInAnInputFolderAreInputsToo) {
   test::TempDir dir;
   fs::create_directories(dir / "capture" / "L");
@@ -151,21 +152,69 @@ TEST(CheckOutputFile, FilesReachedThroughLinksInAnInputFolderAreInputsToo) {
   const std::vector<fs::path> inputs = {dir / "view"};
   const std::string through_dir =
       test::ErrorOf([&] { CheckOutputFile(dir / "view" / "left" / "0.png", inputs); });
-  EXPECT_NE(through_dir.find("exists inside the input folder"), std::string::npos) << through_dir;
+  EXPECT_NE(through_dir.find("lies inside the input folder"), std::string::npos) << through_dir;
   EXPECT_NE(through_dir.find("linked from it"), std::string::npos) << through_dir;
   const std::string direct =
       test::ErrorOf([&] { CheckOutputFile(dir / "capture" / "L" / "0.png", inputs); });
-  EXPECT_NE(direct.find("exists inside the input folder"), std::string::npos) << direct;
+  EXPECT_NE(direct.find("lies inside the input folder"), std::string::npos) << direct;
   const std::string file_link =
       test::ErrorOf([&] { CheckOutputFile(dir / "capture" / "x.png", inputs); });
-  EXPECT_NE(file_link.find("exists inside the input folder"), std::string::npos) << file_link;
+  EXPECT_NE(file_link.find("lies inside the input folder"), std::string::npos) << file_link;
   OutputFolderOptions folder;
   folder.inputs = inputs;
   const std::string holder = test::ErrorOf([&] { CheckOutputFolder(dir / "capture", folder); });
   EXPECT_NE(holder.find("contains the input"), std::string::npos) << holder;
-  EXPECT_NO_THROW(CheckOutputFile(dir / "view" / "left" / "new.ply", inputs));
+  const std::string new_file =
+      test::ErrorOf([&] { CheckOutputFile(dir / "view" / "left" / "new.ply", inputs); });
+  EXPECT_NE(new_file.find("lies inside the input folder"), std::string::npos) << new_file;
   EXPECT_NO_THROW(CheckOutputFile(dir / "out.ply", inputs));
   EXPECT_EQ(ReadTextFile(dir / "capture" / "L" / "0.png"), "image");
+}
+
+// The one output rule for folders: an output folder is not an input, holds none, and lies inside
+// none (`fringe scan P --out P/views/002` made P unreadable: an extra view folder).
+TEST(CheckOutputFolder, AFolderInsideAnInputFolderIsRefused) {
+  test::TempDir dir;
+  fs::create_directories(dir / "proj" / "views" / "000");
+  std::ofstream(dir / "proj" / "scan.json") << "{}";
+  OutputFolderOptions options;
+  options.inputs = {dir / "proj"};
+  const std::string inside =
+      test::ErrorOf([&] { CheckOutputFolder(dir / "proj" / "views" / "002", options); });
+  EXPECT_NE(inside.find("lies inside the input folder"), std::string::npos) << inside;
+  EXPECT_NE(inside.find("proj"), std::string::npos) << inside;
+  const std::string itself = test::ErrorOf([&] { CheckOutputFolder(dir / "proj", options); });
+  EXPECT_NE(itself.find("is also an input"), std::string::npos) << itself;
+  EXPECT_NO_THROW(CheckOutputFolder(dir / "out", options));
+  // A folder beside the input whose name starts like it is not inside it.
+  EXPECT_NO_THROW(CheckOutputFolder(dir / "proj2", options));
+  EXPECT_FALSE(fs::exists(dir / "proj" / "views" / "002"));
+}
+
+// Outputs reach the disk before their names (fsync before the rename): the written bytes are all
+// there after the write, for a file, a folder and a transaction, and nothing temporary is left.
+TEST(WriteAtomically, SyncedOutputsAreCompleteAndLeaveNoTemporary) {
+  test::TempDir dir;
+  const std::string big(1 << 20, 'x');
+  WriteAtomically(dir / "a.txt", [&](const fs::path& tmp) { std::ofstream(tmp) << big; });
+  EXPECT_EQ(ReadTextFile(dir / "a.txt"), big);
+  WriteFolderAtomically(dir / "f", [&](const fs::path& tmp) {
+    fs::create_directories(tmp / "sub");
+    std::ofstream(tmp / "sub" / "b.txt") << big;
+  });
+  EXPECT_EQ(ReadTextFile(dir / "f" / "sub" / "b.txt"), big);
+  OutputTransaction t;
+  t.Write(dir / "c.txt", [&](const fs::path& tmp) { std::ofstream(tmp) << "c"; });
+  t.Write(dir / "d.txt", [&](const fs::path& tmp) { std::ofstream(tmp) << "d"; });
+  t.Commit();
+  EXPECT_EQ(ReadTextFile(dir / "c.txt"), "c");
+  EXPECT_EQ(ReadTextFile(dir / "d.txt"), "d");
+  size_t entries = 0;
+  for (const auto& e : fs::directory_iterator(dir.path())) {
+    (void)e;
+    ++entries;
+  }
+  EXPECT_EQ(entries, 4u);  // a.txt, f, c.txt, d.txt
 }
 
 TEST(WriteAtomically, MissingFolderNamesThePath) {
@@ -265,7 +314,9 @@ TEST(CheckOutputFile, NeverReplacesAFileInsideAnInputFolder) {
   fs::create_directories(dir / "view" / "left");
   std::ofstream(dir / "view" / "left" / "00.png") << "image";
   EXPECT_THROW(CheckOutputFile(dir / "view" / "left" / "00.png", {dir / "view"}), Error);
-  EXPECT_NO_THROW(CheckOutputFile(dir / "view" / "cloud.ply", {dir / "view"}));
+  // A new file there too: it changes what the input folder holds (the one output rule).
+  EXPECT_THROW(CheckOutputFile(dir / "view" / "cloud.ply", {dir / "view"}), Error);
+  EXPECT_NO_THROW(CheckOutputFile(dir / "cloud.ply", {dir / "view"}));
 }
 
 TEST(CheckRelativeName, RejectsEscapesAndOddNames) {

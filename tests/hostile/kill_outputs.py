@@ -87,6 +87,7 @@ def main():
     old = tree(work / "old")
     if old == ref:
         sys.exit("setup: the earlier output must differ from the new one")
+    views = json.loads((work / "ref" / "summary.json").read_text())["views_ok"]
     print(f"{len(steps)} output checkpoints in an uninterrupted scan; {len(ref)} files out")
 
     rng = random.Random(a.seed)
@@ -100,7 +101,11 @@ def main():
         case = work / f"kill{k:04d}"
         case.mkdir()
         out = case / "out"
-        replacing = i % 2 == 1
+        replacing = (i // 2) % 2 == 1
+        # The last file of the run written (the summary), the views' checkpoints not yet
+        # removed: --resume must reuse every view there.
+        last_file = len(steps) - 2
+        resume = i % 2 == 0 or k == last_file
         if replacing:
             shutil.copytree(work / "old", out, symlinks=True)
         r = run(fringe, scan + ["--out", out], {"FRINGE_TEST_KILL_AT": str(k)})
@@ -116,12 +121,21 @@ def main():
             why.append("output is neither " + (" nor ".join(
                 "absent" if x is None else ("the new output" if x is ref else "the earlier output")
                 for x in allowed)))
-        # Rerun after the crash: the uninterrupted output, and no temporary left beside it.
-        r = run(fringe, scan + ["--out", out])
+        # Rerun after the crash (plain, or --resume reusing the views the killed run finished):
+        # the uninterrupted output, and no temporary left beside it.
+        r = run(fringe, scan + ["--out", out] + (["--resume"] if resume else []))
+        reused = None
         if r.returncode != 0:
             why.append(f"rerun failed: {r.stderr.strip()[:200]}")
-        elif tree(out) != ref:
-            why.append("rerun output differs from the uninterrupted run")
+        else:
+            if tree(out) != ref:
+                why.append("rerun output differs from the uninterrupted run")
+            reused = json.loads((out / "summary.json").read_text())["views_resumed"]
+            if not resume and reused != 0:
+                why.append(f"a plain rerun reused {reused} views")
+            # Killed while committing the folder: both views were finished and must be reused.
+            if resume and k == last_file and reused != views:
+                why.append(f"--resume after the views were done reused {reused} of {views}")
         left = [p.name for p in case.iterdir() if p.name != "out"]
         if left:
             why.append(f"left beside the output: {left}")
@@ -129,9 +143,31 @@ def main():
                                               ("earlier" if now == old else "BROKEN"))
         step = steps[k - 1].split(" ", 1)[1] if k <= len(steps) else "?"
         print(f"kill at {k:4d} ({step}; {'replacing' if replacing else 'fresh'}): output {state}"
+              f"; rerun{' --resume' if resume else ''} reused {reused} views"
               + ("" if not why else " -- FAIL: " + "; ".join(why)))
         failures += bool(why)
-    print(f"kill_outputs: {len(points) - failures} of {len(points)} kills left a consistent output")
+    # --resume never reuses a view whose inputs or options changed: killed when the summary
+    # was written (every view finished), then resumed with another option (no report: other pictures) or with one
+    # image of view 000 touched.
+    for label, extra, touch, want_reused, want in (
+            ("another option", ["--no-report"], False, 0, old),
+            ("an image of view 000 touched", [], True, views - 1, ref)):
+        case = work / f"changed-{len(extra)}"
+        case.mkdir()
+        out = case / "out"
+        run(fringe, scan + ["--out", out], {"FRINGE_TEST_KILL_AT": str(len(steps) - 2)})
+        if touch:
+            img = sorted((proj / "views" / "000").rglob("*.png"))[0]
+            st = img.stat()
+            os.utime(img, ns=(st.st_atime_ns, st.st_mtime_ns + 1_000_000_000))
+        r = run(fringe, scan + ["--out", out, "--resume"] + extra)
+        ok = r.returncode == 0
+        reused = json.loads((out / "summary.json").read_text())["views_resumed"] if ok else None
+        good = ok and reused == want_reused and tree(out) == want
+        print(f"--resume with {label}: reused {reused} views (want {want_reused})"
+              + ("" if good else f" -- FAIL{'' if ok else ': ' + r.stderr.strip()[:200]}"))
+        failures += not good
+    print(f"kill_outputs: {len(points) + 2 - failures} of {len(points) + 2} cases consistent")
     if not a.work:
         shutil.rmtree(work, ignore_errors=True)
     sys.exit(1 if failures else 0)

@@ -2,6 +2,7 @@
 #include <CLI/CLI.hpp>
 #include <iostream>
 #include <memory>
+#include <sstream>
 
 #include "fringe/cli/cli.h"
 #include "fringe/pipeline/scan.h"
@@ -70,7 +71,19 @@ void AddScanCommand(CLI::App& app) {
       "Stereo rig without a calibrated projector: do not fit the projector's columns to the "
       "scan nor drop the points off them (false matches at occlusions)");
   sub->add_flag("--json", a->json, "Print the summary as one JSON object");
-  sub->callback([a] {
+  sub->add_flag("--resume", a->options.resume,
+                "After an interrupted run of the same scan into the same --out (killed, a crash, "
+                "a power cut): reuse the views it finished, when their images, the rig and these "
+                "options are unchanged; the result is the one an uninterrupted run gives");
+  sub->callback([a, sub] {
+    // The options as given (every flag and its value, defaults included), less those that do
+    // not change the result: the key of the views' checkpoints (ScanOptions::resume_key).
+    std::istringstream config(sub->config_to_str(true, false));
+    a->options.resume_key.clear();
+    for (std::string line; std::getline(config, line);) {
+      if (line.rfind("resume", 0) == 0 || line.rfind("json", 0) == 0) continue;
+      a->options.resume_key += line + "\n";
+    }
     a->options.calib = a->calib;
     a->options.opencv_intrinsics = a->cv_intrinsics;
     a->options.opencv_extrinsics = a->cv_extrinsics;

@@ -29,6 +29,7 @@
 #include "fringe/phase/decode.h"
 #include "fringe/phase/pattern_scheme.h"
 #include "fringe/pipeline/report.h"
+#include "fringe/pipeline/view_checkpoint.h"
 #include "fringe/registration/markers.h"
 #include "fringe/registration/registration_io.h"
 #include "fringe/scan/scan_folder.h"
@@ -48,14 +49,6 @@ using util::StrCat;
 
 // Everything a reconstructed view hands to the later stages: its cloud (kept for registration
 // and fusion; the images are gone) and the small pictures of the report.
-struct ViewResult {
-  ScanViewSummary summary;
-  OrganizedPointCloud cloud;
-  std::vector<registration::ViewMarker> markers;
-  std::vector<ReportImage> pictures;
-  cv::Mat phase_left;  // kept for the projector-column check (empty when it is not run)
-};
-
 struct Calibration {
   StereoRig rig;
   std::string source;
@@ -1162,6 +1155,7 @@ std::string ScanSummary::BriefReport() const {
 json ScanSummary::FiguresJson() const {
   return {{"views", views.size()},
           {"views_ok", views_ok},
+          {"views_resumed", views_resumed},
           {"points", points},
           {"fused_points", fused_points},
           {"mesh_vertices", mesh_vertices},
@@ -1280,6 +1274,7 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
   util::OutputFolderOptions output;
   output.inputs = {project};
   if (!options.calib.empty()) output.inputs.push_back(options.calib);
+  output.resume = options.resume;
   util::CheckOutputFolder(out, output);
   util::WriteFolderAtomically(out, output, [&](const fs::path& dir) {
     fs::create_directories(dir / "views");
@@ -1319,6 +1314,14 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
                                options.fit_projector_columns &&
                                options.reconstruction.matching.max_projector_error_px > 0;
     std::vector<ViewResult> results(names.size());
+    // Each finished view is kept in dir/.resume (view_checkpoint.h) until OUT is committed; with
+    // --resume, the views an interrupted run of the same inputs and options finished are taken
+    // from there instead of being decoded again.
+    std::string rig_and_schemes = io::RigToJson(cal.rig).dump();
+    for (const phase::PatternScheme& sc : schemes)
+      rig_and_schemes += phase::SchemeToJson(sc).dump();
+    rig_and_schemes += StrCat(" check_columns ", check_columns);
+    std::atomic<int> resumed{0};
     {
       util::Progress progress("scan: reconstruct views", static_cast<int>(names.size()));
       size_t next = 0;
@@ -1333,10 +1336,40 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
                                            return next++;
                                          }) &
               tbb::make_filter<size_t, void>(tbb::filter_mode::parallel, [&](size_t i) {
-                results[i] = ProcessView(folder, names[i], schemes, cal.rig, reconstructor, options,
-                                         check_columns, dir);
+                const std::string key =
+                    ViewCheckpointKey(folder, names[i], rig_and_schemes, options.resume_key);
+                std::optional<ViewResult> kept;
+                if (options.resume) kept = ReadViewCheckpoint(dir, names[i], key);
+                if (kept) {
+                  results[i] = std::move(*kept);
+                  ++resumed;
+                  // The view's files, as ProcessView writes them.
+                  if (options.detect_markers) {
+                    registration::WriteViewMarkers(dir / "views" / (names[i] + ".markers.json"),
+                                                   results[i].markers);
+                  }
+                  if (!check_columns) WriteViewCloud(dir, &results[i]);
+                } else {
+                  results[i] = ProcessView(folder, names[i], schemes, cal.rig, reconstructor,
+                                           options, check_columns, dir);
+                  // A cache: when it cannot be kept (a full disk) the scan goes on without it,
+                  // and the output's own writes report the disk.
+                  if (results[i].summary.ok) {
+                    try {
+                      WriteViewCheckpoint(dir, key, results[i]);
+                    } catch (const std::exception& e) {
+                      util::LogWarning(
+                          StrCat("scan: view ", names[i], " not kept for --resume: ", e.what()));
+                    }
+                  }
+                }
                 progress.Advance();
               }));
+    }
+    s.views_resumed = resumed;
+    if (resumed > 0) {
+      util::LogInfo(StrCat("scan: ", resumed.load(), " of ", names.size(),
+                           " views taken from the interrupted run"));
     }
     if (check_columns) {
       CheckProjectorColumns(options, &results, &s);
@@ -1568,6 +1601,9 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
       s.total_cpu_s += report_cpu_s;
     }
     WriteOutput("summary", out, [&] { io::WriteJson(dir / "summary.json", s.ToJson()); });
+    // The views' checkpoints are a cache of this run, not an output.
+    std::error_code ec;
+    fs::remove_all(dir / kCheckpointFolder, ec);
   });
   return s;
 }

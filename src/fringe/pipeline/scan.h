@@ -59,6 +59,15 @@ struct ScanOptions {
   std::filesystem::path opencv_intrinsics, opencv_extrinsics;
   // Leave out views that fail and finish with the others (status kPartial) instead of failing.
   bool keep_going = false;
+  // Resume an interrupted run (`fringe scan --resume`): take over the temporary output folder
+  // that a killed run of the same OUT left (its process no longer exists) and reuse every view
+  // it finished whose inputs are unchanged: the view folder's files (names, sizes, modification
+  // times), the rig and schemes as used, and resume_key. Other views and all later stages are
+  // computed again; the result is the one an uninterrupted run gives.
+  bool resume = false;
+  // The caller's options as text (the CLI: its arguments; Python: its keyword arguments), part
+  // of each view checkpoint's key: a run with other options never reuses a view.
+  std::string resume_key;
   // Camera + projector scans calibrated here from calibration/KKK/ pose folders.
   calib::ProjectorFolderOptions projector_calibration;
   // Views reconstructed at the same time, [1, 64]: each holds its two image stacks (24 images
@@ -135,7 +144,8 @@ struct ScanSummary {
   double calibration_rms_projector_px = 0;
   std::vector<ScanViewSummary> views;
   int views_ok = 0;
-  int64_t points = 0;  // sum over the views that worked
+  int views_resumed = 0;  // views taken from an interrupted run (ScanOptions::resume)
+  int64_t points = 0;     // sum over the views that worked
   // Stage times. read_s, decode_s, reconstruct_s and markers_s are sums over views (several views
   // run at once, so they can exceed views_s, the wall time of the view stage); the others are wall.
   // mesh_s also covers what runs beside the one-threaded Poisson: writing fused.ply and

@@ -15,6 +15,7 @@
 #include <fstream>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <set>
 #include <sstream>
 
@@ -141,7 +142,8 @@ fs::path TemporarySibling(const fs::path& path) {
 // Removes temporaries of `path` left by processes that no longer run (killed with SIGKILL, power
 // loss): names ".<stem>.tmp<pid>_..." whose pid does not exist. Only exact matches of fringe's
 // own naming are touched.
-void RemoveStaleTemporaries(const fs::path& path) {
+std::vector<fs::path> StaleTemporaries(const fs::path& path) {
+  std::vector<fs::path> stale;
   const std::string prefix = TemporaryPrefix(path);
   std::error_code ec;
   fs::directory_iterator it(ParentOf(path), ec), end;
@@ -154,9 +156,43 @@ void RemoveStaleTemporaries(const fs::path& path) {
     const pid_t pid = static_cast<pid_t>(std::stol(name.substr(i, j - i)));
     if (pid == ::getpid() || pid <= 0) continue;
     if (::kill(pid, 0) == 0 || errno != ESRCH) continue;  // alive (or not ours to judge)
-    std::error_code ignored;
-    fs::remove_all(it->path(), ignored);
+    stale.push_back(it->path());
   }
+  return stale;
+}
+
+void RemoveStaleTemporaries(const fs::path& path) {
+  for (const fs::path& p : StaleTemporaries(path)) {
+    std::error_code ignored;
+    fs::remove_all(p, ignored);
+  }
+}
+
+// The newest temporary folder a dead run left for `dir` that holds what it kept for reuse
+// (kResumeFolder), moved to `tmp` with everything else in it removed; false when there is none.
+bool TakeOverStaleTemporary(const fs::path& dir, const fs::path& tmp) {
+  std::optional<fs::path> newest;
+  fs::file_time_type newest_time{};
+  for (const fs::path& p : StaleTemporaries(dir)) {
+    std::error_code ec;
+    if (fs::is_symlink(p, ec) || !fs::is_directory(p / kResumeFolder, ec)) continue;
+    const fs::file_time_type t = fs::last_write_time(p / kResumeFolder, ec);
+    if (ec) continue;
+    if (!newest || t > newest_time) {
+      newest = p;
+      newest_time = t;
+    }
+  }
+  if (!newest) return false;
+  std::error_code ec;
+  fs::rename(*newest, tmp, ec);
+  if (ec) return false;
+  for (const auto& e : fs::directory_iterator(tmp, ec)) {
+    if (e.path().filename() == kResumeFolder) continue;
+    std::error_code ignored;
+    fs::remove_all(e.path(), ignored);
+  }
+  return true;
 }
 
 void RequireWritableParent(const fs::path& path) {
@@ -403,9 +439,10 @@ void WriteAtomically(const fs::path& path, const std::function<void(const fs::pa
 void WriteFolderAtomically(const fs::path& dir, const OutputFolderOptions& options,
                            const std::function<void(const fs::path&)>& write) {
   CheckOutputFolder(dir, options);
-  RemoveStaleTemporaries(dir);
   const fs::path tmp = TemporarySibling(dir);
   const TemporaryRegistration registration(tmp);
+  if (options.resume) TakeOverStaleTemporary(dir, tmp);
+  RemoveStaleTemporaries(dir);
   try {
     NamingTheOutput(tmp, dir, [&] {
       fs::create_directories(tmp);

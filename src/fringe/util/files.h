@@ -32,7 +32,15 @@ struct OutputFolderOptions {
   // Recognises a folder fringe wrote before the marker existed (e.g. an old `fringe demo`
   // output) by its layout, so that such a folder may still be replaced. Null: none.
   std::function<bool(const fs::path& dir)> legacy_layout;
+  // Take over the temporary folder a killed run writing the same `dir` left (its process no
+  // longer exists; the newest such), with what it holds below kResumeFolder, instead of starting
+  // empty: write() finds there what the interrupted run kept for reuse. Everything else in it is
+  // removed first, so nothing of the interrupted run becomes an output by accident.
+  bool resume = false;
 };
+
+// The one entry of a taken-over temporary folder that is kept (OutputFolderOptions::resume).
+inline constexpr const char* kResumeFolder = ".resume";
 
 // Calls write(tmp_path) with a temporary path in the same directory (same extension, so
 // extension-driven writers such as cv::imwrite work), then renames it to `path`. On any

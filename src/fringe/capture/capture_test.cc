@@ -283,6 +283,29 @@ TEST(Capture, LostPacketsAreResentOrTheFrameRegrabbed) {
   ExpectViewMatchesPatterns(folder.layout().ViewDir("001"), scheme);
 }
 
+TEST(Capture, MeasuredLatencyMatchesTheInjectedOne) {
+  Sensor sensor;
+  fringe::test::TempDir tmp;
+  // Each camera sees the screen as it was 40 ms (left) and 25 ms (right) earlier: the settle
+  // time must cover the slower one.
+  sensor.left->SetInjectedLatency(40);
+  sensor.right->SetInjectedLatency(25);
+  CaptureOptions o = sensor.Options();
+  o.measure_latency = true;
+  o.latency.max_latency_ms = 120;
+  const CaptureSummary s = CaptureIntoProject(tmp / "scan", SmallScheme(), o);
+  // The fake camera makes its frame up to 2 ms after the trigger (it polls at 500 Hz), and the
+  // bisection stops at 1 ms: the measurement may be up to 3 ms early, 1 ms late.
+  constexpr double kEarlyMs = 3.0, kLateMs = 1.0;
+  EXPECT_GE(s.latency_ms, 40 - kEarlyMs);
+  EXPECT_LE(s.latency_ms, 40 + kLateMs);
+  const auto stored = ReadProjectLatency(tmp / "scan");
+  ASSERT_TRUE(stored.has_value());
+  EXPECT_EQ(*stored, s.latency_ms);
+  // The project exists (no views yet) and later captures use the measured settle time.
+  EXPECT_EQ(scan::ScanFolder::Open(tmp / "scan").manifest().views, 0);
+}
+
 TEST(Capture, BoardPosesGoToTheCalibrationFolder) {
   Sensor sensor;
   fringe::test::TempDir tmp;

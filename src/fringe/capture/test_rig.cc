@@ -136,7 +136,45 @@ FakeCamera::FakeCamera(const std::string& address, const std::string& serial,
       fake, reinterpret_cast<ArvFakeCameraFillPattern>(&FakeCamera::Fill), this);
 }
 
-FakeCamera::~FakeCamera() { Kill(); }
+FakeCamera::~FakeCamera() {
+  Kill();
+  stop_sampler_ = true;
+  if (sampler_.joinable()) sampler_.join();
+}
+
+void FakeCamera::SetInjectedLatency(double ms) {
+  latency_ms_ = ms;
+  if (ms <= 0 || sampler_.joinable()) return;
+  sampler_ = std::thread([this] {
+    Display* d = XOpenDisplay(display_.c_str());
+    if (!d) return;
+    const Window root = DefaultRootWindow(d);
+    XWindowAttributes a;
+    XGetWindowAttributes(d, root, &a);
+    while (!stop_sampler_) {
+      XImage* image = XGetImage(d, root, a.width / 2, a.height / 2, 1, 1, AllPlanes, ZPixmap);
+      if (image) {
+        const int level = static_cast<int>((XGetPixel(image, 0, 0) & image->green_mask) >> 8);
+        XDestroyImage(image);
+        std::lock_guard<std::mutex> lock(history_mutex_);
+        history_.emplace_back(std::chrono::steady_clock::now(), level);
+        while (history_.size() > 20000) history_.pop_front();  // 5 s at 4 kHz
+      }
+      std::this_thread::sleep_for(std::chrono::microseconds(250));
+    }
+    XCloseDisplay(d);
+  });
+}
+
+int FakeCamera::LevelAt(std::chrono::steady_clock::time_point t) {
+  std::lock_guard<std::mutex> lock(history_mutex_);
+  int level = 0;
+  for (const auto& [when, value] : history_) {
+    if (when > t) break;
+    level = value;
+  }
+  return level;
+}
 
 void FakeCamera::Kill() {
   std::lock_guard<std::mutex> lock(mutex_);
@@ -162,6 +200,20 @@ void FakeCamera::Fill(void* buffer_ptr, void* self_ptr, unsigned exposure_us, un
   auto* buffer = static_cast<ArvBuffer*>(buffer_ptr);
   const int frame = self->frames_++;
   if (self->on_frame) self->on_frame(frame);
+  if (self->latency_ms_ > 0) {
+    const auto seen = std::chrono::steady_clock::now() -
+                      std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                          std::chrono::duration<double, std::milli>(self->latency_ms_));
+    const int width = arv_buffer_get_image_width(buffer);
+    const int height = arv_buffer_get_image_height(buffer);
+    void* data = const_cast<void*>(arv_buffer_get_data(buffer, nullptr));
+    if (!data || width <= 0 || height <= 0) return;
+    const cv::Mat screen(1, 1, CV_8UC1, cv::Scalar(self->LevelAt(seen)));
+    const int depth = ARV_PIXEL_FORMAT_BIT_PER_PIXEL(pixel_format) > 8 ? 16 : 8;
+    cv::Mat out(height, width, depth == 16 ? CV_16UC1 : CV_8UC1, data);
+    ResampleProjector(screen, width, height, depth, false).copyTo(out);
+    return;
+  }
   if (!self->reader_) self->reader_ = std::make_unique<ScreenReader>(self->display_);
   const int width = arv_buffer_get_image_width(buffer);
   const int height = arv_buffer_get_image_height(buffer);

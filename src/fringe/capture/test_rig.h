@@ -6,11 +6,14 @@
 #pragma once
 
 #include <atomic>
+#include <chrono>
+#include <deque>
 #include <functional>
 #include <memory>
 #include <mutex>
 #include <opencv2/core.hpp>
 #include <string>
+#include <thread>
 
 namespace fringe::capture::test {
 
@@ -63,6 +66,10 @@ class FakeCamera {
   void SetLostPacketRatio(double ratio);
   // Sets the image size through the device registers (the default is 512 x 512).
   void SetSize(int width, int height);
+  // A projector that shows a frame `ms` after it was presented: a thread samples the centre
+  // pixel of the screen every 0.25 ms, and every frame is the uniform level the screen had
+  // `ms` before the frame is made (through the same response as ResampleProjector). 0: off.
+  void SetInjectedLatency(double ms);
   // Stops the device (as if unplugged): its control and stream channels go silent.
   void Kill();
   int frames() const { return frames_; }
@@ -79,6 +86,13 @@ class FakeCamera {
   std::unique_ptr<ScreenReader> reader_;  // created in the fake camera's thread
   std::atomic<int> frames_{0};
   std::mutex mutex_;
+  // Injected latency: the screen's centre level over time.
+  double latency_ms_ = 0;
+  std::thread sampler_;
+  std::atomic<bool> stop_sampler_{false};
+  std::mutex history_mutex_;
+  std::deque<std::pair<std::chrono::steady_clock::time_point, int>> history_;
+  int LevelAt(std::chrono::steady_clock::time_point t);
 };
 
 // The projector-to-camera mapping of the simple tests: camera pixel (x, y) sees projector pixel

@@ -16,6 +16,7 @@
 #include <cstring>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 namespace fringe::capture::test {
 
@@ -108,10 +109,19 @@ cv::Mat ScreenReader::Read() {
   XImage* image = XGetImage(d, root, 0, 0, a.width, a.height, AllPlanes, ZPixmap);
   if (!image) throw std::runtime_error("XGetImage failed");
   cv::Mat grey(a.height, a.width, CV_8UC1);
-  for (int y = 0; y < a.height; ++y) {
-    for (int x = 0; x < a.width; ++x) {
-      grey.at<uint8_t>(y, x) =
-          static_cast<uint8_t>((XGetPixel(image, x, y) & image->green_mask) >> 8);
+  if (image->bits_per_pixel == 32 && image->green_mask == 0xff00 && image->byte_order == LSBFirst) {
+    // The usual TrueColor layout (B, G, R, X bytes): the green byte, row by row.
+    for (int y = 0; y < a.height; ++y) {
+      const auto* row = reinterpret_cast<const uint8_t*>(image->data + y * image->bytes_per_line);
+      uint8_t* out = grey.ptr<uint8_t>(y);
+      for (int x = 0; x < a.width; ++x) out[x] = row[4 * x + 1];
+    }
+  } else {
+    for (int y = 0; y < a.height; ++y) {
+      for (int x = 0; x < a.width; ++x) {
+        grey.at<uint8_t>(y, x) =
+            static_cast<uint8_t>((XGetPixel(image, x, y) & image->green_mask) >> 8);
+      }
     }
   }
   XDestroyImage(image);
@@ -232,18 +242,23 @@ void FakeCamera::Fill(void* buffer_ptr, void* self_ptr, unsigned exposure_us, un
 cv::Mat ResampleProjector(const cv::Mat& projector, int width, int height, int bit_depth,
                           bool mirror) {
   cv::Mat out(height, width, bit_depth > 8 ? CV_16UC1 : CV_8UC1);
+  std::vector<int> columns(width);
+  for (int x = 0; x < width; ++x) {
+    const int px =
+        std::min(projector.cols - 1, static_cast<int>((x + 0.5) * projector.cols / width));
+    columns[x] = mirror ? projector.cols - 1 - px : px;
+  }
   for (int y = 0; y < height; ++y) {
     const int py =
         std::min(projector.rows - 1, static_cast<int>((y + 0.5) * projector.rows / height));
+    const uint8_t* in = projector.ptr<uint8_t>(py);
     for (int x = 0; x < width; ++x) {
-      int px = std::min(projector.cols - 1, static_cast<int>((x + 0.5) * projector.cols / width));
-      if (mirror) px = projector.cols - 1 - px;
       // A camera that sees the projector's full range without saturating.
-      const int v = 16 + 3 * projector.at<uint8_t>(py, px) / 4;
+      const int v = 16 + 3 * in[columns[x]] / 4;
       if (bit_depth > 8) {
-        out.at<uint16_t>(y, x) = static_cast<uint16_t>((v * 257) >> (16 - bit_depth));
+        out.ptr<uint16_t>(y)[x] = static_cast<uint16_t>((v * 257) >> (16 - bit_depth));
       } else {
-        out.at<uint8_t>(y, x) = static_cast<uint8_t>(v);
+        out.ptr<uint8_t>(y)[x] = static_cast<uint8_t>(v);
       }
     }
   }

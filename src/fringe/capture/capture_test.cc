@@ -12,6 +12,7 @@
 #include "fringe/capture/projector.h"
 #include "fringe/capture/sequence.h"
 #include "fringe/capture/test_rig.h"
+#include "fringe/cli/run_cli_for_test.h"
 #include "fringe/io/calibration_io.h"
 #include "fringe/io/image_io.h"
 #include "fringe/io/json.h"
@@ -326,6 +327,44 @@ TEST(Capture, BoardPosesGoToTheCalibrationFolder) {
   const cv::Mat white =
       io::ReadGrayImage(folder.layout().CalibrationDir(scan::Camera::kRight) / "001.png");
   EXPECT_EQ(cv::countNonZero(white != 16 + 3 * 255 / 4), 0);  // the white frame, as seen
+}
+
+TEST(Capture, CliDevicesAndCaptureExitCodes) {
+  Sensor sensor;
+  fringe::test::TempDir tmp;
+  std::string out, err;
+  ASSERT_EQ(cli::RunCli({"devices", "--json", "--no-opencv", "--display", sensor.xvfb->display()},
+                        &out, &err),
+            0)
+      << err;
+  const auto devices = nlohmann::json::parse(out);
+  EXPECT_GE(devices["cameras"].size(), 2u);
+  EXPECT_EQ(devices["screens"].size(), 1u);
+  const std::string project = (tmp / "scan").string();
+  const std::vector<std::string> common = {
+      "capture",     project,     "--left",      "FRINGE-L",
+      "--right",     "127.0.0.3", "--projector", sensor.xvfb->display(),
+      "--settle-ms", "5",         "--counts",    "16,13,11"};
+  auto with = [&](std::vector<std::string> extra) {
+    std::vector<std::string> args = common;
+    args.insert(args.end(), extra.begin(), extra.end());
+    return args;
+  };
+  ASSERT_EQ(cli::RunCli(with({"--width", std::to_string(kProjectorWidth), "--height",
+                              std::to_string(kProjectorHeight), "--json"}),
+                        &out, &err),
+            0)
+      << err;
+  const auto summary = nlohmann::json::parse(out);
+  EXPECT_EQ(summary["name"], "000");
+  EXPECT_EQ(summary["feedback"].size(), 2u);
+  // The projector screen is 256 px wide, the scheme 1280 (the preset's default width).
+  EXPECT_EQ(cli::RunCli(with({"--scheme", "heterodyne-4x3"}), &out, &err), 1);
+  EXPECT_NE(err.find("fringe: error:"), std::string::npos) << err;
+  // A usage error: no --left.
+  EXPECT_EQ(cli::RunCli({"capture", project, "--projector", sensor.xvfb->display()}, &out, &err),
+            2);
+  EXPECT_EQ(scan::ScanFolder::Open(tmp / "scan").manifest().views, 1);
 }
 
 }  // namespace

@@ -135,7 +135,7 @@ FakeCamera::FakeCamera(const std::string& address, const std::string& serial,
   if (!c || !arv_gv_fake_camera_is_running(c)) {
     if (c) g_object_unref(c);
     throw std::runtime_error("fake GigE Vision camera " + serial + " did not start on " + address +
-                             " (inside tests/netns_run.sh?)");
+                             " (is the address on lo? EnterPrivateNetworkNamespace adds it)");
   }
   camera_ = c;
   ArvFakeCamera* fake = arv_gv_fake_camera_get_fake_camera(c);

@@ -18,10 +18,10 @@
 namespace fringe::capture::test {
 
 // Moves this process into a fresh network namespace holding only loopback, with the
-// addresses the fake cameras bind to (127.0.0.2 .. 127.0.0.4), unless it already runs in one
-// (tests/netns_run.sh sets FRINGE_NETNS=1). Needs root (CAP_SYS_ADMIN). Then checks that
-// loopback is the only interface. Call before any thread starts (the first fixture does);
-// throws std::runtime_error saying what failed.
+// addresses the fake cameras bind to (127.0.0.2 .. 127.0.0.4), unless the caller set one up
+// (FRINGE_NETNS=1, e.g. after `unshare -n` and `ip addr add`). Needs root (CAP_SYS_ADMIN).
+// Then checks that loopback is the only interface. Call before any thread starts (the first
+// fixture does); throws std::runtime_error saying what failed.
 void EnterPrivateNetworkNamespace();
 
 // An Xvfb server with one screen of width x height x 24 bit; the display number is chosen by
@@ -56,7 +56,7 @@ class ScreenReader {
 using Render = std::function<cv::Mat(const cv::Mat& screen, double exposure_us, double gain,
                                      int width, int height, int bit_depth)>;
 
-// One ArvGvFakeCamera bound to `address` (a loopback address set up by netns_run.sh).
+// One ArvGvFakeCamera bound to `address` (a loopback address EnterPrivateNetworkNamespace adds).
 class FakeCamera {
  public:
   FakeCamera(const std::string& address, const std::string& serial, const std::string& display,

@@ -117,8 +117,10 @@ ScanManifest ManifestFromJson(const json& j, const std::string& context) {
         static_cast<int>(io::GetInteger(j, "calibration_images", 0, kMaxCount, context));
     m.calibration_target = OptionalPath(j, "calibration_target");
     m.truth = j.contains("truth") ? OptionalPath(j, "truth") : std::string();
-    if (m.bit_depth != 8 && m.bit_depth != 12 && m.bit_depth != 16) {
-      throw Error(StrCat("'bit_depth' = ", m.bit_depth, " must be 8, 12 or 16"));
+    // 10 and 14: GenICam Mono10 / Mono14 cameras written by `fringe capture`.
+    if (m.bit_depth != 8 && m.bit_depth != 10 && m.bit_depth != 12 && m.bit_depth != 14 &&
+        m.bit_depth != 16) {
+      throw Error(StrCat("'bit_depth' = ", m.bit_depth, " must be 8, 10, 12, 14 or 16"));
     }
     if (m.views > 0 && m.scheme.empty()) throw Error("'scheme' is null but there are views");
     if (m.calibration_images > 0 && m.calibration_target.empty()) {

@@ -86,7 +86,7 @@ struct ScanManifest {
   int views = 0;          // number of view folders views/NNN
   int image_width = 0;    // camera image size, px
   int image_height = 0;
-  int bit_depth = 8;  // 8, or 12 (stored in 16-bit PNG)
+  int bit_depth = 8;  // 8, or 10 / 12 / 14 / 16 (stored in 16-bit PNG)
   // 2: stereo views (left/ and right/); 1: camera + projector views (left/ only), the projector
   // calibrated as an inverse camera. JSON key "cameras", optional (default 2).
   int cameras = 2;

@@ -1,0 +1,95 @@
+// The capture sequence: show pattern k on the projector, wait until it is presented plus the
+// settle time (the measured latency between "presented" and "the cameras see it"), trigger
+// every camera at once, grab one frame from each, next pattern. A frame that is incomplete
+// (lost packets the stream could not recover), never comes (timeout) or repeats the previous
+// frame id is not used: the pattern is shown again and every camera re-grabbed, at most
+// SequenceOptions::max_retries times; a camera that is gone (control connection lost) ends the
+// sequence at once. Either every camera has exactly one good frame per pattern, or the call
+// throws fringe::Error naming the camera, the pattern and why — never a missing or duplicated
+// image.
+//
+// Latency: MeasureLatency flips the projector between black and white and finds, by bisection
+// on the delay between "presented" and the trigger, the smallest delay after which every
+// camera sees the new level (LatencyOptions::seen_fraction of the black-to-white step).
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+#include <string>
+#include <vector>
+
+#include "fringe/capture/camera.h"
+#include "fringe/capture/projector.h"
+
+namespace fringe::capture {
+
+struct SequenceOptions {
+  // Wait after a pattern was presented before the cameras are triggered, ms, in [0, 10000]
+  // (the measured latency; `fringe capture` uses the project's measured one when it has one).
+  double settle_ms = 100;
+  // Longest wait for one camera's frame after the trigger, ms, in [1, 600000]. Add the
+  // exposure: the sequencer waits grab_timeout_ms + exposure.
+  int grab_timeout_ms = 2000;
+  // Re-shows and re-grabs of one pattern after an incomplete, missing or repeated frame, in
+  // [0, 100].
+  int max_retries = 3;
+  void Check() const;
+};
+nlohmann::json ToJson(const SequenceOptions& options);
+
+// What happened to one accepted frame.
+struct FrameRecord {
+  int pattern = 0;                   // index in the scheme's image order
+  int attempts = 1;                  // 1 + retries of this pattern
+  uint64_t frame_id = 0;             // the device's frame counter
+  uint64_t timestamp_ns = 0;         // device timestamp
+  uint64_t system_timestamp_ns = 0;  // host time of arrival (ns since the epoch)
+  double shown_s = 0;      // presentation time of the pattern, s after the sequence started
+  double triggered_s = 0;  // trigger time, s after the sequence started
+};
+
+struct StackCapture {
+  std::vector<std::vector<Frame>> frames;         // [camera][pattern]
+  std::vector<std::vector<FrameRecord>> records;  // [camera][pattern]
+  int retries = 0;                                // patterns shown again
+  std::vector<std::string> retry_reasons;         // one per retry
+  uint64_t frames_failed = 0;  // incomplete frames and timeouts seen (all cameras)
+  double seconds = 0;          // wall time of the sequence
+};
+
+// Captures one image per pattern from every camera (Configure()d and Start()ed).
+StackCapture CaptureStack(const std::vector<Camera*>& cameras, Projector& projector,
+                          const std::vector<cv::Mat>& patterns, const SequenceOptions& options);
+
+// One frame of every camera of a uniform projector level (0..255) held for settle_ms: white
+// for board images, black/white references.
+std::vector<Frame> CaptureLevel(const std::vector<Camera*>& cameras, Projector& projector,
+                                int level, const SequenceOptions& options);
+
+struct LatencyOptions {
+  double max_latency_ms = 300;  // upper end of the bisection, ms, in (0, 10000]
+  double resolution_ms = 1;     // bisection stops at this width, ms, in (0, max_latency_ms]
+  // The camera sees the new frame when its mean level has covered this fraction of the
+  // black-to-white step, in (0.5, 1).
+  double seen_fraction = 0.9;
+  // Smallest black-to-white step, as a fraction of full scale: less means the cameras do not
+  // see the projector (wrong exposure, covered lens), in (0, 1).
+  double min_contrast = 0.05;
+  void Check() const;
+};
+
+struct LatencyResult {
+  double latency_ms = 0;  // the settle time to use: every camera saw the new frame after it
+  std::vector<double> black_dn, white_dn;  // per camera mean levels
+  int probes = 0;                          // flips used
+  double seconds = 0;
+};
+nlohmann::json ToJson(const LatencyResult& result);
+
+// Throws fringe::Error naming the camera when it cannot tell black from white.
+LatencyResult MeasureLatency(const std::vector<Camera*>& cameras, Projector& projector,
+                             const LatencyOptions& options, const SequenceOptions& sequence);
+
+}  // namespace fringe::capture

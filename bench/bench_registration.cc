@@ -39,6 +39,8 @@
 // experiments then skip the minutes of simulation. The PLY stores float coordinates (~6e-5 mm).
 #include <open3d/geometry/KDTreeSearchParam.h>
 #include <open3d/geometry/PointCloud.h>
+#include <open3d/pipelines/registration/GlobalOptimization.h>
+#include <open3d/pipelines/registration/PoseGraph.h>
 #include <open3d/pipelines/registration/Registration.h>
 #include <open3d/pipelines/registration/TransformationEstimation.h>
 
@@ -60,6 +62,7 @@
 #include "bench_timing.h"
 #include "fringe/eval/deviation.h"
 #include "fringe/geometry/align.h"
+#include "fringe/geometry/point_index.h"
 #include "fringe/io/json.h"
 #include "fringe/io/ply.h"
 #include "fringe/registration/coarse.h"
@@ -230,6 +233,96 @@ std::pair<double, double> PairError(const Rigid3d& est, const Rigid3d& truth, co
                   .angularDistance(Eigen::Quaterniond::Identity()) *
               180 / M_PI,
           (est * c - truth * c).norm()};
+}
+
+// The four bunny scans of the shared data, in millimetres, with bun.conf's poses relative to
+// bun000 (the registration's world: the first view).
+const std::vector<std::string> kBunnyScans = {"bun000", "bun045", "bun090", "bun315"};
+
+// Pooled point-to-plane residual of the overlapping pairs at the given poses: for every ordered
+// pair (v, u), every 4th point of v with a point of u within 1 mm (the scans' spacing is
+// ~0.5 mm, their noise ~0.1-0.2 mm) gives n_u . (p_v - p_u); RMS over all such pairs.
+// Also the number of such residuals (a view placed far off pairs with nothing and drops out).
+std::pair<double, int64_t> PooledPairRms(const std::vector<PointCloud>& clouds,
+                                         const std::vector<Rigid3d>& poses) {
+  std::vector<PointIndex> index;
+  for (size_t u = 0; u < clouds.size(); ++u) {
+    std::vector<Vector3d> pts;
+    for (const Vector3d& p : clouds[u].points) pts.push_back(poses[u] * p);
+    index.emplace_back(std::move(pts));
+  }
+  double ss = 0;
+  int64_t n = 0;
+  for (size_t v = 0; v < clouds.size(); ++v) {
+    for (size_t u = 0; u < clouds.size(); ++u) {
+      if (u == v) continue;
+      for (size_t i = 0; i < clouds[v].size(); i += 4) {
+        const Vector3d p = poses[v] * clouds[v].points[i];
+        const auto [k, d2] = index[u].Nearest(p);
+        if (d2 > 1.0) continue;
+        const Vector3d nu = poses[u].RotateDirection(clouds[u].normals[k]);
+        if (!nu.allFinite()) continue;
+        const double r = nu.dot(p - index[u].points()[k]);
+        ss += r * r;
+        ++n;
+      }
+    }
+  }
+  return {std::sqrt(ss / std::max<int64_t>(1, n)), n};
+}
+
+// Max rotation (deg) and centroid displacement (mm) of views 1.. against the reference, view 0
+// the gauge (both are in view 0's frame); views not placed count as NaN.
+std::pair<double, double> MaxViewError(const std::vector<Rigid3d>& est,
+                                       const std::vector<Rigid3d>& ref,
+                                       const std::vector<PointCloud>& clouds,
+                                       const std::vector<bool>& placed) {
+  double rot = 0, tr = 0;
+  for (size_t v = 1; v < est.size(); ++v) {
+    if (!placed[v]) return {NAN, NAN};
+    const auto [r, t] = PairError(est[v], ref[v], Centroid(clouds[v]));
+    rot = std::max(rot, r);
+    tr = std::max(tr, t);
+  }
+  return {rot, tr};
+}
+
+// Open3D's multiway registration (its tutorial's pipeline): pairwise point-to-plane ICP of every
+// pair from the starting poses (15 mm, then 1.5 mm), a pose graph (consecutive pairs as
+// odometry (`odometry`: pairs (t, s), t < s, of neighbouring scans; its tutorial's are
+// consecutive captures), the others as uncertain loop closures, information from the fine ICP) and
+// its global optimisation (Levenberg-Marquardt, line process), node 0 the reference.
+std::vector<Rigid3d> Open3dMultiway(const std::vector<PointCloud>& clouds,
+                                    const std::vector<Rigid3d>& start,
+                                    const std::vector<std::pair<int, int>>& odometry) {
+  std::vector<std::shared_ptr<open3d::geometry::PointCloud>> pc;
+  for (const PointCloud& c : clouds) pc.push_back(ToOpen3d(c, Rigid3d()));
+  o3reg::PoseGraph graph;
+  for (const Rigid3d& s : start) graph.nodes_.emplace_back(s.ToMatrix4());
+  const o3reg::ICPConvergenceCriteria crit(1e-7, 1e-7, 30);
+  for (size_t t = 0; t < clouds.size(); ++t) {
+    for (size_t s = t + 1; s < clouds.size(); ++s) {
+      // Open3D's edge (source s, target t) carries t_from_s.
+      Eigen::Matrix4d init = (start[t].Inverse() * start[s]).ToMatrix4();
+      const auto coarse = o3reg::RegistrationICP(
+          *pc[s], *pc[t], 15.0, init, o3reg::TransformationEstimationPointToPlane(), crit);
+      const auto fine = o3reg::RegistrationICP(*pc[s], *pc[t], 1.5, coarse.transformation_,
+                                               o3reg::TransformationEstimationPointToPlane(), crit);
+      const Eigen::Matrix6d info =
+          o3reg::GetInformationMatrixFromPointClouds(*pc[s], *pc[t], 1.5, fine.transformation_);
+      graph.edges_.emplace_back(
+          static_cast<int>(s), static_cast<int>(t), fine.transformation_, info,
+          std::find(odometry.begin(), odometry.end(),
+                    std::make_pair(static_cast<int>(t), static_cast<int>(s))) == odometry.end());
+    }
+  }
+  o3reg::GlobalOptimization(graph, o3reg::GlobalOptimizationLevenbergMarquardt(),
+                            o3reg::GlobalOptimizationConvergenceCriteria(),
+                            o3reg::GlobalOptimizationOption(1.5, 0.25, 1.0, 0));
+  std::vector<Rigid3d> out;
+  const Rigid3d inv0 = FromMatrix(graph.nodes_[0].pose_).Inverse();
+  for (const auto& node : graph.nodes_) out.push_back(inv0 * FromMatrix(node.pose_));
+  return out;
 }
 
 int Run(int argc, char** argv) {
@@ -516,6 +609,22 @@ int Run(int argc, char** argv) {
          {"simulate_reconstruct_s", sim_s},
          {"icp", r.summary.icp.BriefReport()}};
     j.update(centre_errors.ToJson());
+    if (no_markers) {
+      // A placed view is wrong when, after the refinement, it is off by more than 0.1 deg or
+      // 1 mm (ten and fifty times the targets): then it is not merely inaccurate.
+      int wrong = 0;
+      const Rigid3d gauge = Gauge(final_est, truth, clouds, placed);
+      for (int v = 0; v < views_n; ++v) {
+        if (!placed[v]) continue;
+        const auto [rot, tr] = PairError(gauge * final_est[v], truth[v], Centroid(clouds[v]));
+        wrong += !(rot <= 0.1 && tr <= 1.0);
+      }
+      j.update({{"no_markers_views", views_n},
+                {"no_markers_placed", r.summary.placed},
+                {"no_markers_wrong", wrong},
+                {"no_markers_rot_err_deg", ei.max_rot_deg},
+                {"no_markers_trans_err_mm", ei.max_trans_mm}});
+    }
     for (const auto& v : r.views) {
       j["paths"].push_back(registration::ToString(v.path));
       j["view_messages"].push_back(v.message);
@@ -583,6 +692,86 @@ int Run(int argc, char** argv) {
               {"bunny_coarse_status", registration::ToString(coarse.status)},
               {"bunny_coarse_rot_err_deg", cr},
               {"bunny_coarse_trans_err_mm", ct}});
+
+    // The four scans registered together (RegisterViews, no markers, unorganized clouds):
+    // from no initial pose (bunny_free_*), and from bun.conf's poses each turned by 5 deg about
+    // its centroid and moved 5 mm (bunny_start_*), beside Open3D's multiway registration from
+    // the same starts. Errors against bun.conf (a reference, not the truth), max over the views.
+    std::vector<registration::RegistrationView> bv;
+    std::vector<PointCloud> bclouds;
+    std::vector<Rigid3d> bref;
+    const Rigid3d conf0 = BunnyPose(dir / "bun.conf", "bun000.ply");
+    for (const std::string& name : kBunnyScans) {
+      bv.push_back(registration::ReadRegistrationView(dir / (name + ".ply"), 1000, false, &note));
+      bclouds.push_back(bv.back().cloud);
+      bref.push_back(conf0.Inverse() * BunnyPose(dir / "bun.conf", name + ".ply"));
+    }
+    registration::RegistrationOptions bo;
+    bo.use_markers = false;
+    util::Timer free_timer;
+    const registration::RegistrationResult bfree = registration::RegisterViews(bv, bo);
+    const double free_s = free_timer.ElapsedSeconds();
+    std::vector<Rigid3d> starts = bref;
+    for (size_t v = 1; v < bv.size(); ++v) {
+      const Vector3d cw = bref[v] * Centroid(bclouds[v]);
+      const double a = 2.1 * static_cast<double>(v);
+      const Rigid3d t = Rigid3d::FromAxisAngle(Vector3d(std::cos(a), std::sin(a), 0.5).normalized(),
+                                               5 * M_PI / 180);
+      starts[v] =
+          Rigid3d(t.rotation(), cw - t.RotateDirection(cw) +
+                                    5 * Vector3d(std::sin(a), 0.3, std::cos(a)).normalized()) *
+          bref[v];
+      bv[v].initial_world_from_sensor = starts[v];
+    }
+    util::Timer start_timer;
+    const registration::RegistrationResult bstart = registration::RegisterViews(bv, bo);
+    const double start_s = start_timer.ElapsedSeconds();
+    util::Timer o3d_timer;
+    // Odometry: the scans' neighbours around the bunny (315-000-045-090 degrees).
+    const std::vector<Rigid3d> o3d_multi =
+        Open3dMultiway(bclouds, starts, {{0, 1}, {1, 2}, {0, 3}});
+    const double o3d_multi_s = o3d_timer.ElapsedSeconds();
+    std::vector<Rigid3d> free_poses, start_poses;
+    std::vector<bool> free_placed, start_placed;
+    for (size_t v = 0; v < bv.size(); ++v) {
+      free_poses.push_back(bfree.views[v].world_from_sensor);
+      free_placed.push_back(bfree.views[v].placed());
+      start_poses.push_back(bstart.views[v].world_from_sensor);
+      start_placed.push_back(bstart.views[v].placed());
+    }
+    const std::vector<bool> all(bv.size(), true);
+    const auto [fr, ft] = MaxViewError(free_poses, bref, bclouds, free_placed);
+    const auto [sr, st] = MaxViewError(start_poses, bref, bclouds, start_placed);
+    const auto [mr, mt] = MaxViewError(o3d_multi, bref, bclouds, all);
+    const auto [free_rms, free_n] = PooledPairRms(bclouds, free_poses);
+    const auto [start_rms, start_n] = PooledPairRms(bclouds, start_poses);
+    const auto [ref_rms, ref_n] = PooledPairRms(bclouds, bref);
+    const auto [spose_rms, spose_n] = PooledPairRms(bclouds, starts);
+    const auto [o3_rms, o3_n] = PooledPairRms(bclouds, o3d_multi);
+    const bool free_all = bfree.summary.placed == static_cast<int>(bv.size());
+    j.update({{"bunny_views", bv.size()},
+              {"bunny_free_placed", bfree.summary.placed},
+              {"bunny_max_rot_err_deg", fr},
+              {"bunny_max_trans_err_mm", ft},
+              {"bunny_free_pair_rms_mm", free_all ? free_rms : NAN},
+              {"bunny_free_pair_residuals", free_all ? free_n : 0},
+              {"bunny_free_s", free_s},
+              {"bunny_start_placed", bstart.summary.placed},
+              {"bunny_start_max_rot_err_deg", sr},
+              {"bunny_start_max_trans_err_mm", st},
+              {"bunny_start_pair_rms_mm", start_rms},
+              {"bunny_start_pair_residuals", start_n},
+              {"bunny_reference_pair_rms_mm", ref_rms},
+              {"bunny_reference_pair_residuals", ref_n},
+              {"bunny_start_pose_pair_rms_mm", spose_rms},
+              {"bunny_start_pose_pair_residuals", spose_n},
+              {"open3d_multiway_bunny_max_rot_err_deg", mr},
+              {"open3d_multiway_bunny_max_trans_err_mm", mt},
+              {"open3d_multiway_bunny_pair_rms_mm", o3_rms},
+              {"open3d_multiway_bunny_pair_residuals", o3_n},
+              {"ours_multiway_s", start_s},
+              {"open3d_multiway_s", o3d_multi_s}});
+    for (const auto& v : bfree.views) j["bunny_free_messages"].push_back(v.message);
   }
 
   if (json) {

@@ -7,7 +7,9 @@
 // candidate is kept when its fitness (fraction of source samples within 1.5 voxels of the
 // target) reaches min_fitness.
 //
-// Hypotheses: every source sample is paired with its 3 nearest target features, and RANSAC
+// Hypotheses: every source sample is paired with its 3 nearest target features (and, in a
+// second pass, every distinctive source sample with the 3 nearest distinctive target features;
+// see distinctive_variation), and RANSAC
 // (Open3D's RegistrationRANSACBasedOnCorrespondence) runs `hypotheses` times in sequence, each
 // time on the correspondences the earlier alignments did not explain. The candidates are
 // therefore the best alignment and the best DIFFERENT ones: on a scene with a symmetry (a square
@@ -24,6 +26,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -39,6 +42,12 @@ struct CoarseOptions {
   double ransac_confidence = 0.999;    // (0, 1)
   double min_fitness = 0.2;            // accepted fraction of matched source samples, (0, 1]
   int hypotheses = 4;                  // sequential RANSAC runs (see above), >= 1
+  // A second sequential RANSAC (hypotheses more runs) among the distinctive samples only: those
+  // whose surface variation (smallest eigenvalue / sum, over the feature radius; 0 on a plane)
+  // reaches this, when they are fewer than half of either cloud's samples. On a scene dominated
+  // by a plate, the plate's alike features outvote the few objects that fix the pose. [0, 1/3);
+  // 0: no second pass.
+  double distinctive_variation = 0.005;
   uint64_t seed = 1;
   void Check() const;
 };
@@ -68,6 +77,27 @@ struct CoarseResult {
 };
 
 CoarseResult AlignCoarse(const PointCloud& source, const PointCloud& target,
+                         const CoarseOptions& options = {});
+
+// A cloud's downsampled samples and FPFH features (options.voxel_mm, feature_radius_factor),
+// computed once per view when one view is aligned with several (RegisterViews' pairwise
+// candidates): AlignCoarse(source, target) = AlignCoarse(Prepare(source), Prepare(target)).
+// Immutable once made; may be shared between threads.
+class CoarseFeatures {
+ public:
+  CoarseFeatures(const PointCloud& cloud, const CoarseOptions& options);
+  ~CoarseFeatures();
+  int samples() const;
+  double voxel_mm() const { return voxel_mm_; }
+  struct Impl;
+  const Impl& impl() const { return *impl_; }
+
+ private:
+  std::shared_ptr<const Impl> impl_;
+  double voxel_mm_ = 0;
+};
+// Throws fringe::Error when the two were prepared with different voxels.
+CoarseResult AlignCoarse(const CoarseFeatures& source, const CoarseFeatures& target,
                          const CoarseOptions& options = {});
 
 }  // namespace fringe::registration

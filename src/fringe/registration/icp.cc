@@ -626,8 +626,9 @@ IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& o
 std::vector<SurfaceAgreement> MeasureAgreement(const PointCloud& source, const PointCloud& target,
                                                const std::vector<Rigid3d>& target_from_source,
                                                int samples, double overlap_radius_mm,
-                                               double tolerance_mm, double max_normal_angle_deg,
-                                               uint64_t seed) {
+                                               double close_radius_mm, double tolerance_mm,
+                                               double max_normal_angle_deg, uint64_t seed,
+                                               bool normal_space) {
   const auto usable = [](const PointCloud& c, std::vector<Vector3d>* p, std::vector<Vector3d>* n) {
     for (size_t k = 0; k < c.size() && k < c.normals.size(); ++k) {
       if (!c.points[k].allFinite() || !c.normals[k].allFinite() ||
@@ -645,32 +646,51 @@ std::vector<SurfaceAgreement> MeasureAgreement(const PointCloud& source, const P
   tgt.Own();
   std::vector<SurfaceAgreement> out(target_from_source.size());
   if (src.data.n == 0 || tgt.data.n == 0) return out;
-  const std::vector<uint32_t> order = NormalSpaceOrder(src.own_normals, seed);
+  std::vector<uint32_t> order;
+  if (normal_space) {
+    order = NormalSpaceOrder(src.own_normals, seed);
+  } else {
+    order.resize(src.own_pts.size());
+    std::iota(order.begin(), order.end(), 0u);
+    std::mt19937_64 rng(seed);
+    std::shuffle(order.begin(), order.end(), rng);
+  }
   const int ns = std::min<int>(samples, static_cast<int>(order.size()));
   const KdTree tree(3, tgt.data, nanoflann::KDTreeSingleIndexAdaptorParams(16));
   const double cos_max = std::cos(max_normal_angle_deg * M_PI / 180);
   for (size_t h = 0; h < target_from_source.size(); ++h) {
     const Rigid3d& t = target_from_source[h];
-    std::vector<int8_t> state(ns, 0);  // 0 outside the overlap, 1 consistent, 2 inconsistent
+    // 0 outside the overlap, 1 in the border band, 2 close and consistent, 3 close, inconsistent
+    std::vector<int8_t> state(ns, 0);
+    const double close_sq = close_radius_mm * close_radius_mm;
     tbb::parallel_for(0, ns, [&](int s) {
       const uint32_t k = order[s];
       const Vector3d q = t * src.data.pts[k];
       NearestWithin rs(overlap_radius_mm * overlap_radius_mm);
       tree.findNeighbors(rs, q.data(), nanoflann::SearchParams());
       if (!rs.found) return;
+      const Vector3d& pt = tgt.data.pts[rs.index];
+      if ((q - pt).squaredNorm() > close_sq) {
+        state[s] = 1;
+        return;
+      }
       const Vector3d& nt = tgt.normals[rs.index];
-      const bool ok = std::abs(nt.dot(q - tgt.data.pts[rs.index])) <= tolerance_mm &&
+      const bool ok = std::abs(nt.dot(q - pt)) <= tolerance_mm &&
                       t.RotateDirection(src.normals[k]).dot(nt) >= cos_max;
-      state[s] = ok ? 1 : 2;
+      state[s] = ok ? 2 : 3;
     });
-    int in = 0, bad = 0;
+    int in = 0, close = 0, bad = 0, good = 0;
     for (int8_t x : state) {
       in += x > 0;
-      bad += x == 2;
+      close += x >= 2;
+      good += x == 2;
+      bad += x == 3;
     }
     out[h].in_overlap = in;
+    out[h].close = close;
     out[h].overlap = ns > 0 ? static_cast<double>(in) / ns : 0.0;
-    out[h].inconsistent = in > 0 ? static_cast<double>(bad) / in : 1.0;
+    out[h].consistent = ns > 0 ? static_cast<double>(good) / ns : 0.0;
+    out[h].inconsistent = close > 0 ? static_cast<double>(bad) / close : 1.0;
   }
   return out;
 }

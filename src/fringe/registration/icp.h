@@ -134,21 +134,32 @@ IcpResult AlignPointToPlane(const PointCloud& source, const PointCloud& target,
                             const Rigid3d& target_from_source, const IcpOptions& options = {});
 
 // How well a source cloud placed by several candidate poses agrees with a target cloud (the
-// verification of marker-free placements, register_views.cc): of the first `samples`
-// normal-space samples of the source (usable points only), `overlap` is the fraction whose
-// nearest target point lies within overlap_radius_mm, and `inconsistent` the fraction of those
-// whose point-to-plane distance exceeds tolerance_mm or whose normals differ by more than
-// max_normal_angle_deg. A right pose has overlap with few inconsistent samples; a wrong pose
-// that still lays a plate onto the plate has the walls and objects inconsistent.
+// verification of marker-free placements, register_views.cc): of `samples` samples of the
+// source (usable points only), normal-space (NormalSpaceOrder: the walls and objects that tell
+// a slid pose from the right one count as much as a dominant plate, but so do the grazing
+// edges of range scans, the noisiest points, where even the right pose disagrees) or seeded
+// uniform,
+// `overlap` is the fraction whose nearest target point lies within overlap_radius_mm. Of the
+// samples whose nearest target point lies within close_radius_mm (<= overlap_radius_mm: where
+// the target really has surface; between the two radii a sample is at the border of the
+// target's coverage, where a curved surface bends away from the last target point's plane and
+// says nothing), `inconsistent` is the fraction whose point-to-plane distance exceeds
+// tolerance_mm or whose normals differ by more than max_normal_angle_deg, and `consistent` the
+// fraction of ALL samples that pass both tests. A right pose has overlap with few inconsistent
+// samples and the most consistent ones; a pose slid along a plate keeps the plate consistent
+// but loses its walls and objects.
 struct SurfaceAgreement {
   double overlap = 0;
   double inconsistent = 1;
+  double consistent = 0;
   int in_overlap = 0;
+  int close = 0;
 };
 std::vector<SurfaceAgreement> MeasureAgreement(const PointCloud& source, const PointCloud& target,
                                                const std::vector<Rigid3d>& target_from_source,
                                                int samples, double overlap_radius_mm,
-                                               double tolerance_mm, double max_normal_angle_deg,
-                                               uint64_t seed);
+                                               double close_radius_mm, double tolerance_mm,
+                                               double max_normal_angle_deg, uint64_t seed,
+                                               bool normal_space);
 
 }  // namespace fringe::registration

@@ -8,11 +8,16 @@
 //     marker map by distance invariance (marker_matching.h), in any order: each round places the
 //     pending view with the most verified correspondences, until no pending view matches. A
 //     view with an initial pose (e.g. fringe register --initial) is placed by it.
-//  3. Views still pending fall back to marker-free coarse alignment against the clouds placed
-//     so far (coarse.h, Open3D FPFH + RANSAC, several seeds), each candidate refined by a
-//     pairwise ICP; placed only when the candidates agree and no different pose fits about as
-//     well (never a confidently wrong pose on a symmetric scene); what cannot be placed is
-//     reported as unplaced with the reason, never dropped silently.
+//  3. Views still pending are placed marker-free (issue 29): every pair of usable views with at
+//     least one pending view gets coarse candidates (coarse.h: Open3D FPFH + sequential RANSAC,
+//     features computed once per view), each refined by pairwise ICP and verified on its own
+//     (register_views.cc, CheckPair: overlap and normal agreement within the views' noise,
+//     surface_noise.h; for views with grids, the free-space check of free_space.h; no rival
+//     pose about as good; no unconstrained direction); the verified pairs, with the relative
+//     poses of the views placed already, form a pose graph (pose_graph.h) whose triangles that
+//     do not close reject their wrong edge, and the pending views are placed along its
+//     strongest edges. Never a confidently wrong pose on a symmetric or featureless scene: what
+//     cannot be placed is reported as unplaced with every pair's reason, never dropped.
 //  4. Global marker adjustment of the map and the marker-placed poses (adjustment.h, Ceres).
 //  5. Multi-level simultaneous multi-view ICP (icp.h) over all placed views, the world view
 //     fixed; its first threshold follows the marker alignment error (or the coarse alignment's).
@@ -34,6 +39,7 @@
 #include "fringe/registration/icp.h"
 #include "fringe/registration/marker_matching.h"
 #include "fringe/registration/markers.h"
+#include "fringe/registration/pose_graph.h"
 
 namespace fringe::registration {
 
@@ -49,7 +55,7 @@ struct RegistrationView {
 
 struct RegistrationOptions {
   bool use_markers = true;      // false: marker-free path for every view
-  bool coarse_fallback = true;  // FPFH + RANSAC for views the markers cannot place
+  bool coarse_fallback = true;  // marker-free placement of the views the markers cannot place
   bool adjust_markers = true;   // global marker adjustment
   bool refine_icp = true;       // multi-level multi-view ICP
   double min_extent_mm = 5.0;   // smaller clouds look like metres: refused, > 0
@@ -57,17 +63,24 @@ struct RegistrationOptions {
   // icp_min_start_threshold_mm (the point spacing and noise must fit under it), > 0.
   double icp_threshold_factor = 10.0;
   double icp_min_start_threshold_mm = 1.0;
-  // Marker-free placement (register_views.cc, PlaceMarkerFree): the placed candidate needs
-  // overlap >= coarse_verify_min_overlap, (0, 1], and at most coarse_max_inconsistent of its
-  // overlapping samples farther than coarse_verify_tolerance_factor x the ICP RMS, [0, 1);
-  // every different candidate pose must be more inconsistent by coarse_min_gap, (0, 1).
+  // Marker-free placement (register_views.cc, CheckPair): a pair's candidate needs overlap >=
+  // coarse_verify_min_overlap, (0, 1]; at most coarse_max_inconsistent of its close samples
+  // farther than coarse_verify_tolerance_factor x the views' combined noise or with
+  // disagreeing normals, [0, 1) (right pairs of the real bunny scans: 4-14 %, their
+  // calibrations differ by more than their noise); at most coarse_max_free_space of its samples
+  // in the other view's free space (views with grids), [0, 1) (simulated quarter-rig views:
+  // right poses 0.4-1.2 %, plate-on-plate wrong ones 1.9-12 %); and every different candidate
+  // pose must conflict more (inconsistent + free space), or be consistent less, by
+  // coarse_min_gap, (0, 1).
   double coarse_verify_min_overlap = 0.2;
   double coarse_verify_tolerance_factor = 4.0;  // > 0
-  double coarse_max_inconsistent = 0.1;
+  double coarse_max_inconsistent = 0.25;
+  double coarse_max_free_space = 0.015;
   double coarse_min_gap = 0.05;
   double coarse_same_pose_deg = 1.0;  // > 0
   double coarse_same_pose_mm = 1.0;   // > 0
   MarkerMatchOptions matching;
+  PoseGraphOptions pose_graph;  // the marker-free path's cycle check (pose_graph.h)
   AdjustmentOptions adjustment;
   CoarseOptions coarse;
   // The threshold schedule is the one of icp_schedule.h (per level, as every caller);
@@ -104,6 +117,7 @@ struct ViewRegistration {
   double marker_rms_mm = 0;            // of its rigid fit when it joined
   double adjusted_rms_mm = 0;          // its sightings after the global adjustment
   double overlap_fraction = 0;         // largest ICP overlap with another view
+  double surface_noise_mm = 0;         // local plane-fit noise (surface_noise.h); marker-free only
   bool placed() const {
     return path == ViewPath::kWorld || path == ViewPath::kMarkers || path == ViewPath::kInitial ||
            path == ViewPath::kMarkerFree;

@@ -24,6 +24,7 @@ struct Fixture {
   StereoRig rig = testing::SmallRig();
   std::vector<Rigid3d> truth;  // world_from_sensor
   std::vector<RegistrationView> views;
+  std::vector<ViewGrid> grids;  // each view's organized grid (the views do not carry it)
 };
 
 // Plane, box and sphere with a ring of markers on the plane, seen from four sides at 60 degrees
@@ -72,6 +73,7 @@ const Fixture& Views() {
               .markers;
       fx->truth.push_back(pose);
       fx->views.push_back(std::move(rv));
+      fx->grids.push_back(IndexViewGrid(sv.rec.cloud));
     }
     return fx;
   }();
@@ -168,6 +170,40 @@ TEST(RegisterViews, BadViewsAreReportedAndGoodViewsKept) {
   EXPECT_FALSE(r.views[7].message.empty());
   for (int v = 1; v < 4; ++v) {
     EXPECT_LT(PoseError(f, Poses(r), v).angle_rad * 180 / M_PI, kRotTolDeg);
+  }
+}
+
+// Unorganized clouds (issue 29): the multi-view refinement of the four simulated views (placed
+// by their markers) is as accurate with the views as unorganized clouds (k-d tree association)
+// as with their grids (projective association): both reach the truth to the same tolerances,
+// and each other.
+constexpr double kOrganizedVsUnorganizedDeg = 0.01;
+constexpr double kOrganizedVsUnorganizedMm = 0.02;
+
+TEST(RegisterViews, UnorganizedViewsRefineAsAccuratelyAsOrganizedOnes) {
+  const Fixture& f = Views();
+  std::vector<std::vector<Rigid3d>> results;
+  for (const bool organized : {true, false}) {
+    SCOPED_TRACE(organized ? "organized" : "unorganized");
+    std::vector<RegistrationView> views = f.views;
+    for (size_t v = 0; v < views.size(); ++v) {
+      if (organized) views[v].grid = f.grids[v];
+    }
+    const RegistrationResult r = RegisterViews(views);
+    ASSERT_TRUE(r.summary.ok()) << r.summary.BriefReport();
+    ASSERT_FALSE(r.summary.icp.levels.empty()) << r.summary.icp.BriefReport();
+    EXPECT_EQ(r.summary.icp.levels.back().projective_pairs > 0, organized);
+    for (int v = 1; v < 4; ++v) {
+      const RigidDifference d = PoseError(f, Poses(r), v);
+      EXPECT_LT(d.angle_rad * 180 / M_PI, kRotTolDeg) << "view " << v;
+      EXPECT_LT(d.translation_mm, kCentroidTolMm) << "view " << v;
+    }
+    results.push_back(Poses(r));
+  }
+  for (int v = 1; v < 4; ++v) {
+    const RigidDifference d = Difference(results[0][v], results[1][v]);
+    EXPECT_LT(d.angle_rad * 180 / M_PI, kOrganizedVsUnorganizedDeg) << "view " << v;
+    EXPECT_LT(d.translation_mm, kOrganizedVsUnorganizedMm) << "view " << v;
   }
 }
 
@@ -280,6 +316,73 @@ TEST(RegisterViews, MarkerFreePathPlacesAUniqueSceneAndRefusesASymmetricOne) {
       EXPECT_EQ(r.summary.status, RegistrationStatus::kPartial);
     }
   }
+}
+
+// Four partial views (only the surfaces facing each sensor) of the asymmetric scene, 34 deg
+// apart around it, no markers: every pair is aligned and verified, the pose graph places all views
+// (its triangles close) and the multi-view ICP refines them to the truth.
+TEST(RegisterViews, MarkerFreePlacesFourPartialViews) {
+  const PointCloud world = SyntheticScene(true);
+  const StereoRig rig = testing::SmallRig();
+  std::vector<RegistrationView> views;
+  std::vector<Rigid3d> truth;
+  for (int v = 0; v < 4; ++v) {
+    const double az = 0.6 * v + 0.4, el = 0.9;
+    const Eigen::Vector3d from(std::cos(az) * std::cos(el), std::sin(az) * std::cos(el),
+                               std::sin(el));
+    const Rigid3d pose = sim::SensorPoseLookingAt(rig, Eigen::Vector3d(0, 0, 10), from, 0.2 * v);
+    PointCloud facing;
+    for (size_t i = 0; i < world.size(); ++i) {
+      if (world.normals[i].dot(pose.translation() - world.points[i]) > 0) {
+        facing.points.push_back(world.points[i]);
+        facing.normals.push_back(world.normals[i]);
+      }
+    }
+    views.push_back(SeeSynthetic(facing, pose, "view" + std::to_string(v), 10 + v));
+    truth.push_back(pose);
+  }
+  RegistrationOptions o;
+  o.coarse.voxel_mm = 3;
+  o.coarse.max_ransac_iterations = 20000;
+  const RegistrationResult r = RegisterViews(views, o);
+  EXPECT_EQ(r.summary.placed, 4) << r.summary.BriefReport();
+  for (int v = 1; v < 4; ++v) {
+    ASSERT_EQ(r.views[v].path, ViewPath::kMarkerFree) << r.views[v].message;
+    EXPECT_NE(r.views[v].message.find("confirmed by"), std::string::npos) << r.views[v].message;
+    const Rigid3d t = truth[0].Inverse() * truth[v];
+    const RigidDifference d = Difference(r.views[v].world_from_sensor, t);
+    EXPECT_LT(d.angle_rad * 180 / M_PI, kMarkerFreeRotTolDeg) << r.views[v].message;
+    Eigen::Vector3d c = Eigen::Vector3d::Zero();
+    for (const auto& p : views[v].cloud.points) c += p;
+    c /= static_cast<double>(views[v].cloud.size());
+    EXPECT_LT((r.views[v].world_from_sensor * c - t * c).norm(), kMarkerFreeCentroidTolMm)
+        << r.views[v].message;
+  }
+}
+
+// A featureless plate (a disc, nothing on it) seen twice: every slide and turn in its plane
+// fits, so the second view must be refused, not placed.
+TEST(RegisterViews, MarkerFreeRefusesAFeaturelessPlate) {
+  PointCloud plate;
+  for (double x = -89.5; x < 90; x += 1) {
+    for (double y = -89.5; y < 90; y += 1) {
+      if (x * x + y * y > 90 * 90) continue;
+      plate.points.emplace_back(x, y, 0);
+      plate.normals.push_back(Eigen::Vector3d::UnitZ());
+    }
+  }
+  const Rigid3d pose0 =
+      Rigid3d::FromAxisAngle(Eigen::Vector3d(1, 0, 0), M_PI * 0.9, Eigen::Vector3d(0, 20, 450));
+  const Rigid3d pose1 = Rigid3d::FromAxisAngle(Eigen::Vector3d(0.9, 0.3, 0.1).normalized(),
+                                               M_PI * 0.8, Eigen::Vector3d(25, -10, 430));
+  const std::vector<RegistrationView> views = {SeeSynthetic(plate, pose0, "a", 1),
+                                               SeeSynthetic(plate, pose1, "b", 2)};
+  RegistrationOptions o;
+  o.coarse.voxel_mm = 3;
+  o.coarse.max_ransac_iterations = 20000;
+  const RegistrationResult r = RegisterViews(views, o);
+  EXPECT_EQ(r.views[1].path, ViewPath::kUnplaced) << r.views[1].message;
+  EXPECT_NE(r.views[1].message.find("cannot place"), std::string::npos) << r.views[1].message;
 }
 
 // Bad input: an unorganized cloud without normals gets them estimated (and says so), oriented

@@ -209,7 +209,8 @@ json SummaryToJson(const RegistrationResult& r) {
                      {"matched_markers", v.matched_markers},
                      {"marker_rms_mm", v.marker_rms_mm},
                      {"adjusted_rms_mm", v.adjusted_rms_mm},
-                     {"overlap_fraction", v.overlap_fraction}});
+                     {"overlap_fraction", v.overlap_fraction},
+                     {"surface_noise_mm", v.surface_noise_mm}});
   }
   json levels = json::array();
   for (const IcpLevelReport& l : r.summary.icp.levels) levels.push_back(ToJson(l));

@@ -183,7 +183,12 @@ std::string DescribePath(const fs::path& path) {
   if (ext == ".json") return DescribeJson(path);
   if (ext == ".yml" || ext == ".yaml" || ext == ".xml") {
     const io::OpenCvCalibration cv = io::ReadOpenCvCalibration({path}, -1, -1);
-    const std::string text = StrCat(path.string(), ": OpenCV calibration\n", cv.Describe());
+    // Which tool's file it is (io/calibration_formats.h detects it).
+    const std::string kind = cv.format == "slstudio" ? "SLStudio calibration"
+                             : cv.format == "ros"    ? "ROS camera_info"
+                             : cv.format == "kalibr" ? "Kalibr camchain"
+                                                     : "OpenCV calibration";
+    const std::string text = StrCat(path.string(), ": ", kind, "\n", cv.Describe());
     // What reconstruct and convert-calib would refuse (distortion longer than fringe's model, a
     // bad rotation) is an error here too, not a description of something unusable.
     if (cv.right && cv.right_from_left) {

@@ -6,6 +6,9 @@
 
 #include "fringe/cli/run_cli_for_test.h"
 #include "fringe/io/calibration_io.h"
+#include "fringe/io/image_io.h"
+#include "fringe/io/json.h"
+#include "fringe/phase/pattern_scheme.h"
 #include "fringe_test.h"
 
 namespace fringe::cli {
@@ -97,6 +100,40 @@ TEST(ConvertCalib, RigThroughEveryToolFormatAndBack) {
       << err;
   EXPECT_NE(out.find("format: keys"), std::string::npos) << out;
   EXPECT_NEAR(io::ReadRig(dir / "cam.json").projector->fx, rig.projector->fx, kChainTol);
+}
+
+// Issue 27 item 5: `fringe info DIR --init` writes the scan.json inferred for a folder of views
+// another tool wrote (L/ R/ view folders, scheme.json), and only where none exists.
+TEST(InfoInit, WritesTheInferredManifestOnce) {
+  test::TempDir dir;
+  const fs::path root = dir / "capture";
+  const phase::PatternScheme scheme = phase::MakeScheme("heterodyne-3x3", 320, 200);
+  fs::create_directories(root);
+  phase::WriteScheme(root / "scheme.json", scheme);
+  const cv::Mat grey(12, 16, CV_16U, cv::Scalar(900));
+  for (const char* v : {"000", "001"}) {
+    for (const char* c : {"L", "R"}) {
+      fs::create_directories(root / "views" / v / c);
+      for (const std::string& n : scheme.ImageNames()) {
+        io::WriteImage(root / "views" / v / c / n, grey);
+      }
+    }
+  }
+  std::string out, err;
+  ASSERT_EQ(RunCli({"info", root.string()}, &out, &err), 0) << err;
+  EXPECT_NE(out.find("manifest: inferred (no scan.json"), std::string::npos) << out;
+  EXPECT_NE(out.find("2 views (views/000 .. views/001), two cameras L/ R/"), std::string::npos)
+      << out;
+  EXPECT_NE(out.find("images 16x12, 16-bit"), std::string::npos) << out;
+  EXPECT_FALSE(fs::exists(root / "scan.json"));
+  ASSERT_EQ(RunCli({"info", root.string(), "--init"}, &out, &err), 0) << err;
+  EXPECT_NE(out.find("wrote " + (root / "scan.json").string()), std::string::npos) << out;
+  const nlohmann::json j = io::ReadJson(root / "scan.json");
+  EXPECT_EQ(j["views"], 2);
+  EXPECT_EQ(j["bit_depth"], 16);
+  EXPECT_EQ(j["camera_folders"], nlohmann::json({"L", "R"}));
+  EXPECT_EQ(RunCli({"info", root.string(), "--init"}, &out, &err), 1);
+  EXPECT_NE(err.find("already has scan.json (not overwritten)"), std::string::npos) << err;
 }
 
 }  // namespace

@@ -407,7 +407,7 @@ struct Kernel {
       } else {
         const int num_levels = static_cast<int>(chain.size());
         // lv[l]: element 0 of level l (wrapped phase in cycles), which the top-down pass needs.
-        std::vector<const float*> lv(num_levels);
+        std::array<const float*, kMaxSets> lv{};
         if (nt != nullptr) {
           // Number-theoretic: the rounded keys f_0 c_j - f_j c_0 index the orders of set 0.
           const int n = num_sets;

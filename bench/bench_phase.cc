@@ -126,6 +126,131 @@ json WrongOrders() {
   return out;
 }
 
+// 2b. Every temporal unwrapping method (issue 27): raw fringe-order error rate at B = 30 DN and
+// sigma = 1, 2, 4, 8 DN (no modulation threshold, no spatial repair) against the noise model;
+// the noise tolerance (largest sigma with an order-error rate <= 1e-5) measured by bisection
+// over sigma on 1.3 M pixels vs predicted by OrderErrorProbability; decode time per image.
+// The projector map covers the middle 80 % of the span, so a coarsest period equal to the span
+// (hierarchical 1 period, SLStudio's cue) is inside its margin, as the prediction assumes.
+struct MethodCase {
+  const char* key;
+  PatternScheme scheme;
+};
+
+std::vector<MethodCase> MethodCases() {
+  const auto sets = [](const std::vector<double>& periods, int steps, Unwrapping u) {
+    PatternScheme s;
+    s.projector_width = 1280;
+    s.projector_height = 800;
+    for (const double p : periods) {
+      PhaseShiftSet set;
+      set.period_px = p;
+      set.steps = steps;
+      s.phase_sets.push_back(set);
+    }
+    s.unwrapping = u;
+    s.Check();
+    return s;
+  };
+  PatternScheme sl = sets({1280.0 / 16, 1280.0}, 3, Unwrapping::kHierarchical);
+  for (auto& set : sl.phase_sets) {
+    set.shifts_rad = {0.0, -2 * M_PI / 3, -4 * M_PI / 3};
+    set.phase_offset_rad = -M_PI / set.period_px;
+  }
+  return {{"heterodyne_4x3", MakeScheme("heterodyne-4x3")},
+          {"gray_4", MakeScheme("gray+4")},
+          {"hierarchical_1_8_64",
+           sets({1280.0 / 64, 1280.0 / 8, 1280.0}, 4, Unwrapping::kHierarchical)},
+          {"hierarchical_slstudio_2x3", sl},
+          {"number_theoretic_37_32",
+           sets({1280.0 / 37, 1280.0 / 32}, 4, Unwrapping::kNumberTheoretic)}};
+}
+
+// Fraction of pixels whose decoded coordinate is off by more than a quarter of the finest
+// period, and the fraction rejected (order ambiguous or no key).
+std::pair<double, double> OrderErrorRate(const PatternScheme& s, const cv::Mat& u, double b_dn,
+                                         double sigma_dn, uint64_t seed) {
+  SyntheticStackOptions so;
+  so.bit_depth = 16;  // no 8-bit rounding at small sigma: 16-bit images scaled by 256
+  so.background_dn = 128 * 256;
+  so.modulation_dn = b_dn * 256;
+  so.noise_sigma_dn = sigma_dn * 256;
+  so.seed = seed;
+  DecodeOptions opt;
+  opt.spatial_check_fraction = 0;
+  opt.min_modulation_dn = 1;
+  opt.min_modulation_ratio = 0;
+  opt.noise_sigma_dn = sigma_dn * 256;
+  const DecodeResult r = Decode(s, RenderSyntheticStack(s, u, so), opt);
+  int64_t wrong = 0, rejected = 0;
+  const double limit = 0.25 * s.phase_sets[0].period_px;
+  for (int y = 0; y < u.rows; ++y) {
+    for (int x = 0; x < u.cols; ++x) {
+      if (!r.mask.at<uint8_t>(y, x)) {
+        ++rejected;
+      } else if (std::fabs(r.absolute_phase.at<float>(y, x) - u.at<float>(y, x)) > limit) {
+        ++wrong;
+      }
+    }
+  }
+  const double n = static_cast<double>(u.total());
+  return {wrong / n, rejected / n};
+}
+
+json UnwrappingMethods(int repeats) {
+  json out;
+  constexpr double kB = 30.0, kTarget = 1e-5;
+  out["unwrap_b_dn"] = kB;
+  out["unwrap_target_order_error"] = kTarget;
+  for (const MethodCase& m : MethodCases()) {
+    const PatternScheme& s = m.scheme;
+    const std::string k = std::string("unwrap_") + m.key;
+    // Middle 80 % of the span across the image, with a slight shear (LinearProjectorMap's).
+    cv::Mat u = LinearProjectorMap(s, kCamera);
+    u = 0.1 * s.Span() + 0.8 * u;
+    out[k + "_method"] = UnwrappingName(s.Method());
+    out[k + "_images"] = s.NumImages();
+    for (const double sigma : {1.0, 2.0, 4.0, 8.0}) {
+      const auto [rate, rejected] = OrderErrorRate(s, u, kB, sigma, 71);
+      const std::string ks = k + "_sigma_" + std::to_string(static_cast<int>(sigma));
+      out[ks + "_order_error"] = rate;
+      out[ks + "_rejected"] = rejected;
+      out[ks + "_order_error_predicted"] = OrderErrorProbability(s, sigma, kB);
+    }
+    // Predicted tolerance: OrderErrorProbability rises with sigma; bisection on log sigma.
+    double lo = 0.05, hi = 100;
+    for (int i = 0; i < 60; ++i) {
+      const double mid = std::sqrt(lo * hi);
+      (OrderErrorProbability(s, mid, kB) <= kTarget ? lo : hi) = mid;
+    }
+    out[k + "_tolerance_sigma_predicted_dn"] = lo;
+    // Measured: the same bisection on the measured rate (8 steps: within 2^(1/16) ~ 4 %
+    // of the predicted bracket [pred / 2, pred * 2]).
+    double mlo = lo / 2, mhi = lo * 2;
+    if (OrderErrorRate(s, u, kB, mlo, 72).first > kTarget) mhi = mlo, mlo = lo / 8;
+    for (int i = 0; i < 8; ++i) {
+      const double mid = std::sqrt(mlo * mhi);
+      (OrderErrorRate(s, u, kB, mid, 73 + i).first <= kTarget ? mlo : mhi) = mid;
+    }
+    out[k + "_tolerance_sigma_measured_dn"] = mlo;
+    out[k + "_tolerance_measured_over_predicted"] = mlo / lo;
+    // Decode time on 8-bit images at B 60, sigma 2 (the default options: whole stack, spatial
+    // check), median of `repeats`.
+    SyntheticStackOptions so;
+    so.modulation_dn = 60;
+    so.noise_sigma_dn = 2;
+    so.seed = 74;
+    const auto images = RenderSyntheticStack(s, u, so);
+    DecodeOptions opt;
+    opt.noise_sigma_dn = 2;
+    DecodeResult r;
+    const double ms = TimeMs(repeats, [&] { Decode(s, images, opt, &r); });
+    out[k + "_decode_ms"] = ms;
+    out[k + "_decode_ms_per_image"] = ms / s.NumImages();
+  }
+  return out;
+}
+
 // 3. Gamma 2.2: gamma-free, uncompensated, pre-compensated patterns, decoder table.
 json GammaCases() {
   json out;
@@ -411,6 +536,19 @@ void PrintTable(const json& out) {
             << "  heterodyne-4x3 " << num("wrong_order_fraction") << " (predicted "
             << num("wrong_order_predicted") << ")   thesis-4+3+3 "
             << num("wrong_order_fraction_4_3_3") << "   (target <= 1e-5)\n\n"
+            << "temporal unwrapping methods (B " << num("unwrap_b_dn")
+            << " DN; raw order-error rate at sigma 1/2/4/8 DN; noise tolerance at 1e-5)\n";
+  for (const MethodCase& m : MethodCases()) {
+    const std::string k = std::string("unwrap_") + m.key;
+    std::cout << "  " << std::left << std::setw(28) << m.key << std::right;
+    for (const char* sg : {"1", "2", "4", "8"}) {
+      std::cout << " " << num((k + "_sigma_" + sg + "_order_error").c_str());
+    }
+    std::cout << "  tolerance " << num((k + "_tolerance_sigma_measured_dn").c_str())
+              << " DN (predicted " << num((k + "_tolerance_sigma_predicted_dn").c_str()) << ")  "
+              << num((k + "_decode_ms_per_image").c_str()) << " ms/image\n";
+  }
+  std::cout << "\n"
             << "gamma 2.2, wrapped RMS rad (4-step / 3-step)\n"
             << "  gamma-free      " << num("gamma_free_rms_rad") << " / "
             << num("gamma_3step_free_rms_rad") << "\n"
@@ -463,6 +601,9 @@ int main(int argc, char** argv) {
   app.add_option("--repeats", repeats, "Timing repeats (median)")
       ->check(CLI::Range(1, 1000))
       ->capture_default_str();
+  bool unwrapping_only = false;
+  app.add_flag("--unwrapping-only", unwrapping_only,
+               "Only the temporal unwrapping methods (issue 27 figures)");
   std::string data_arg;
   app.add_option("--data", data_arg, "Shared data folder (default ../shared/data)");
   CLI11_PARSE(app, argc, argv);
@@ -474,8 +615,14 @@ int main(int argc, char** argv) {
     double load[1] = {0};
     if (getloadavg(load, 1) == 1) out["load_average_at_start"] = load[0];
   }
+  if (unwrapping_only) {
+    out.update(UnwrappingMethods(repeats));
+    std::cout << out.dump() << "\n";
+    return 0;
+  }
   out.update(WrappedPhaseNoise());
   out.update(WrongOrders());
+  out.update(UnwrappingMethods(repeats));
   out.update(GammaCases());
   out.update(SpeedVsOpenCv(repeats));
 #ifdef FRINGE_BENCH_HAS_SIM

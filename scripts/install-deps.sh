@@ -13,6 +13,7 @@ packages=(
   libtbb-dev                            # threads
   libcli11-dev                          # command line
   nlohmann-json3-dev                    # JSON
+  libyaml-cpp-dev libtinyxml2-dev       # untrusted YAML / XML calibration files (bounded parsers)
   libgtest-dev libgmock-dev             # tests
   libceres-dev                          # nonlinear least squares (calibration, marker adjustment)
   libopen3d-dev                         # FPFH + RANSAC coarse alignment, Poisson meshing; peer in benchmarks

@@ -721,9 +721,12 @@ def build_cases(s):
     s.case("paths", "symlink loop as the view", ["reconstruct", "loop", "--calib", "rig.json", "--out", "{out}/r.ply"],
            ["rig.json"], names=["loop"],
            prepare=chain(s.copy("scan/truth/rig.json", "rig.json"), lambda d: os.symlink("loop", d / "loop")))
-    s.case("paths", "scan of a folder without scan.json", ["scan", "proj", "--calib", "proj/truth/rig.json", "--out", "{out}/o"], ["proj"],
+    # Without scan.json the manifest is inferred from the folder (issue 27); without scheme.json
+    # too there is nothing to infer it from.
+    s.case("paths", "scan of a folder without scan.json or scheme.json", ["scan", "proj", "--calib", "proj/truth/rig.json", "--out", "{out}/o"], ["proj"],
            names=["scan.json", "proj"],
-           prepare=chain(s.copy("scan", "proj"), lambda d: (d / "proj/scan.json").unlink()))
+           prepare=chain(s.copy("scan", "proj"), lambda d: (d / "proj/scan.json").unlink(),
+                         lambda d: (d / "proj/scheme.json").unlink()))
     s.case("paths", "fuse with poses naming a missing view",
            ["fuse", "000.ply", "001.ply", "--poses", "poses.json", "--out", "{out}/f.ply"], ["poses.json"],
            names=["poses.json", "001"],

@@ -1,20 +1,40 @@
 // fringe info PATH...: what is in a PLY, a calibration file or a scan folder.
+// fringe info PROJECT --init: writes the scan.json inferred for a folder of views another tool
+// wrote (scan::InferManifest), after checking the folder against it.
 #include <CLI/CLI.hpp>
+#include <filesystem>
 #include <iostream>
 #include <memory>
 
 #include "fringe/cli/cli.h"
 #include "fringe/scan/describe.h"
+#include "fringe/scan/scan_folder.h"
+#include "fringe/util/error.h"
 
 namespace fringe::cli {
 
 void AddInfoCommand(CLI::App& app) {
   auto paths = std::make_shared<std::vector<std::string>>();
+  auto init = std::make_shared<bool>(false);
   CLI::App* sub = app.add_subcommand(
       "info", "Print what is in a PLY file, a calibration (rig JSON) or a scan folder");
   sub->add_option("paths", *paths, "Files or folders")->required();
-  sub->callback([paths] {
-    for (const auto& p : *paths) std::cout << scan::DescribePath(p);
+  sub->add_flag("--init", *init,
+                "For a folder of views without scan.json: write the inferred scan.json");
+  sub->callback([paths, init] {
+    for (const auto& p : *paths) {
+      if (*init) {
+        const std::filesystem::path root(p);
+        if (scan::ScanFolder::IsScanFolder(root)) {
+          throw Error(util::StrCat(p, ": already has scan.json (not overwritten)"));
+        }
+        const scan::InferredManifest inferred = scan::InferManifest(root);
+        (void)scan::ScanFolder::Open(root);  // the folder agrees with what was inferred
+        scan::WriteManifest(scan::ScanLayout{root}.Manifest(), inferred.manifest);
+        std::cout << "wrote " << scan::ScanLayout{root}.Manifest().string() << "\n";
+      }
+      std::cout << scan::DescribePath(p);
+    }
   });
 }
 

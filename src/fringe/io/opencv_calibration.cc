@@ -255,73 +255,22 @@ std::string Where(const Found& f) { return StrCat(f.file.string(), ": ", f.key);
 
 CameraModel Camera(const Found& k, const std::optional<Found>& d, int width, int height,
                    const char* device) {
-  if (k.m.cols != 9) {
-    throw Error(StrCat(Where(k), " (", device, " camera matrix): ", k.m.cols,
-                       " entries, expected a 3x3 matrix"));
-  }
-  const double* a = k.m.ptr<double>();
-  if (a[1] != 0 || a[3] != 0 || a[6] != 0 || a[7] != 0 || a[8] != 1) {
-    // Skew or a scaled matrix: fringe's model has neither.
-    throw Error(StrCat(Where(k), " (", device,
-                       " camera matrix): expected [fx 0 cx; 0 fy cy; 0 0 1] (no skew)"));
-  }
-  CameraModel c;
-  c.width = width;
-  c.height = height;
-  c.fx = a[0];
-  c.cx = a[2];
-  c.fy = a[4];
-  c.cy = a[5];
-  std::array<double, 5> dist{0, 0, 0, 0, 0};
-  if (d) {
-    const int n = d->m.cols;
-    if (n != 4 && n != 5 && n != 8 && n != 12 && n != 14) {
-      throw Error(StrCat(Where(*d), " (", device, " distortion): ", n,
-                         " coefficients; expected 4 or 5 (k1 k2 p1 p2 [k3])"));
-    }
-    for (int i = 5; i < n; ++i) {
-      if (d->m.at<double>(i) != 0) {
-        throw Error(StrCat(Where(*d), " (", device, " distortion): ", n,
-                           " coefficients (OpenCV's rational / thin-prism / tilt model); fringe's "
-                           "model is k1 k2 p1 p2 k3 and coefficient ",
-                           i, " is ", d->m.at<double>(i),
-                           ", not 0: recalibrate with the 5-coefficient model"));
-      }
-    }
-    for (int i = 0; i < std::min(n, 5); ++i) dist[i] = d->m.at<double>(i);
-  }
-  c.SetDistortion(dist);
-  try {
-    c.Check();
-  } catch (const Error& e) {
-    throw Error(StrCat(Where(k), " (", device, " camera): ", e.what()));
-  }
-  CheckPlausibleCamera(c, StrCat(Where(k), " (", device, " camera)"));
-  return c;
+  std::vector<double> dist;
+  if (d) dist.assign(d->m.ptr<double>(), d->m.ptr<double>() + d->m.cols);
+  return CameraFromMatrices(std::vector<double>(k.m.ptr<double>(), k.m.ptr<double>() + k.m.cols),
+                            d ? &dist : nullptr, width, height, device, Where(k),
+                            d ? Where(*d) : std::string());
 }
 
 Rigid3d Extrinsics(const Found& r, const Found& t, const char* what) {
-  Eigen::Matrix3d m;
-  if (r.m.cols == 9) {
-    for (int i = 0; i < 9; ++i) m(i / 3, i % 3) = r.m.at<double>(i);
-  } else if (r.m.cols == 3) {
-    // A Rodrigues vector (as cv::stereoCalibrate's callers sometimes save om).
-    const Eigen::Vector3d om(r.m.at<double>(0), r.m.at<double>(1), r.m.at<double>(2));
-    const double angle = om.norm();
-    m = angle > 0 ? Eigen::AngleAxisd(angle, om / angle).toRotationMatrix()
-                  : Eigen::Matrix3d::Identity();
-  } else {
-    throw Error(StrCat(Where(r), " (", what, " rotation): ", r.m.cols,
-                       " entries, expected a 3x3 matrix or a 3-vector"));
-  }
-  CheckRotationMatrix(m, StrCat(Where(r), " (", what, " rotation)"));
-  if (t.m.cols != 3) {
-    throw Error(StrCat(Where(t), " (", what, " translation): ", t.m.cols, " entries, expected 3"));
-  }
-  return Rigid3d(m, Eigen::Vector3d(t.m.at<double>(0), t.m.at<double>(1), t.m.at<double>(2)));
+  return RigidFromMatrices(std::vector<double>(r.m.ptr<double>(), r.m.ptr<double>() + r.m.cols),
+                           std::vector<double>(t.m.ptr<double>(), t.m.ptr<double>() + t.m.cols),
+                           1.0, what, Where(r), Where(t));
 }
 
 }  // namespace
+
+const std::vector<std::string>& OpenCvCameraMatrixSpellings() { return kLeftK; }
 
 void CheckOpenCvFileBounds(const fs::path& path) {
   const std::uintmax_t size = util::FileSizeBytes(path);
@@ -541,12 +490,13 @@ void CheckOpenCvFileBounds(const fs::path& path) {
   }
 }
 
-OpenCvCalibration ReadOpenCvCalibration(const std::vector<fs::path>& paths, int camera_width,
-                                        int camera_height, int projector_width,
-                                        int projector_height) {
+OpenCvCalibration ReadOpenCvKeySpellings(const std::vector<fs::path>& paths, int camera_width,
+                                         int camera_height, int projector_width,
+                                         int projector_height) {
   if (paths.empty()) throw Error("no OpenCV calibration file given");
   const Files files(paths);
   OpenCvCalibration out;
+  out.format = "opencv";
   auto note = [&](const std::optional<Found>& f, const char* what) {
     if (f) out.keys_used.push_back(StrCat(Where(*f), " -> ", what));
   };
@@ -664,6 +614,77 @@ OpenCvCalibration ReadOpenCvCalibration(const std::vector<fs::path>& paths, int 
   return out;
 }
 
+CameraModel CameraFromMatrices(const std::vector<double>& k, const std::vector<double>* d,
+                               int width, int height, const std::string& device,
+                               const std::string& k_where, const std::string& d_where) {
+  if (k.size() != 9) {
+    throw Error(StrCat(k_where, " (", device, " camera matrix): ", k.size(),
+                       " entries, expected a 3x3 matrix"));
+  }
+  const double* a = k.data();
+  if (a[1] != 0 || a[3] != 0 || a[6] != 0 || a[7] != 0 || a[8] != 1) {
+    // Skew or a scaled matrix: fringe's model has neither.
+    throw Error(StrCat(k_where, " (", device,
+                       " camera matrix): expected [fx 0 cx; 0 fy cy; 0 0 1] (no skew)"));
+  }
+  CameraModel c;
+  c.width = width;
+  c.height = height;
+  c.fx = a[0];
+  c.cx = a[2];
+  c.fy = a[4];
+  c.cy = a[5];
+  std::array<double, 5> dist{0, 0, 0, 0, 0};
+  if (d) {
+    const int n = static_cast<int>(d->size());
+    if (n != 4 && n != 5 && n != 8 && n != 12 && n != 14) {
+      throw Error(StrCat(d_where, " (", device, " distortion): ", n,
+                         " coefficients; expected 4 or 5 (k1 k2 p1 p2 [k3])"));
+    }
+    for (int i = 5; i < n; ++i) {
+      if ((*d)[i] != 0) {
+        throw Error(StrCat(d_where, " (", device, " distortion): ", n,
+                           " coefficients (OpenCV's rational / thin-prism / tilt model); fringe's "
+                           "model is k1 k2 p1 p2 k3 and coefficient ",
+                           i, " is ", (*d)[i],
+                           ", not 0: recalibrate with the 5-coefficient model"));
+      }
+    }
+    for (int i = 0; i < std::min(n, 5); ++i) dist[i] = (*d)[i];
+  }
+  c.SetDistortion(dist);
+  try {
+    c.Check();
+  } catch (const Error& e) {
+    throw Error(StrCat(k_where, " (", device, " camera): ", e.what()));
+  }
+  CheckPlausibleCamera(c, StrCat(k_where, " (", device, " camera)"));
+  return c;
+}
+
+Rigid3d RigidFromMatrices(const std::vector<double>& r, const std::vector<double>& t,
+                          double mm_per_unit, const std::string& what, const std::string& r_where,
+                          const std::string& t_where) {
+  Eigen::Matrix3d m;
+  if (r.size() == 9) {
+    for (int i = 0; i < 9; ++i) m(i / 3, i % 3) = r[i];
+  } else if (r.size() == 3) {
+    // A Rodrigues vector (as cv::stereoCalibrate's callers sometimes save om).
+    const Eigen::Vector3d om(r[0], r[1], r[2]);
+    const double angle = om.norm();
+    m = angle > 0 ? Eigen::AngleAxisd(angle, om / angle).toRotationMatrix()
+                  : Eigen::Matrix3d::Identity();
+  } else {
+    throw Error(StrCat(r_where, " (", what, " rotation): ", r.size(),
+                       " entries, expected a 3x3 matrix or a 3-vector"));
+  }
+  CheckRotationMatrix(m, StrCat(r_where, " (", what, " rotation)"));
+  if (t.size() != 3) {
+    throw Error(StrCat(t_where, " (", what, " translation): ", t.size(), " entries, expected 3"));
+  }
+  return Rigid3d(m, mm_per_unit * Eigen::Vector3d(t[0], t[1], t[2]));
+}
+
 namespace {
 
 // The devices read, for the error messages of ToRig / ToCameraProjectorRig.
@@ -712,6 +733,7 @@ StereoRig OpenCvCalibration::ToCameraProjectorRig(const std::string& context) co
 
 std::string OpenCvCalibration::Describe() const {
   std::ostringstream os;
+  if (!format.empty()) os << "  format: " << format << "\n";
   os << "  devices:";
   if (left) os << " left camera";
   if (right) os << ", right camera";

@@ -32,6 +32,9 @@ struct OpenCvCalibration {
   std::optional<Rigid3d> right_from_left, projector_from_left;
   // What was read from where, e.g. "intrinsic.yml: M1 -> left camera matrix", and notes.
   std::vector<std::string> keys_used;
+  // The reader that read the files: "opencv", "slstudio", "ros", "kalibr" or "keys" (an explicit
+  // mapping), io/calibration_formats.h.
+  std::string format;
 
   // The rig fringe reconstructs with: needs both cameras and right_from_left (the projector is
   // kept when present with projector_from_left). Throws fringe::Error naming `context` and what
@@ -45,6 +48,14 @@ struct OpenCvCalibration {
   std::string Describe() const;
 };
 
+// Reads the devices from one or more calibration files of any format fringe knows
+// (io/calibration_formats.h: this file's OpenCV spellings, SLStudio, ROS camera_info, Kalibr),
+// detecting which; a file set that two readers match is an error naming both.
+OpenCvCalibration ReadOpenCvCalibration(const std::vector<std::filesystem::path>& files,
+                                        int camera_width = 0, int camera_height = 0,
+                                        int projector_width = 0, int projector_height = 0);
+
+// The OpenCV reader proper (cv::FileStorage files under the usual spellings above).
 // Reads the devices from one or more files (stereo_calib writes intrinsics and extrinsics
 // separately; a key found in two files is an error). Image sizes come from the files when they
 // hold them (image_width/image_height, imageSize, image_size, width/height; the projector's
@@ -52,9 +63,24 @@ struct OpenCvCalibration {
 // camera_width/height (> 0; -1: assume twice the principal point, for descriptions only); a
 // projector of unknown size takes projector_width/height when given (> 0: e.g. the pattern
 // scheme's projector size), else it is dropped with a note.
-OpenCvCalibration ReadOpenCvCalibration(const std::vector<std::filesystem::path>& files,
-                                        int camera_width = 0, int camera_height = 0,
-                                        int projector_width = 0, int projector_height = 0);
+OpenCvCalibration ReadOpenCvKeySpellings(const std::vector<std::filesystem::path>& files,
+                                         int camera_width = 0, int camera_height = 0,
+                                         int projector_width = 0, int projector_height = 0);
+
+// The spellings of the (left) camera matrix the reader above looks for, most common first.
+const std::vector<std::string>& OpenCvCameraMatrixSpellings();
+
+// The checks and conversions every calibration reader shares (this one, io/calibration_formats.h):
+// a camera from a row-major 3x3 matrix [fx 0 cx; 0 fy cy; 0 0 1] and OpenCV's distortion vector
+// (4, 5, or 8/12/14 with the extra coefficients exactly 0; nullptr: none), Check()ed and
+// plausible; a rigid transform from a 3x3 rotation (or a Rodrigues 3-vector) and a translation
+// multiplied by mm_per_unit. Errors name `*_where` (file and key) and the device.
+CameraModel CameraFromMatrices(const std::vector<double>& k, const std::vector<double>* d,
+                               int width, int height, const std::string& device,
+                               const std::string& k_where, const std::string& d_where);
+Rigid3d RigidFromMatrices(const std::vector<double>& r, const std::vector<double>& t,
+                          double mm_per_unit, const std::string& what, const std::string& r_where,
+                          const std::string& t_where);
 
 // Throws fringe::Error naming the file when it is larger than 16 MiB, nests deeper than
 // util::kMaxNestingDepth (flow brackets, "- " sequences, XML elements) or indents more than 512

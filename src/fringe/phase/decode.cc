@@ -217,6 +217,13 @@ Chain HeterodyneChain(const PatternScheme& s) {
     e.weights[i] = 1.0;
     chain[0].push_back(e);
   }
+  if (s.Method() == Unwrapping::kHierarchical) {
+    // Hierarchical: level l is set l itself (no beats); each unwraps the next finer one.
+    Chain levels;
+    for (const ChainElement& e : chain[0]) levels.push_back({e});
+    return levels;
+  }
+  if (s.Method() != Unwrapping::kHeterodyne) return chain;
   while (chain.back().size() > 1) {
     const auto& prev = chain.back();
     std::vector<ChainElement> next;
@@ -260,6 +267,15 @@ std::vector<UnwrapStepNoise> StepNoise(const PatternScheme& s) {
     steps.push_back(st);
     return steps;
   }
+  if (s.Method() == Unwrapping::kNumberTheoretic) {
+    // Key j is f_0 c_j - f_j c_0 (cycles), rounded: wrong when its error exceeds half a unit.
+    const NumberTheoreticTable t = MakeNumberTheoreticTable(s);
+    for (size_t j = 1; j < s.phase_sets.size(); ++j) {
+      const double f0 = t.counts[0], fj = t.counts[j];
+      steps.push_back({std::sqrt(f0 * f0 * var_cycles[j] + fj * fj * var_cycles[0]), 0.5});
+    }
+    return steps;
+  }
   const Chain chain = HeterodyneChain(s);
   {
     // The coarsest phase is placed in a window of one period centred on the projector: pixels
@@ -295,6 +311,8 @@ struct Kernel {
   const std::vector<cv::Mat>& images;
   const std::vector<SetCoefficients>& coeffs;
   const Chain& chain;
+  const NumberTheoreticTable* nt;  // number-theoretic unwrapping, else nullptr
+  bool hierarchical;               // levels are the sets themselves (no beats)
   const std::vector<std::unique_ptr<GammaPhaseCorrection>>& gamma;
   float b_min_sq, saturation, min_background, min_ratio_sq, max_residual;
   // Per set: period (px) and the whole-stack weight per unit B^2, 1 / (P^2 var per unit noise).
@@ -387,40 +405,68 @@ struct Kernel {
           for (int c = 0; c < w; ++c) v[c] = (static_cast<float>(code1[c]) + f[c]) * p0;
         }
       } else {
-        // Heterodyne: build the levels on the fly, top element first, then fix orders downward.
-        // levels[l][i] for i < num_sets - l; stored in place in `frac` copies per level.
         const int num_levels = static_cast<int>(chain.size());
-        // `level` holds every element of the current level (wrapped differences, in cycles);
-        // `keep` the element 0 of each level, which the top-down pass needs.
-        std::copy(frac.begin(), frac.end(), level.begin());
-        std::vector<std::vector<float>>& keep = level_keep();
-        keep.resize(num_levels);
-        for (int l = 0; l < num_levels; ++l) keep[l].resize(w);
-        std::copy(frac.begin(), frac.begin() + w, keep[0].begin());
-        for (int l = 1; l < num_levels; ++l) {
-          const int count = num_sets - l;
-          for (int i = 0; i < count; ++i) {
-            BeatRow(w, &level[static_cast<size_t>(i) * w], &level[static_cast<size_t>(i + 1) * w]);
-          }
-          std::copy(level.begin(), level.begin() + w, keep[l].begin());
-        }
-        // Top: the coarsest period covers the span; take the representative nearest its centre.
-        const float pt = static_cast<float>(chain.back()[0].period);
-        const float centre = 0.5f * static_cast<float>(scheme.Span());
-        const float* top = keep[num_levels - 1].data();
-        for (int c = 0; c < w; ++c) {
-          const float x = top[c] * pt;
-          v[c] = x + pt * RoundF((centre - x) / pt);
-        }
-        for (int l = num_levels - 2; l >= 0; --l) {
-          const float pf = static_cast<float>(chain[l][0].period);
-          const float inv = 1.0f / pf;
-          const float* ff = keep[l].data();
+        // lv[l]: element 0 of level l (wrapped phase in cycles), which the top-down pass needs.
+        std::array<const float*, kMaxSets> lv{};
+        if (nt != nullptr) {
+          // Number-theoretic: the rounded keys f_0 c_j - f_j c_0 index the orders of set 0.
+          const int n = num_sets;
+          const float f0 = static_cast<float>(nt->counts[0]);
+          int key[kMaxSets];
           for (int c = 0; c < w; ++c) {
-            const float t = v[c] * inv - ff[c];
-            const float k = RoundF(t);
-            resid[c] = std::max(resid[c], std::fabs(t - k));
-            v[c] = (ff[c] + k) * pf;
+            const float c0 = frac[c];
+            float worst = 0.0f;
+            for (int j = 1; j < n; ++j) {
+              const float rj = f0 * frac[static_cast<size_t>(j) * w + c] -
+                               static_cast<float>(nt->counts[j]) * c0;
+              const float mj = RoundF(rj);
+              worst = std::max(worst, std::fabs(rj - mj));
+              key[j - 1] = static_cast<int>(mj);
+            }
+            const int k0 = nt->Lookup(key);
+            resid[c] = k0 < 0 ? 1.0f : worst;
+            v[c] = (c0 + static_cast<float>(std::max(k0, 0))) * p0;
+          }
+        } else {
+          if (hierarchical) {
+            for (int l = 0; l < num_levels; ++l) lv[l] = &frac[static_cast<size_t>(l) * w];
+          } else {
+            // Heterodyne: build the beat levels on the fly; `level` holds every element of the
+            // current level, `keep` element 0 of each level.
+            std::copy(frac.begin(), frac.end(), level.begin());
+            std::vector<std::vector<float>>& keep = level_keep();
+            keep.resize(num_levels);
+            for (int l = 0; l < num_levels; ++l) keep[l].resize(w);
+            std::copy(frac.begin(), frac.begin() + w, keep[0].begin());
+            for (int l = 1; l < num_levels; ++l) {
+              const int count = num_sets - l;
+              for (int i = 0; i < count; ++i) {
+                BeatRow(w, &level[static_cast<size_t>(i) * w],
+                        &level[static_cast<size_t>(i + 1) * w]);
+              }
+              std::copy(level.begin(), level.begin() + w, keep[l].begin());
+            }
+            for (int l = 0; l < num_levels; ++l) lv[l] = keep[l].data();
+          }
+          // Top: the coarsest period covers the span; take the representative nearest its
+          // centre.
+          const float pt = static_cast<float>(chain.back()[0].period);
+          const float centre = 0.5f * static_cast<float>(scheme.Span());
+          const float* top = lv[num_levels - 1];
+          for (int c = 0; c < w; ++c) {
+            const float x = top[c] * pt;
+            v[c] = x + pt * RoundF((centre - x) / pt);
+          }
+          for (int l = num_levels - 2; l >= 0; --l) {
+            const float pf = static_cast<float>(chain[l][0].period);
+            const float inv = 1.0f / pf;
+            const float* ff = lv[l];
+            for (int c = 0; c < w; ++c) {
+              const float t = v[c] * inv - ff[c];
+              const float k = RoundF(t);
+              resid[c] = std::max(resid[c], std::fabs(t - k));
+              v[c] = (ff[c] + k) * pf;
+            }
           }
         }
         if (opt.whole_stack && num_sets > 1) {
@@ -826,6 +872,8 @@ void Decode(const PatternScheme& scheme, const std::vector<cv::Mat>& images,
     }
   }
   const Chain chain = HeterodyneChain(scheme);
+  std::optional<NumberTheoreticTable> nt;
+  if (scheme.Method() == Unwrapping::kNumberTheoretic) nt = MakeNumberTheoreticTable(scheme);
   NoiseEstimate noise;
   if (options.noise_sigma_dn > 0) {
     noise.sigma_dn = options.noise_sigma_dn;
@@ -869,6 +917,8 @@ void Decode(const PatternScheme& scheme, const std::vector<cv::Mat>& images,
                 images,
                 coeffs,
                 chain,
+                nt ? &*nt : nullptr,
+                scheme.Method() == Unwrapping::kHierarchical,
                 gamma,
                 static_cast<float>(b_min * b_min),
                 static_cast<float>(options.saturation_dn > 0 ? options.saturation_dn : full),

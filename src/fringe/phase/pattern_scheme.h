@@ -51,6 +51,24 @@ struct PhaseShiftSet {
   std::vector<double> Shifts() const;
 };
 
+// Temporal unwrapping (manifest "unwrapping"; Zuo, Huang, Zhang, Chen, Asundi, "Temporal phase
+// unwrapping algorithms for fringe projection profilometry: a comparative review", Opt. Lasers
+// Eng. 85, 2016):
+//  heterodyne        beats of adjacent sets level by level until one covers the span (Reich et
+//                    al. 1997; the thesis' scheme); periods increasing, beat of beats >= span.
+//  gray              Gray code counts the periods of set 0 (complementary bit optional).
+//  hierarchical      multi-frequency: each set is unwrapped by the next coarser one, the coarsest
+//                    (period >= span) is absolute on its own; any ratios (1 and 16 periods; 1, 8,
+//                    64; ...); periods increasing.
+//  number-theoretic  2 or 3 sets whose fringe counts over a common length L (the smallest L
+//                    holding a whole number of every period, L >= span) are co-prime as a
+//                    tuple: the integer combination f_j c_0 - f_0 c_j of the wrapped phases
+//                    (cycles) picks the orders from a table of the segments of [0, L); the
+//                    table must have no two segments with one key.
+//  auto (absent)     gray with Gray code, else heterodyne when it fits, else hierarchical.
+enum class Unwrapping { kAuto, kHeterodyne, kGray, kHierarchical, kNumberTheoretic };
+const char* UnwrappingName(Unwrapping u);  // "auto", "heterodyne", "gray", ...
+
 // Bounds on what a manifest may ask for (checked before anything is allocated): more sets or
 // steps than any real scheme uses only serve to exhaust memory.
 inline constexpr size_t kMaxPhaseSets = 16;
@@ -64,6 +82,7 @@ struct PatternScheme {
   // Phase-shift sets; set 0 is the measuring (finest) frequency. Multi-frequency (heterodyne)
   // unwrapping needs the periods in increasing order with increasing beat periods.
   std::vector<PhaseShiftSet> phase_sets;
+  Unwrapping unwrapping = Unwrapping::kAuto;  // manifest "unwrapping" (absent: kAuto)
   int gray_bits = 0;                 // Gray-code bits counting periods of set 0 (0 = none), <= 16
   bool gray_complementary = false;   // one extra Gray image shifted by half a period
   bool white_frame = false;          // a fully lit frame after the Gray code
@@ -93,10 +112,33 @@ struct PatternScheme {
   // image_names or the default names.
   std::vector<std::string> ImageNames() const;
 
+  // Why heterodyne unwrapping does not fit the sets ("" when it does).
+  std::string HeterodyneMisfit() const;
+  // The method the decoder uses: unwrapping, or for kAuto the one that fits (see Unwrapping).
+  Unwrapping Method() const;
+
   // Throws fringe::Error naming the field when the scheme is inconsistent (no phase set, N < 3,
   // shifts that do not determine the phase, too few Gray bits to count the periods, ...).
   void Check() const;
 };
+
+// The table of number-theoretic unwrapping (Unwrapping::kNumberTheoretic): fringe counts of the
+// sets over the common length, and for every key (m_1, ..., m_{n-1}), m_j = f_j k_0 - f_0 k_j,
+// the order k_0 of set 0 (-1 where no position of [0, L) has that key).
+struct NumberTheoreticTable {
+  double length_px = 0;      // L
+  std::vector<int> counts;   // f_s = L / P_s
+  std::vector<int> key_min;  // per j = 1..n-1
+  std::vector<int> key_size;
+  std::vector<int> k0;  // dense, key_size[0] * key_size[1] * ...
+  // k_0 for rounded keys m[0..n-2], or -1.
+  int Lookup(const int* m) const;
+};
+// Throws fringe::Error naming "<context>.unwrapping" when the sets do not fit the method (count
+// of sets, no common length within 4096 periods of the coarsest set, L < span, two segments with
+// one key).
+NumberTheoreticTable MakeNumberTheoreticTable(const PatternScheme& scheme,
+                                              const std::string& context = "scheme");
 
 // Presets (projector size in pixels):
 //  "heterodyne-4x3"  three frequencies x 4 steps (12 images); periods L/70, L/64, L/59 with

@@ -134,6 +134,11 @@ std::string DescribeScanFolder(const ScanFolder& scan) {
              ? ""
              : " (" + m.generator + (m.scene.empty() ? "" : ", scene " + m.scene) + ")")
      << "\n";
+  if (scan.inferred()) {
+    os << "  manifest: inferred (no scan.json; `fringe info " << scan.root().string()
+       << " --init` writes it)\n";
+    for (const std::string& n : scan.inferred_notes()) os << "    " << n << "\n";
+  }
   os << "  images: " << m.image_width << "x" << m.image_height << ", " << m.bit_depth << "-bit\n";
   os << "  views: " << scan.views().size();
   if (scan.has_views()) {
@@ -180,10 +185,14 @@ std::string DescribeScanFolder(const ScanFolder& scan) {
 
 // A folder that is not a scan folder: image counts of the usual sub-folders of a capture.
 std::string DescribeFolder(const fs::path& path) {
-  if (ScanFolder::IsScanFolder(path)) return DescribeScanFolder(ScanFolder::Open(path));
+  std::error_code ec;
+  // A scan folder, or a folder of views another tool wrote (its manifest is inferred).
+  if (ScanFolder::IsScanFolder(path) ||
+      (fs::is_directory(path / "views", ec) && fs::is_regular_file(path / "scheme.json", ec))) {
+    return DescribeScanFolder(ScanFolder::Open(path));
+  }
   std::ostringstream os;
   os << path.string() << ": folder (no scan.json: not a scan folder)\n";
-  std::error_code ec;
   for (const char* sub : {"left", "right", "L", "R", "calibration/left", "calibration/right"}) {
     if (fs::is_directory(path / sub, ec)) {
       os << "  " << sub << ": " << io::ListImageFiles(path / sub).size() << " images\n";
@@ -209,7 +218,12 @@ std::string DescribePath(const fs::path& path) {
   if (ext == ".json") return DescribeJson(path);
   if (ext == ".yml" || ext == ".yaml" || ext == ".xml") {
     const io::OpenCvCalibration cv = io::ReadOpenCvCalibration({path}, -1, -1);
-    const std::string text = StrCat(path.string(), ": OpenCV calibration\n", cv.Describe());
+    // Which tool's file it is (io/calibration_formats.h detects it).
+    const std::string kind = cv.format == "slstudio" ? "SLStudio calibration"
+                             : cv.format == "ros"    ? "ROS camera_info"
+                             : cv.format == "kalibr" ? "Kalibr camchain"
+                                                     : "OpenCV calibration";
+    const std::string text = StrCat(path.string(), ": ", kind, "\n", cv.Describe());
     // What reconstruct and convert-calib would refuse (distortion longer than fringe's model, a
     // bad rotation) is an error here too, not a description of something unusable.
     if (cv.right && cv.right_from_left) {

@@ -12,6 +12,7 @@
 #include "fringe/phase/stack_io.h"
 #include "fringe/util/error.h"
 #include "fringe/util/files.h"
+#include "fringe/util/log.h"
 
 namespace fringe::scan {
 namespace {
@@ -69,6 +70,7 @@ json ManifestToJson(const ScanManifest& m) {
   // Written only for one camera: two-camera manifests stay as they were.
   if (m.cameras != 2) j["cameras"] = m.cameras;
   if (!m.scheme_horizontal.empty()) j["scheme_horizontal"] = m.scheme_horizontal;
+  if (!m.camera_folders.empty()) j["camera_folders"] = m.camera_folders;
   return j;
 }
 
@@ -86,11 +88,12 @@ ScanManifest ManifestFromJson(const json& j, const std::string& context) {
     }
     // Strict: a misspelt key is an error naming the nearest valid one (issue 10), and every
     // count is a JSON integer in range (4294967936 must not wrap to 640).
-    io::CheckKnownKeys(j,
-                       {"format", "version", "generator", "scene", "seed", "views", "image_width",
-                        "image_height", "bit_depth", "scheme", "calibration_images",
-                        "calibration_target", "truth", "cameras", "scheme_horizontal"},
-                       context);
+    io::CheckKnownKeys(
+        j,
+        {"format", "version", "generator", "scene", "seed", "views", "image_width", "image_height",
+         "bit_depth", "scheme", "calibration_images", "calibration_target", "truth", "cameras",
+         "scheme_horizontal", "camera_folders"},
+        context);
     constexpr long long kMaxCount = 100000;  // views or board images: far beyond any scan
     constexpr long long kMaxSide = 65536;    // pixels
     ScanManifest m;
@@ -123,6 +126,26 @@ ScanManifest ManifestFromJson(const json& j, const std::string& context) {
       throw Error(StrCat("'bit_depth' = ", m.bit_depth, " must be 8, 10, 12, 14 or 16"));
     }
     if (m.views > 0 && m.scheme.empty()) throw Error("'scheme' is null but there are views");
+    if (j.contains("camera_folders")) {
+      const json& f = j["camera_folders"];
+      if (!f.is_array() || static_cast<int>(f.size()) != m.cameras) {
+        throw Error(StrCat("'camera_folders' must list ", m.cameras, " folder name",
+                           m.cameras == 2 ? "s (left, right)" : " (the camera)"));
+      }
+      for (const json& n : f) {
+        if (!n.is_string()) throw Error("'camera_folders' holds a value that is not a name");
+        m.camera_folders.push_back(n.get<std::string>());
+      }
+      bool known = false;
+      for (const auto& [l, r] : CameraFolderNames()) {
+        known = known || (m.camera_folders[0] == l && (m.cameras == 1 || m.camera_folders[1] == r));
+      }
+      if (!known) {
+        throw Error(
+            "'camera_folders' must be [\"left\", \"right\"], [\"L\", \"R\"] or "
+            "[\"cam0\", \"cam1\"] (the first alone for one camera)");
+      }
+    }
     if (m.calibration_images > 0 && m.calibration_target.empty()) {
       throw Error("'calibration_target' is null but there are calibration images");
     }
@@ -132,6 +155,110 @@ ScanManifest ManifestFromJson(const json& j, const std::string& context) {
 
 void WriteManifest(const fs::path& path, const ScanManifest& manifest) {
   io::WriteJson(path, ManifestToJson(manifest));
+}
+
+const std::vector<std::pair<std::string, std::string>>& CameraFolderNames() {
+  static const std::vector<std::pair<std::string, std::string>> names = {
+      {"left", "right"}, {"L", "R"}, {"cam0", "cam1"}};
+  return names;
+}
+
+InferredManifest InferManifest(const fs::path& root) {
+  util::RequireDirectory(root, "scan folder");
+  const ScanLayout l{root};
+  InferredManifest out;
+  ScanManifest& m = out.manifest;
+  m.generator = "inferred by fringe from the folder (no scan.json)";
+  const auto fail = [&](const std::string& why) {
+    throw Error(StrCat(root.string(), ": no scan.json, and one cannot be inferred: ", why));
+  };
+  std::error_code ec;
+  if (!fs::is_directory(l.ViewsDir(), ec)) fail("no views/ folder");
+  std::vector<std::string> views;
+  for (const auto& e : fs::directory_iterator(l.ViewsDir())) {
+    if (!e.is_directory()) continue;
+    const std::string name = e.path().filename().string();
+    if (!IsIndexName(name)) {
+      throw Error(StrCat(e.path().string(), ": not a view folder (expected a three-digit index)"));
+    }
+    views.push_back(name);
+  }
+  std::sort(views.begin(), views.end());
+  if (views.empty()) fail("views/ holds no view folder (000, 001, ...)");
+  m.views = static_cast<int>(views.size());
+  // Camera folders: the first naming whose left folder view 000 has.
+  const fs::path first_view = l.ViewDir(views[0]);
+  std::string left, right;
+  for (const auto& [ln, rn] : CameraFolderNames()) {
+    if (fs::is_directory(first_view / ln, ec)) {
+      left = ln;
+      right = fs::is_directory(first_view / rn, ec) ? rn : "";
+      break;
+    }
+  }
+  if (left.empty()) {
+    throw Error(StrCat(first_view.string(),
+                       ": no camera folder (left/ right/, L/ R/ or cam0/ cam1/) to infer the "
+                       "scan from"));
+  }
+  m.cameras = right.empty() ? 1 : 2;
+  if (left != "left") {
+    m.camera_folders = {left};
+    if (!right.empty()) m.camera_folders.push_back(right);
+  }
+  out.notes.push_back(StrCat(m.views, " views (views/", views.front(), " .. views/", views.back(),
+                             "), ", m.cameras == 2 ? "two cameras " : "one camera + projector ",
+                             left, "/", right.empty() ? "" : " " + right + "/"));
+  // Scheme(s).
+  if (!fs::is_regular_file(l.Scheme(), ec)) {
+    fail("no scheme.json (the pattern scheme the views were captured with)");
+  }
+  m.scheme = "scheme.json";
+  if (m.cameras == 1 && fs::is_regular_file(l.HorizontalScheme(), ec)) {
+    m.scheme_horizontal = "scheme_horizontal.json";
+  }
+  out.notes.push_back(StrCat("scheme ", m.scheme,
+                             m.scheme_horizontal.empty() ? "" : " and " + m.scheme_horizontal));
+  // Image size and depth: the first image of view 000's left stack (or of its first exposure
+  // or direction folder).
+  fs::path stack = first_view / left;
+  for (const char* sub : {"", "vertical", "e0", "vertical/e0"}) {
+    const fs::path dir = first_view / left / sub;
+    if (fs::is_directory(dir, ec) && !io::ListImageFiles(dir).empty()) {
+      stack = dir;
+      break;
+    }
+  }
+  const std::vector<std::string> images = io::ListImageFiles(stack);
+  if (images.empty()) throw Error(StrCat(stack.string(), ": no images to infer the size from"));
+  const cv::Mat image = io::ReadGrayImage(stack / images.front());
+  m.image_width = image.cols;
+  m.image_height = image.rows;
+  m.bit_depth = image.depth() == CV_16U ? 16 : 8;
+  out.notes.push_back(StrCat("images ", m.image_width, "x", m.image_height, ", ", m.bit_depth,
+                             "-bit (", (stack / images.front()).lexically_relative(root).string(),
+                             m.bit_depth == 16 ? "; a 12-bit sensor: set bit_depth 12" : "", ")"));
+  // Calibration images, when their target is described.
+  if (fs::is_regular_file(l.Target(), ec)) {
+    m.calibration_target = "calibration/target.json";
+    if (m.cameras == 2) {
+      const fs::path dir = l.CalibrationDir() / left;
+      m.calibration_images =
+          fs::is_directory(dir, ec) ? static_cast<int>(io::ListImageFiles(dir).size()) : 0;
+    } else {
+      for (const auto& e : fs::directory_iterator(l.CalibrationDir())) {
+        m.calibration_images += e.is_directory() ? 1 : 0;
+      }
+    }
+    if (m.calibration_images == 0) m.calibration_target.clear();
+    out.notes.push_back(StrCat(
+        m.calibration_images,
+        m.cameras == 2 ? " calibration images per camera" : " calibration board pose folders",
+        ", target calibration/target.json"));
+  } else {
+    out.notes.push_back("no calibration (no calibration/target.json)");
+  }
+  return out;
 }
 
 bool ScanFolder::IsScanFolder(const fs::path& dir) {
@@ -156,9 +283,21 @@ ScanFolder ScanFolder::Open(const fs::path& root) {
   ScanFolder s;
   s.layout_.root = root;
   const ScanLayout& l = s.layout_;
-  util::RequireFile(l.Manifest(), "scan manifest");
-  s.manifest_ = ManifestFromJson(io::ReadJson(l.Manifest()), l.Manifest().string());
+  if (IsScanFolder(root)) {
+    s.manifest_ = ManifestFromJson(io::ReadJson(l.Manifest()), l.Manifest().string());
+  } else {
+    InferredManifest inferred = InferManifest(root);
+    s.manifest_ = std::move(inferred.manifest);
+    s.inferred_notes_ = std::move(inferred.notes);
+    // Said where every command sees it; the folder is not written to.
+    util::LogInfo(StrCat(root.string(), ": no scan.json; inferred from the folder:"));
+    for (const std::string& n : s.inferred_notes_) util::LogInfo("  " + n);
+  }
   const ScanManifest& m = s.manifest_;
+  if (!m.camera_folders.empty()) {
+    s.layout_.left_folder = m.camera_folders[0];
+    if (m.camera_folders.size() > 1) s.layout_.right_folder = m.camera_folders[1];
+  }
 
   // Views: exactly 000 .. views-1, each with both cameras.
   std::error_code ec;

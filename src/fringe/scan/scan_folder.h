@@ -43,6 +43,9 @@ std::string IndexName(int index);
 // Where everything lives in a scan folder rooted at `root`; nothing is read or checked.
 struct ScanLayout {
   std::filesystem::path root;
+  // The view sub-folders of the cameras: fringe's left/ right/, or another tool's L/ R/ or
+  // cam0/ cam1/ (ScanManifest::camera_folders).
+  std::string left_folder = "left", right_folder = "right";
 
   std::filesystem::path Manifest() const { return root / "scan.json"; }
   std::filesystem::path Scheme() const { return root / "scheme.json"; }
@@ -51,7 +54,7 @@ struct ScanLayout {
   std::filesystem::path ViewsDir() const { return root / "views"; }
   std::filesystem::path ViewDir(const std::string& view) const { return ViewsDir() / view; }
   std::filesystem::path CameraDir(const std::string& view, Camera camera) const {
-    return ViewDir(view) / CameraName(camera);
+    return ViewDir(view) / (camera == Camera::kLeft ? left_folder : right_folder);
   }
   // One camera, both fringe directions: the stack of one direction, CameraDir / "vertical" or
   // "horizontal" (phase::DirectionName).
@@ -61,7 +64,7 @@ struct ScanLayout {
   }
   std::filesystem::path CalibrationDir() const { return root / "calibration"; }
   std::filesystem::path CalibrationDir(Camera camera) const {
-    return CalibrationDir() / CameraName(camera);
+    return CalibrationDir() / (camera == Camera::kLeft ? left_folder : right_folder);
   }
   std::filesystem::path Target() const { return CalibrationDir() / "target.json"; }
   std::filesystem::path TruthDir() const { return root / "truth"; }
@@ -95,6 +98,9 @@ struct ScanManifest {
   // holds both directions, left/vertical/ (scheme) and left/horizontal/ (this one); empty:
   // one direction, the stack in left/. JSON key "scheme_horizontal", optional.
   std::string scheme_horizontal;
+  // The cameras' folders in every view when not left/ right/: {"L", "R"} or {"cam0", "cam1"}
+  // (one camera: {"L"} or {"cam0"}). JSON key "camera_folders", optional.
+  std::vector<std::string> camera_folders;
   int calibration_images = 0;      // board images per camera (one camera: board pose folders)
   std::string calibration_target;  // "calibration/target.json" when there are board images
   std::string truth;               // "truth" for simulated scans
@@ -105,6 +111,22 @@ nlohmann::json ManifestToJson(const ScanManifest& manifest);
 ScanManifest ManifestFromJson(const nlohmann::json& j, const std::string& context);
 void WriteManifest(const std::filesystem::path& path, const ScanManifest& manifest);
 
+// The camera folder names a view may use, fringe's first: {left, right}, {L, R}, {cam0, cam1}.
+const std::vector<std::pair<std::string, std::string>>& CameraFolderNames();
+
+// A folder of views written by another tool (views/NNN/{left,right | L,R | cam0,cam1}/ +
+// scheme.json) has no scan.json: its manifest is inferred from the folder: the views, the camera
+// folders (two, or one for camera + projector), the image size and bit depth of the first image
+// (16-bit images are taken as 16-bit: write bit_depth 12 for 12-bit sensors), scheme.json
+// (required with views; scheme_horizontal.json with one camera), calibration/target.json with
+// its board images or pose folders. `notes` say what was inferred and from where. Throws
+// fringe::Error naming the folder when the manifest cannot be inferred.
+struct InferredManifest {
+  ScanManifest manifest;
+  std::vector<std::string> notes;
+};
+InferredManifest InferManifest(const std::filesystem::path& root);
+
 // A scan folder opened for reading and checked against its manifest.
 class ScanFolder {
  public:
@@ -114,7 +136,11 @@ class ScanFolder {
   // `calibration_images` images with the same names (one camera: calibration/ holds
   // `calibration_images` board pose folders). Throws fringe::Error naming the first file or
   // folder that disagrees.
+  // Without scan.json the manifest is inferred (InferManifest; inferred() is true and
+  // inferred_notes() say what was inferred; the folder is not written to).
   static ScanFolder Open(const std::filesystem::path& root);
+  bool inferred() const { return !inferred_notes_.empty(); }
+  const std::vector<std::string>& inferred_notes() const { return inferred_notes_; }
   // True when `dir` has a scan.json (a scan folder, maybe invalid).
   static bool IsScanFolder(const std::filesystem::path& dir);
   // The root of the scan folder that `view_dir` (ROOT/views/NNN) belongs to, if it is one.
@@ -173,6 +199,7 @@ class ScanFolder {
   ScanManifest manifest_;
   std::vector<std::string> views_;
   std::vector<std::string> calibration_images_;
+  std::vector<std::string> inferred_notes_;
 };
 
 }  // namespace fringe::scan

@@ -67,7 +67,7 @@ void ExpectError(F&& f, const std::vector<std::string>& parts) {
     ADD_FAILURE() << "no error";
   } catch (const Error& e) {
     for (const auto& p : parts)
-      EXPECT_NE(std::string(e.what()).find(p), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find(p), std::string::npos) << p << " in " << e.what();
   }
 }
 
@@ -287,6 +287,96 @@ TEST(ScanFolder, ErrorsNameTheFileThatDisagrees) {
   ExpectError([&] { ScanFolder::Open(dir / "nothing"); }, {"nothing"});
   fs::create_directories(dir / "empty");
   ExpectError([&] { ScanFolder::Open(dir / "empty"); }, {"scan.json"});
+}
+
+}  // namespace
+}  // namespace fringe::scan
+
+namespace fringe::scan {
+namespace {
+
+// Issue 27 item 5: a folder of views from another tool (no scan.json, L/ R/ or cam0/ view
+// folders) is a scan folder; its manifest is inferred and equals the one fringe would write.
+TEST(ScanFolder, ManifestIsInferredForAFolderOfViewsWithoutScanJson) {
+  test::TempDir dir;
+  const fs::path root = dir / "capture";
+  const ScanManifest written = WriteSmallScan(root, 3, 2);
+  fs::remove(root / "scan.json");
+  for (int v = 0; v < 3; ++v) {
+    fs::rename(root / "views" / IndexName(v) / "left", root / "views" / IndexName(v) / "L");
+    fs::rename(root / "views" / IndexName(v) / "right", root / "views" / IndexName(v) / "R");
+  }
+  fs::rename(root / "calibration" / "left", root / "calibration" / "L");
+  fs::rename(root / "calibration" / "right", root / "calibration" / "R");
+  const ScanFolder scan = ScanFolder::Open(root);
+  EXPECT_FALSE(fs::exists(root / "scan.json"));  // nothing written
+  ASSERT_TRUE(scan.inferred());
+  const ScanManifest& m = scan.manifest();
+  EXPECT_EQ(m.views, written.views);
+  EXPECT_EQ(m.image_width, kWidth);
+  EXPECT_EQ(m.image_height, kHeight);
+  EXPECT_EQ(m.bit_depth, 8);
+  EXPECT_EQ(m.cameras, 2);
+  EXPECT_EQ(m.camera_folders, (std::vector<std::string>{"L", "R"}));
+  EXPECT_EQ(m.scheme, "scheme.json");
+  EXPECT_EQ(m.calibration_images, 2);
+  EXPECT_EQ(m.calibration_target, "calibration/target.json");
+  EXPECT_EQ(scan.calibration_images().size(), 2u);
+  const phase::PatternScheme scheme = scan.ReadScheme();
+  EXPECT_EQ(scan.ReadStack("002", Camera::kRight, scheme).size(),
+            static_cast<size_t>(scheme.NumImages()));
+  EXPECT_NE(scan.inferred_notes()[0].find("3 views (views/000 .. views/002), two cameras L/ R/"),
+            std::string::npos)
+      << scan.inferred_notes()[0];
+  // Written out and read back, the manifest opens the same folder.
+  WriteManifest(root / "scan.json", m);
+  const ScanFolder reopened = ScanFolder::Open(root);
+  EXPECT_FALSE(reopened.inferred());
+  EXPECT_EQ(reopened.layout().CameraDir("001", Camera::kLeft), root / "views" / "001" / "L");
+
+  // One camera as cam0/: camera + projector views.
+  const fs::path mono = dir / "mono";
+  WriteSmallScan(mono, 2, 0);
+  fs::remove(mono / "scan.json");
+  for (int v = 0; v < 2; ++v) {
+    fs::remove_all(mono / "views" / IndexName(v) / "right");
+    fs::rename(mono / "views" / IndexName(v) / "left", mono / "views" / IndexName(v) / "cam0");
+  }
+  const ScanFolder one = ScanFolder::Open(mono);
+  EXPECT_FALSE(one.stereo());
+  EXPECT_EQ(one.manifest().camera_folders, std::vector<std::string>{"cam0"});
+  EXPECT_EQ(one.manifest().calibration_images, 0);
+}
+
+TEST(ScanFolder, InferenceFailuresNameWhatIsMissing) {
+  test::TempDir dir;
+  WriteSmallScan(dir / "a", 2, 0);
+  fs::remove(dir / "a" / "scan.json");
+  fs::remove(dir / "a" / "scheme.json");
+  ExpectError([&] { ScanFolder::Open(dir / "a"); },
+              {"no scan.json, and one cannot be inferred: no scheme.json"});
+  WriteSmallScan(dir / "b", 2, 0);
+  fs::remove(dir / "b" / "scan.json");
+  fs::rename(dir / "b" / "views" / "000" / "left", dir / "b" / "views" / "000" / "links");
+  ExpectError([&] { ScanFolder::Open(dir / "b"); },
+              {"000: no camera folder (left/ right/, L/ R/ or cam0/ cam1/)"});
+  // The other views must use the same folders as view 000.
+  WriteSmallScan(dir / "c", 2, 0);
+  fs::remove(dir / "c" / "scan.json");
+  for (const char* c : {"left", "right"}) {
+    fs::rename(dir / "c" / "views" / "000" / c,
+               dir / "c" / "views" / "000" / (std::string(c) == "left" ? "L" : "R"));
+  }
+  ExpectError([&] { ScanFolder::Open(dir / "c"); }, {"001", "L"});
+  // camera_folders in a manifest: one of the known namings, one name per camera.
+  ScanManifest valid;
+  valid.image_width = kWidth;
+  valid.image_height = kHeight;
+  nlohmann::json j = ManifestToJson(valid);
+  j["camera_folders"] = {"L", "right"};
+  ExpectError([&] { ManifestFromJson(j, "scan.json"); }, {"'camera_folders' must be"});
+  j["camera_folders"] = {"L"};
+  ExpectError([&] { ManifestFromJson(j, "scan.json"); }, {"'camera_folders' must list 2"});
 }
 
 }  // namespace

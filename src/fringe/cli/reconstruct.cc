@@ -292,8 +292,7 @@ void AddReconstructCommand(CLI::App& app) {
     if ((camera_projector || trinocular) && rig.projector) {
       for (size_t k = 0; k < schemes.size(); ++k) {
         const phase::PatternScheme& s = schemes[k];
-        if (s.projector_width != rig.projector->width ||
-            s.projector_height != rig.projector->height) {
+        if (!stereo::SchemeFitsProjector(s, *rig.projector)) {
           throw Error(util::StrCat("reconstruct: ", k == 0 ? scheme_arg : left_dirs[k].string(),
                                    ": the scheme '", s.name, "' is for a ", s.projector_width,
                                    " x ", s.projector_height, " projector, but ", rig_name,

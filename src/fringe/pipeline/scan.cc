@@ -111,8 +111,7 @@ void CheckRigFitsScan(const scan::ScanFolder& folder,
   if (folder.stereo() || !c.rig.projector) return;
   for (size_t k = 0; k < schemes.size(); ++k) {
     const phase::PatternScheme& s = schemes[k];
-    if (s.projector_width != c.rig.projector->width ||
-        s.projector_height != c.rig.projector->height) {
+    if (!stereo::SchemeFitsProjector(s, *c.rig.projector)) {
       throw Error(
           StrCat("scan: ",
                  (k == 0 ? folder.layout().Scheme() : folder.layout().HorizontalScheme()).string(),

@@ -17,6 +17,10 @@ constexpr int kMaxNewtonIterations = 30;
 
 }  // namespace
 
+bool SchemeFitsProjector(const phase::PatternScheme& scheme, const CameraModel& projector) {
+  return scheme.projector_width == projector.width && scheme.projector_height == projector.height;
+}
+
 CameraProjectorRig CameraProjectorRig::FromLeftCamera(const StereoRig& rig) {
   if (!rig.projector) {
     throw Error("camera-projector: the rig has no calibrated projector");
@@ -141,7 +145,7 @@ namespace {
 // a scheme for a 1280 x 800 projector decoded against a projector calibrated at 640 x 400 gives
 // points, all wrong. Both sizes are compared (the images are the projector's size).
 void CheckSchemeFitsProjector(const phase::PatternScheme& scheme, const CameraModel& projector) {
-  if (scheme.projector_width != projector.width || scheme.projector_height != projector.height) {
+  if (!SchemeFitsProjector(scheme, projector)) {
     throw Error(util::StrCat("camera-projector: the pattern scheme '", scheme.name, "' is for a ",
                              scheme.projector_width, " x ", scheme.projector_height,
                              " projector, but the rig's projector is calibrated at ",

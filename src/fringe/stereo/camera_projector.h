@@ -56,6 +56,10 @@ struct CameraProjectorRig {
   StereoRig AsTwoViewRig() const;
 };
 
+// True when `scheme` was made for `projector`'s size: its absolute phase is a coordinate of this
+// projector only then (a scheme for another projector decodes to wrong points, not missing ones).
+bool SchemeFitsProjector(const phase::PatternScheme& scheme, const CameraModel& projector);
+
 // One projector coordinate along `direction` (u for vertical fringes, v for horizontal ones).
 TriangulatedPoint TriangulateCameraProjector(const CameraProjectorRig& rig,
                                              const Eigen::Vector2d& camera_px,

@@ -8,6 +8,7 @@
 #include "fringe/fusion/mesh.h"
 #include "fringe/io/ply.h"
 #include "fringe/registration/markers.h"
+#include "fringe/registration/pose_graph.h"
 #include "fringe/registration/register_views.h"
 #include "fringe/registration/registration_io.h"
 #include "fringe/stereo/reconstruct_view.h"
@@ -196,6 +197,11 @@ uncertainty), depth_difference_mm.)doc")
       .def_readwrite("convergence_translation_mm",
                      &registration::IcpOptions::convergence_translation_mm)
       .def_readwrite("seed", &registration::IcpOptions::seed);
+  py::class_<registration::PoseGraphOptions>(m, "PoseGraphOptions",
+                                             "The marker-free path's cycle check (C++ defaults).")
+      .def(OptionsInit<registration::PoseGraphOptions>("PoseGraphOptions"))
+      .def_readwrite("max_cycle_deg", &registration::PoseGraphOptions::max_cycle_deg)
+      .def_readwrite("max_cycle_mm", &registration::PoseGraphOptions::max_cycle_mm);
   py::class_<registration::RegistrationOptions>(m, "RegistrationOptions",
                                                 "Options of fringe.register (C++ defaults).")
       .def(OptionsInit<registration::RegistrationOptions>("RegistrationOptions"))
@@ -210,6 +216,17 @@ uncertainty), depth_difference_mm.)doc")
                      &registration::RegistrationOptions::icp_min_start_threshold_mm)
       .def_readwrite("coarse_verify_min_overlap",
                      &registration::RegistrationOptions::coarse_verify_min_overlap)
+      .def_readwrite("coarse_verify_tolerance_factor",
+                     &registration::RegistrationOptions::coarse_verify_tolerance_factor)
+      .def_readwrite("coarse_max_inconsistent",
+                     &registration::RegistrationOptions::coarse_max_inconsistent)
+      .def_readwrite("coarse_max_free_space",
+                     &registration::RegistrationOptions::coarse_max_free_space)
+      .def_readwrite("coarse_min_gap", &registration::RegistrationOptions::coarse_min_gap)
+      .def_readwrite("coarse_same_pose_deg",
+                     &registration::RegistrationOptions::coarse_same_pose_deg)
+      .def_readwrite("coarse_same_pose_mm", &registration::RegistrationOptions::coarse_same_pose_mm)
+      .def_readwrite("pose_graph", &registration::RegistrationOptions::pose_graph)
       .def_readwrite("matching", &registration::RegistrationOptions::matching)
       .def_readwrite("adjustment", &registration::RegistrationOptions::adjustment)
       .def_readwrite("coarse", &registration::RegistrationOptions::coarse)

@@ -8,13 +8,40 @@
 
 namespace fringe::python {
 
+namespace {
+
+// "name=value" lines of every public field of a bound options object, nested options expanded
+// (their types are the module's own classes), `resume` left out.
+std::string OptionsText(const py::object& options, const std::string& prefix) {
+  std::string text;
+  for (const py::handle& name_handle : py::module_::import("builtins").attr("dir")(options)) {
+    const std::string name = py::str(name_handle);
+    if (name.empty() || name[0] == '_' || (prefix.empty() && name == "resume")) continue;
+    const py::object value = options.attr(name_handle);
+    if (PyCallable_Check(value.ptr())) continue;
+    const py::object type_module = py::type::of(value).attr("__module__");
+    if (py::str(type_module).cast<std::string>().rfind("fringe", 0) == 0 &&
+        !py::hasattr(value, "__members__") && !py::isinstance<py::int_>(value)) {
+      text += OptionsText(value, prefix + name + ".");
+    } else {
+      text += prefix + name + "=" + py::repr(value).cast<std::string>() + "\n";
+    }
+  }
+  return text;
+}
+
+}  // namespace
+
 void BindPipeline(py::module_& m) {
   py::class_<pipeline::ScanOptions>(m, "ScannerOptions", "Options of fringe.scan (C++ defaults).")
       .def(OptionsInit<pipeline::ScanOptions>("ScannerOptions"))
       .def_readwrite("calib", &pipeline::ScanOptions::calib)
+      .def_readwrite("opencv", &pipeline::ScanOptions::opencv)
+      .def_readwrite("opencv_keys", &pipeline::ScanOptions::opencv_keys)
       .def_readwrite("opencv_intrinsics", &pipeline::ScanOptions::opencv_intrinsics)
       .def_readwrite("opencv_extrinsics", &pipeline::ScanOptions::opencv_extrinsics)
       .def_readwrite("keep_going", &pipeline::ScanOptions::keep_going)
+      .def_readwrite("resume", &pipeline::ScanOptions::resume)
       .def_readwrite("views_in_flight", &pipeline::ScanOptions::views_in_flight)
       .def_readwrite("reconstruction", &pipeline::ScanOptions::reconstruction)
       .def_readwrite("detect_markers", &pipeline::ScanOptions::detect_markers)
@@ -30,7 +57,10 @@ void BindPipeline(py::module_& m) {
       "scan",
       [](const std::filesystem::path& project, const std::filesystem::path& out,
          const py::object& options, const py::kwargs& kw) {
-        const auto opts = MakeOptions<pipeline::ScanOptions>(options, kw, "ScannerOptions");
+        auto opts = MakeOptions<pipeline::ScanOptions>(options, kw, "ScannerOptions");
+        // The views' checkpoints are keyed by the options that change the result (as the CLI's
+        // arguments): every field of the options, nested ones included, less resume itself.
+        opts.resume_key = OptionsText(py::cast(opts), "");
         pipeline::ScanSummary s;
         {
           py::gil_scoped_release release;

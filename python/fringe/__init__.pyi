@@ -519,9 +519,12 @@ def scene_names() -> List[str]: ...
 
 class ScannerOptions:
     calib: PathLike
+    opencv: List[PathLike]
+    opencv_keys: List[str]
     opencv_intrinsics: PathLike
     opencv_extrinsics: PathLike
     keep_going: bool
+    resume: bool
     views_in_flight: int
     reconstruction: ReconstructionOptions
     detect_markers: bool
@@ -613,6 +616,11 @@ class IcpOptions:
     seed: int
     def __init__(self, **fields: Any) -> None: ...
 
+class PoseGraphOptions:
+    max_cycle_deg: float
+    max_cycle_mm: float
+    def __init__(self, **fields: Any) -> None: ...
+
 class RegistrationOptions:
     use_markers: bool
     coarse_fallback: bool
@@ -622,7 +630,14 @@ class RegistrationOptions:
     icp_threshold_factor: float
     icp_min_start_threshold_mm: float
     coarse_verify_min_overlap: float
+    coarse_verify_tolerance_factor: float
+    coarse_max_inconsistent: float
+    coarse_max_free_space: float
+    coarse_min_gap: float
+    coarse_same_pose_deg: float
+    coarse_same_pose_mm: float
     matching: MarkerMatchOptions
+    pose_graph: PoseGraphOptions
     adjustment: AdjustmentOptions
     coarse: CoarseOptions
     icp: IcpOptions

@@ -2,6 +2,10 @@
 same input (bit-identical where the program writes full precision), and agree with the truth."""
 
 import json
+import os
+import shutil
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -175,3 +179,34 @@ def test_scan_takes_every_stage_option(tmp_path, scan):
     default = fringe.scan(scan, tmp_path / "d", calib=rig_json, write_report=False)
     assert default["has_truth"] is True
     assert default["mesh"]["poisson_depth"] > 5
+
+
+def test_scan_resume_reuses_the_views_of_a_killed_run(tmp_path, scan):
+    # fringe.scan(resume=True) after a run killed once its views were finished (as `fringe scan
+    # --resume`): every view is reused when the options are the same, none when one changed.
+    rig_json = scan / "truth" / "rig.json"
+    out = tmp_path / "out"
+    script = ("import sys, fringe; fringe.scan(sys.argv[1], sys.argv[2], calib=sys.argv[3], "
+              "write_report=False)")
+
+    def run_killed(env_extra):
+        env = dict(os.environ, **env_extra)
+        return subprocess.run([sys.executable, "-c", script, scan, out, rig_json], env=env,
+                              capture_output=True, text=True)
+
+    log = tmp_path / "checkpoints.txt"
+    assert run_killed({"FRINGE_TEST_CHECKPOINTS": str(log)}).returncode == 0
+    reference = json.loads((out / "summary.json").read_text())
+    steps = log.read_text().splitlines()
+    # Killed after the last file (the summary) was written, before the folder was committed: the
+    # views' checkpoints still exist (as tests/hostile/kill_outputs.py).
+    kill_at = len(steps) - 2
+    changed = {"fusion": {"spacing_factor": 2.0}}
+    for options, want_resumed in (({}, reference["views_ok"]), (changed, 0)):
+        shutil.rmtree(out)
+        assert run_killed({"FRINGE_TEST_KILL_AT": str(kill_at)}).returncode == -9
+        s = fringe.scan(scan, out, calib=rig_json, write_report=False, resume=True, **options)
+        assert s["status"] == "ok"
+        assert s["views_resumed"] == want_resumed
+        if not options:
+            assert s["points"] == reference["points"]

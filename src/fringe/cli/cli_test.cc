@@ -136,11 +136,20 @@ TEST(Cli, SimulateOneCameraScanThenScanIt) {
   EXPECT_TRUE(folder.both_directions());
   EXPECT_TRUE(std::filesystem::exists(dir / "scan/views/001/left/horizontal/e1/00.png"));
   EXPECT_FALSE(std::filesystem::exists(dir / "scan/views/001/right"));
-  ASSERT_EQ(RunCli({"-q", "scan", scan, "--calib", (dir / "scan/truth/rig.json").string(), "--out",
-                    out, "--poisson-depth", "7", "--no-report"},
+  // The rig as another tool writes it (SLStudio's calibration.xml: the camera and the projector),
+  // read by `fringe scan --opencv` with the format detected.
+  ASSERT_EQ(RunCli({"convert-calib", (dir / "scan/truth/rig.json").string(), "--to", "slstudio",
+                    "--out", (dir / "calibration.xml").string()},
                    &stdout_text, &err),
             0)
       << err;
+  ASSERT_EQ(RunCli({"-q", "scan", scan, "--opencv", (dir / "calibration.xml").string(), "--out",
+                    out, "--poisson-depth", "7", "--no-report", "--write-manifest"},
+                   &stdout_text, &err),
+            0)
+      << err;
+  EXPECT_NE(stdout_text.find("exists: --write-manifest leaves it as it is"), std::string::npos)
+      << stdout_text;
   const nlohmann::json summary = io::ReadJson(dir / "out" / "summary.json");
   EXPECT_EQ(summary["mode"].get<std::string>(), "camera-projector");
   EXPECT_EQ(summary["views_ok"].get<int>(), 2);
@@ -151,10 +160,12 @@ TEST(Cli, SimulateOneCameraScanThenScanIt) {
   EXPECT_LT(summary["pose_trans_err_mm"].get<double>(), 0.1);
   EXPECT_LT(summary["single_view_all_rms_mm"].get<double>(), 0.15);
   // `fringe reconstruct` on one of its views: the scan's two schemes, both exposures, the same
-  // points as the scan's view cloud.
-  ASSERT_EQ(RunCli({"reconstruct", (dir / "scan/views/001").string(), "--calib",
-                    (dir / "scan/truth/rig.json").string(), "--out", (dir / "001.ply").string(),
-                    "--no-markers"},
+  // points as the scan's view cloud; the calibration file read through an explicit key mapping.
+  ASSERT_EQ(RunCli({"reconstruct", (dir / "scan/views/001").string(), "--opencv",
+                    (dir / "calibration.xml").string(), "--opencv-keys", "left=Kc,kc",
+                    "left_size=frameWidth,frameHeight", "projector=Kp,kp",
+                    "projector_size=screenResX,screenResY", "projector_from_left=Rp,Tp", "--out",
+                    (dir / "001.ply").string(), "--no-markers"},
                    &stdout_text, &err),
             0)
       << err;

@@ -134,6 +134,19 @@ TEST(InfoInit, WritesTheInferredManifestOnce) {
   EXPECT_EQ(j["camera_folders"], nlohmann::json({"L", "R"}));
   EXPECT_EQ(RunCli({"info", root.string(), "--init"}, &out, &err), 1);
   EXPECT_NE(err.find("already has scan.json (not overwritten)"), std::string::npos) << err;
+  // `fringe scan --write-manifest` writes the same manifest before it scans (here the folder has
+  // no calibration, so the scan itself then fails, naming what is missing).
+  const fs::path copy = dir / "copy";
+  fs::copy(root, copy, fs::copy_options::recursive);
+  fs::remove(copy / "scan.json");
+  EXPECT_EQ(RunCli({"scan", copy.string(), "--out", (dir / "out").string(), "--write-manifest"},
+                   &out, &err),
+            1);
+  EXPECT_NE(out.find("wrote " + (copy / "scan.json").string()), std::string::npos) << out;
+  EXPECT_NE(out.find("inferred: "), std::string::npos) << out;
+  EXPECT_NE(err.find("calibration"), std::string::npos) << err;
+  EXPECT_EQ(io::ReadJson(copy / "scan.json"), j);
+  EXPECT_FALSE(fs::exists(dir / "out"));
 }
 
 }  // namespace

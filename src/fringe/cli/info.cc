@@ -25,12 +25,7 @@ void AddInfoCommand(CLI::App& app) {
     for (const auto& p : *paths) {
       if (*init) {
         const std::filesystem::path root(p);
-        if (scan::ScanFolder::IsScanFolder(root)) {
-          throw Error(util::StrCat(p, ": already has scan.json (not overwritten)"));
-        }
-        const scan::InferredManifest inferred = scan::InferManifest(root);
-        (void)scan::ScanFolder::Open(root);  // the folder agrees with what was inferred
-        scan::WriteManifest(scan::ScanLayout{root}.Manifest(), inferred.manifest);
+        (void)scan::WriteInferredManifest(root);
         std::cout << "wrote " << scan::ScanLayout{root}.Manifest().string() << "\n";
       }
       std::cout << scan::DescribePath(p);

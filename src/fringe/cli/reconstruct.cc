@@ -11,6 +11,7 @@
 
 #include "fringe/cli/cli.h"
 #include "fringe/cli/scheme_flags.h"
+#include "fringe/io/calibration_formats.h"
 #include "fringe/io/calibration_io.h"
 #include "fringe/io/image_io.h"
 #include "fringe/io/opencv_calibration.h"
@@ -54,6 +55,7 @@ void AddReconstructCommand(CLI::App& app) {
     std::string mode = "auto";
     std::string cv_intrinsics, cv_extrinsics;
     std::vector<std::string> opencv;
+    std::vector<std::string> opencv_keys;
     bool ascii = false;
     bool no_normals = false;
     bool keep_outliers = false;
@@ -89,6 +91,11 @@ void AddReconstructCommand(CLI::App& app) {
   sub->add_option("--opencv", a->opencv,
                   "Instead of --calib: OpenCV calibration YAML/XML (one file with cameras and "
                   "extrinsics in any usual spelling; may be repeated when split over files)");
+  sub->add_option("--opencv-keys", a->opencv_keys,
+                  "With --opencv, for files no reader recognises: which key holds what, e.g. "
+                  "left=Kc,kc projector=Kp,kp projector_from_left=Rp,Tp "
+                  "left_size=frameWidth,frameHeight")
+      ->expected(1, 16);
   sub->add_option("--opencv-intrinsics", a->cv_intrinsics,
                   "Instead of --calib: OpenCV stereo intrinsics (M1 D1 M2 D2, YAML/XML)");
   sub->add_option("--opencv-extrinsics", a->cv_extrinsics,
@@ -187,6 +194,9 @@ void AddReconstructCommand(CLI::App& app) {
       opencv_files.push_back(a->cv_extrinsics);
     }
     const bool opencv = !opencv_files.empty();
+    if (!a->opencv_keys.empty() && !opencv) {
+      throw Error("reconstruct: --opencv-keys names the keys of files given with --opencv");
+    }
     if (opencv && !a->calib.empty()) {
       throw Error("reconstruct: give the calibration either with --calib or as OpenCV files");
     }
@@ -264,9 +274,13 @@ void AddReconstructCommand(CLI::App& app) {
     StereoRig rig;
     if (opencv) {
       // The scheme's projector size stands in when the file does not hold it (SLMaster).
-      const io::OpenCvCalibration cv =
-          io::ReadOpenCvCalibration(opencv_files, left.at(0).cols, left.at(0).rows,
-                                    scheme.projector_width, scheme.projector_height);
+      io::CalibrationReadOptions read;
+      read.camera_width = left.at(0).cols;
+      read.camera_height = left.at(0).rows;
+      read.projector_width = scheme.projector_width;
+      read.projector_height = scheme.projector_height;
+      read.keys = io::CalibrationKeyMap::Parse(a->opencv_keys);
+      const io::OpenCvCalibration cv = io::ReadCalibration(opencv_files, read);
       util::LogInfo("OpenCV calibration:\n" + cv.Describe());
       const bool stereo_file = cv.right && cv.right_from_left;
       rig = a->mode == "stereo" || (a->mode == "auto" && stereo_file && have_right_dir)

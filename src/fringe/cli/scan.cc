@@ -1,11 +1,13 @@
 // fringe scan: a scan folder to a measured model and a report (pipeline/scan.h).
 #include <CLI/CLI.hpp>
+#include <filesystem>
 #include <iostream>
 #include <memory>
 #include <sstream>
 
 #include "fringe/cli/cli.h"
 #include "fringe/pipeline/scan.h"
+#include "fringe/scan/scan_folder.h"
 
 namespace fringe::cli {
 
@@ -14,7 +16,9 @@ void AddScanCommand(CLI::App& app) {
     std::string project;
     std::string out;
     std::string calib, cv_intrinsics, cv_extrinsics;
+    std::vector<std::string> opencv, opencv_keys;
     bool json = false;
+    bool write_manifest = false;
     pipeline::ScanOptions options;
   };
   auto a = std::make_shared<Args>();
@@ -35,6 +39,15 @@ void AddScanCommand(CLI::App& app) {
   sub->add_option("--calib", a->calib,
                   "Rig calibration (rig JSON) instead of the scan folder's rig.json or "
                   "calibration/");
+  sub->add_option("--opencv", a->opencv,
+                  "Instead of --calib: another tool's calibration file(s), format detected "
+                  "(OpenCV YAML/XML, SLStudio calibration.xml, SLMaster caliInfo.yml, ROS left + "
+                  "right camera_info, Kalibr camchain)")
+      ->expected(1, 4);
+  sub->add_option("--opencv-keys", a->opencv_keys,
+                  "With --opencv, for files no reader recognises: which key holds what, e.g. "
+                  "left=Kc,kc projector=Kp,kp projector_from_left=Rp,Tp")
+      ->expected(1, 16);
   sub->add_option("--opencv-intrinsics", a->cv_intrinsics,
                   "Instead of --calib: OpenCV stereo intrinsics (M1 D1 M2 D2, YAML/XML)");
   sub->add_option("--opencv-extrinsics", a->cv_extrinsics,
@@ -70,6 +83,9 @@ void AddScanCommand(CLI::App& app) {
       "--no-projector-columns", [a](int64_t) { a->options.fit_projector_columns = false; },
       "Stereo rig without a calibrated projector: do not fit the projector's columns to the "
       "scan nor drop the points off them (false matches at occlusions)");
+  sub->add_flag("--write-manifest", a->write_manifest,
+                "A folder of views without scan.json (another tool's capture): write the "
+                "scan.json inferred from it into PROJECT before scanning (never overwrites one)");
   sub->add_flag("--json", a->json, "Print the summary as one JSON object");
   sub->add_flag("--resume", a->options.resume,
                 "After an interrupted run of the same scan into the same --out (killed, a crash, "
@@ -81,10 +97,29 @@ void AddScanCommand(CLI::App& app) {
     std::istringstream config(sub->config_to_str(true, false));
     a->options.resume_key.clear();
     for (std::string line; std::getline(config, line);) {
-      if (line.rfind("resume", 0) == 0 || line.rfind("json", 0) == 0) continue;
+      if (line.rfind("resume", 0) == 0 || line.rfind("json", 0) == 0 ||
+          line.rfind("write-manifest", 0) == 0) {
+        continue;
+      }
       a->options.resume_key += line + "\n";
     }
+    if (a->write_manifest) {
+      // With --json, stdout holds only the summary.
+      std::ostream& out = a->json ? std::cerr : std::cout;
+      const std::filesystem::path root(a->project);
+      if (scan::ScanFolder::IsScanFolder(root)) {
+        out << "note: " << scan::ScanLayout{root}.Manifest().string()
+            << " exists: --write-manifest leaves it as it is\n";
+      } else {
+        for (const std::string& n : scan::WriteInferredManifest(root).notes) {
+          out << "inferred: " << n << "\n";
+        }
+        out << "wrote " << scan::ScanLayout{root}.Manifest().string() << "\n";
+      }
+    }
     a->options.calib = a->calib;
+    a->options.opencv.assign(a->opencv.begin(), a->opencv.end());
+    a->options.opencv_keys = a->opencv_keys;
     a->options.opencv_intrinsics = a->cv_intrinsics;
     a->options.opencv_extrinsics = a->cv_extrinsics;
     const pipeline::ScanSummary s = pipeline::RunScan(a->project, a->out, a->options);

@@ -22,6 +22,7 @@
 #include "fringe/eval/deviation.h"
 #include "fringe/geometry/align.h"
 #include "fringe/geometry/point_index.h"
+#include "fringe/io/calibration_formats.h"
 #include "fringe/io/calibration_io.h"
 #include "fringe/io/image_io.h"
 #include "fringe/io/opencv_calibration.h"
@@ -128,19 +129,28 @@ Calibration ResolveCalibration(const scan::ScanFolder& folder, const phase::Patt
                                const ScanOptions& options, int width, int height) {
   const fs::path& project = folder.root();
   Calibration c;
+  std::vector<fs::path> files = options.opencv;
   if (!options.opencv_intrinsics.empty()) {
-    c.source = options.opencv_intrinsics.string() + " + " + options.opencv_extrinsics.string();
-    if (folder.stereo()) {
-      c.rig = io::ImportOpenCvStereo(options.opencv_intrinsics, options.opencv_extrinsics, width,
-                                     height);
-    } else {
-      // The camera and the projector as OpenCV's two devices; the scheme's projector size stands
-      // in when the files do not hold it.
-      c.rig =
-          io::ReadOpenCvCalibration({options.opencv_intrinsics, options.opencv_extrinsics}, width,
-                                    height, scheme.projector_width, scheme.projector_height)
-              .ToCameraProjectorRig(c.source);
+    files.push_back(options.opencv_intrinsics);
+    files.push_back(options.opencv_extrinsics);
+  }
+  if (!files.empty()) {
+    for (const fs::path& f : files) c.source += (c.source.empty() ? "" : " + ") + f.string();
+    // The scheme's projector size stands in when the files do not hold it (SLMaster).
+    io::CalibrationReadOptions read;
+    read.camera_width = width;
+    read.camera_height = height;
+    read.projector_width = scheme.projector_width;
+    read.projector_height = scheme.projector_height;
+    read.keys = io::CalibrationKeyMap::Parse(options.opencv_keys);
+    const io::OpenCvCalibration cv = io::ReadCalibration(files, read);
+    util::LogInfo("calibration " + c.source + ":\n" + cv.Describe());
+    if (folder.stereo() && !cv.right) {
+      throw Error(util::StrCat(c.source, ": holds no right camera, but ", project.string(),
+                               " is a stereo scan"));
     }
+    // A stereo scan takes the two cameras; one camera takes the camera and the projector.
+    c.rig = folder.stereo() ? cv.ToRig(c.source) : cv.ToCameraProjectorRig(c.source);
     RequireProjector(folder, c);
     return c;
   }
@@ -1111,8 +1121,11 @@ void ScanOptions::Check() const {
   util::CheckOption(opencv_intrinsics.empty() == opencv_extrinsics.empty(), "ScanOptions",
                     "opencv_intrinsics", opencv_intrinsics.string(),
                     "OpenCV intrinsics and extrinsics go together");
-  util::CheckOption(calib.empty() || opencv_intrinsics.empty(), "ScanOptions", "calib",
-                    calib.string(), "give a rig JSON or OpenCV files, not both");
+  util::CheckOption(calib.empty() || (opencv_intrinsics.empty() && opencv.empty()), "ScanOptions",
+                    "calib", calib.string(), "give a rig JSON or OpenCV files, not both");
+  util::CheckOption(opencv_keys.empty() || !opencv.empty() || !opencv_intrinsics.empty(),
+                    "ScanOptions", "opencv_keys", opencv_keys.size(),
+                    "name the keys of calibration files given as opencv");
   projector_calibration.Check();
   reconstruction.Check();
   projector_columns.Check();

@@ -54,9 +54,15 @@ namespace fringe::pipeline {
 
 struct ScanOptions {
   // Rig calibration to use instead of PROJECT/rig.json or PROJECT/calibration/: a rig JSON
-  // file, or OpenCV stereo intrinsics + extrinsics (both, YAML/XML). Empty: not given.
+  // file, or another tool's calibration file(s) (io::ReadCalibration detects the format: OpenCV
+  // YAML/XML, SLStudio calibration.xml, SLMaster caliInfo.yml, ROS left + right camera_info,
+  // Kalibr camchain), or OpenCV stereo intrinsics + extrinsics (both). Empty: not given.
   std::filesystem::path calib;
+  std::vector<std::filesystem::path> opencv;
   std::filesystem::path opencv_intrinsics, opencv_extrinsics;
+  // With `opencv`: which key holds what ("left=Kc,kc", io::CalibrationKeyMap), for files no
+  // reader recognises; empty: the format is detected.
+  std::vector<std::string> opencv_keys;
   // Leave out views that fail and finish with the others (status kPartial) instead of failing.
   bool keep_going = false;
   // Resume an interrupted run (`fringe scan --resume`): take over the temporary output folder

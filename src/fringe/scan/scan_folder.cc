@@ -261,6 +261,18 @@ InferredManifest InferManifest(const fs::path& root) {
   return out;
 }
 
+InferredManifest WriteInferredManifest(const fs::path& root) {
+  const ScanLayout layout{root};
+  if (fs::exists(layout.Manifest())) {
+    throw Error(util::StrCat(root.string(), ": already has ", layout.Manifest().filename().string(),
+                             " (not overwritten)"));
+  }
+  InferredManifest inferred = InferManifest(root);
+  (void)ScanFolder::Open(root);  // the folder agrees with what was inferred
+  WriteManifest(layout.Manifest(), inferred.manifest);
+  return inferred;
+}
+
 bool ScanFolder::IsScanFolder(const fs::path& dir) {
   std::error_code ec;
   return fs::is_regular_file(ScanLayout{dir}.Manifest(), ec);

@@ -127,6 +127,12 @@ struct InferredManifest {
 };
 InferredManifest InferManifest(const std::filesystem::path& root);
 
+// `fringe info ROOT --init`, `fringe scan ROOT --write-manifest`: infers ROOT's manifest, checks
+// the folder against it (ScanFolder::Open) and writes ROOT/scan.json (atomically). Throws
+// fringe::Error naming ROOT when it already has a scan.json (never overwritten) or the manifest
+// cannot be inferred. Returns what was inferred.
+InferredManifest WriteInferredManifest(const std::filesystem::path& root);
+
 // A scan folder opened for reading and checked against its manifest.
 class ScanFolder {
  public:

@@ -1,4 +1,4 @@
-// OpenCV calibration YAML / XML import (bounds check, then cv::FileStorage and key lookup).
+// OpenCV calibration YAML / XML import (yaml-cpp / tinyxml2 with limits, then key lookup).
 #include "fringe/io/opencv_calibration.h"
 #include "fringe/util/error.h"
 #include "fuzz_common.h"

@@ -28,57 +28,29 @@ std::string Names(const std::vector<fs::path>& paths) {
   return s;
 }
 
-// The start of a file: whether cv::FileStorage wrote it ("%YAML" directive or an
-// <opencv_storage> root: its reader applies) and whether it is XML or OpenCV YAML at all (the
-// pre-checks that keep hostile files from cv::FileStorage apply, with their messages).
-struct Head {
-  bool opencv = false;
-  bool prechecked = false;
-};
-Head ReadHead(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::string head(256, '\0');
-  in.read(head.data(), static_cast<std::streamsize>(head.size()));
-  head.resize(static_cast<size_t>(in.gcount()));
-  Head h;
-  h.opencv = head.rfind("%YAML", 0) == 0 || head.find("<opencv_storage>") != std::string::npos;
-  const size_t first = head.find_first_not_of(" \t\r\n");
-  h.prechecked = h.opencv || (first != std::string::npos && head[first] == '<');
-  return h;
-}
-
-// One parsed file, or none when it is an OpenCV file yaml-cpp / tinyxml2 do not take but
-// cv::FileStorage (behind its pre-checks) may: such a file can only be read by the opencv reader.
+// One parsed file (io/text_tree.h: yaml-cpp or tinyxml2 with limits; opencv_header: written by
+// cv::FileStorage, so the opencv reader's spellings apply).
 struct Loaded {
   fs::path path;
-  std::optional<TextTree> tree;
+  TextTree tree;
   bool opencv_file = false;
 };
 
 std::vector<Loaded> Load(const std::vector<fs::path>& paths) {
   std::vector<Loaded> out;
   for (const fs::path& p : paths) {
-    util::RequireFile(p, "calibration");
     Loaded l;
     l.path = p;
-    const Head head = ReadHead(p);
-    l.opencv_file = head.opencv;
-    // OpenCV and XML files keep the pre-checks and messages they had before the other readers.
-    if (head.prechecked) CheckOpenCvFileBounds(p);
-    try {
-      l.tree = ReadTextTree(p);
-    } catch (const Error&) {
-      if (!l.opencv_file) throw;
-    }
+    l.tree = ReadTextTree(p);
+    l.opencv_file = l.tree.opencv_header;
     out.push_back(std::move(l));
   }
   return out;
 }
 
 bool Has(const Loaded& l, std::initializer_list<const char*> keys) {
-  if (!l.tree) return false;
   for (const char* k : keys) {
-    if (!l.tree->root.Find(k)) return false;
+    if (!l.tree.root.Find(k)) return false;
   }
   return true;
 }
@@ -90,14 +62,13 @@ bool Matches(CalibrationFormat f, const Loaded& l) {
     case CalibrationFormat::kRos:
       return Has(l, {"camera_matrix", "rectification_matrix", "projection_matrix"});
     case CalibrationFormat::kKalibr: {
-      const TextNode* cam0 = l.tree ? l.tree->root.Find("cam0") : nullptr;
+      const TextNode* cam0 = l.tree.root.Find("cam0");
       return cam0 && cam0->Find("intrinsics");
     }
     case CalibrationFormat::kOpenCv:
       if (!l.opencv_file) return false;
-      if (!l.tree) return true;  // only cv::FileStorage reads it
       for (const std::string& k : OpenCvCameraMatrixSpellings()) {
-        if (l.tree->root.Find(k)) return true;
+        if (l.tree.root.Find(k)) return true;
       }
       return false;
   }
@@ -131,12 +102,7 @@ struct Value {
 std::optional<Value> FindKey(const std::vector<Loaded>& files, const std::string& key) {
   std::optional<Value> found;
   for (const Loaded& l : files) {
-    if (!l.tree) {
-      throw Error(
-          StrCat(l.path.string(),
-                 ": not readable as YAML/XML with bounds (only the OpenCV reader takes it)"));
-    }
-    const TextNode* n = l.tree->root.Find(key);
+    const TextNode* n = l.tree.root.Find(key);
     if (!n) continue;
     if (found) {
       throw Error(
@@ -313,13 +279,13 @@ struct RosCamera {
 RosCamera ReadRosCamera(const Loaded& l, const CalibrationReadOptions& o, OpenCvCalibration* out) {
   const std::vector<Loaded> one = {l};  // keys are looked up in this file alone
   const auto get = [&](const char* key) -> Value {
-    const TextNode* n = l.tree->root.Find(key);
+    const TextNode* n = l.tree.root.Find(key);
     if (!n) throw Error(StrCat(l.path.string(), ": no ", key, " (ROS camera_info)"));
     return Value{&l, key, n};
   };
   const std::string file = l.path.filename().string();
   int w = o.camera_width, h = o.camera_height;
-  if (l.tree->root.Find("image_width") && l.tree->root.Find("image_height")) {
+  if (l.tree.root.Find("image_width") && l.tree.root.Find("image_height")) {
     const long long wi = IntegerOf(get("image_width"), "image width");
     const long long hi = IntegerOf(get("image_height"), "image height");
     util::CheckRange(wi, 1, util::kMaxImageSidePx, l.path.string(), "image_width");
@@ -334,14 +300,14 @@ RosCamera ReadRosCamera(const Loaded& l, const CalibrationReadOptions& o, OpenCv
   const std::vector<double> km = MatrixOf(k, "camera matrix", 3, 3);
   std::vector<double> dm;
   std::optional<Value> d;
-  if (const TextNode* n = l.tree->root.Find("distortion_coefficients")) {
+  if (const TextNode* n = l.tree.root.Find("distortion_coefficients")) {
     d = Value{&l, "distortion_coefficients", n};
     // ROS writes an empty list for a camera without distortion.
     const TextNode* data = n->Find("data");
     if (!(data && data->IsSeq() && data->items.empty())) dm = MatrixOf(*d, "distortion");
   }
   std::string model = "plumb_bob";
-  if (const TextNode* m = l.tree->root.Find("distortion_model"); m && m->IsScalar()) {
+  if (const TextNode* m = l.tree.root.Find("distortion_model"); m && m->IsScalar()) {
     model = m->scalar;
   }
   if (model != "plumb_bob" && model != "rational_polynomial") {
@@ -487,7 +453,7 @@ OpenCvCalibration ReadKalibr(const std::vector<Loaded>& files) {
   const Loaded& l = files[0];
   std::vector<KalibrCam> cams;
   for (int n = 0;; ++n) {
-    const TextNode* node = l.tree->root.Find(StrCat("cam", n));
+    const TextNode* node = l.tree.root.Find(StrCat("cam", n));
     if (!node) break;
     if (n >= 3) {
       throw Error(

@@ -27,8 +27,8 @@
 // opencv: a cv::FileStorage header and one of its camera-matrix spellings). Exactly one must
 // match the files; two matching is an error naming both (resolve with an explicit mapping).
 //
-// The new readers parse with yaml-cpp / tinyxml2 under explicit limits (io/text_tree.h); the
-// opencv reader still uses cv::FileStorage behind its pre-checks (issue 30 moves it over).
+// Every reader parses with yaml-cpp / tinyxml2 under explicit limits (io/text_tree.h); OpenCV's
+// own parser never sees an untrusted file (cv::FileStorage only writes the opencv format).
 //
 // Writers (WriteCalibration) produce files the tools read, with 17 significant digits, so a rig
 // written and read back is equal to 1e-12. Files are written atomically.

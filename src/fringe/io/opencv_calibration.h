@@ -1,4 +1,4 @@
-// Calibration files written by OpenCV-based tools (cv::FileStorage YAML / XML): any subset of
+// Calibration files written by OpenCV-based tools (cv::FileStorage's YAML / XML): any subset of
 // devices (two cameras + extrinsics, one camera + projector + extrinsics, or all three) under
 // the usual key spellings, e.g.
 //   left camera   M1 K1 cameraMatrix1 cameraMatrixL camera_matrix_left ... / D1 distCoeffs1 ...
@@ -12,8 +12,8 @@
 // coefficients: rational, thin-prism, tilt models) are an error unless the extra coefficients
 // are exactly zero, never silently truncated.
 //
-// Files are untrusted: before a file reaches OpenCV's recursive parser its size, nesting depth
-// and every declared matrix size are checked against the file (CheckOpenCvFileBounds).
+// Files are untrusted: they are parsed by yaml-cpp / tinyxml2 with explicit size, depth and
+// count limits (io/text_tree.h), never by cv::FileStorage (OpenCV is used only to write them).
 #pragma once
 
 #include <filesystem>
@@ -55,7 +55,7 @@ OpenCvCalibration ReadOpenCvCalibration(const std::vector<std::filesystem::path>
                                         int camera_width = 0, int camera_height = 0,
                                         int projector_width = 0, int projector_height = 0);
 
-// The OpenCV reader proper (cv::FileStorage files under the usual spellings above).
+// The OpenCV reader proper (OpenCV's YAML / XML files under the usual spellings above).
 // Reads the devices from one or more files (stereo_calib writes intrinsics and extrinsics
 // separately; a key found in two files is an error). Image sizes come from the files when they
 // hold them (image_width/image_height, imageSize, image_size, width/height; the projector's
@@ -81,10 +81,5 @@ CameraModel CameraFromMatrices(const std::vector<double>& k, const std::vector<d
 Rigid3d RigidFromMatrices(const std::vector<double>& r, const std::vector<double>& t,
                           double mm_per_unit, const std::string& what, const std::string& r_where,
                           const std::string& t_where);
-
-// Throws fringe::Error naming the file when it is larger than 16 MiB, nests deeper than
-// util::kMaxNestingDepth (flow brackets, "- " sequences, XML elements) or indents more than 512
-// columns, or declares a matrix (rows x cols) with more elements than the file has bytes.
-void CheckOpenCvFileBounds(const std::filesystem::path& path);
 
 }  // namespace fringe::io

@@ -19,6 +19,7 @@ packages=(
   libopen3d-dev                         # FPFH + RANSAC coarse alignment, Poisson meshing; peer in benchmarks
   libcgal-dev                           # meshing alternative measured against Open3D
   pybind11-dev python3-pybind11 python3-dev python3-numpy python3-pytest   # Python module
+  python3-distributed                   # fringe.batch: scan folders as tasks on a Dask cluster
   libaravis-dev                         # capture: GenICam cameras (GigE Vision, USB3 Vision)
   libsdl2-dev                           # capture: the projector window
   libx11-dev                            # capture tests: read the projector's screen back

@@ -58,6 +58,8 @@ def main():
     shutil.rmtree(work, ignore_errors=True)
     work.mkdir(parents=True)
     projects = []
+    (work / "projects").mkdir()
+    (work / "cli").mkdir()
     for i in range(a.projects):
         p = work / "projects" / f"part{i:02d}"
         run([a.fringe, "-q", "simulate", "demo", "--out", p, "--views", a.views, "--rig-scale",

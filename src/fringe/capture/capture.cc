@@ -290,6 +290,27 @@ std::string CaptureSummary::BriefReport() const {
     s += StrCat("\n  ", f.camera, ": saturated ", f.saturated_pct, " %, modulated ",
                 f.modulated_pct, " %, decodable ", f.decodable_pct, " %");
   }
+  if (view) {
+    if (!view->reconstructed) {
+      s += StrCat("\n  3D: not reconstructed: ", view->message);
+    } else {
+      s += StrCat("\n  3D: ", view->points, " points, ", view->markers, " markers seen (rings ",
+                  view->rings_left, " left, ", view->rings_right, " right)");
+      if (!view->registration_run) {
+        s += "; the first view (registration from the second on)";
+      } else if (view->registered) {
+        s += StrCat("; registers to the ", view->previous_views, " previous view(s) by ",
+                    view->registration_path, " (", view->matched_markers,
+                    " shared markers), overlap ", 100 * view->overlap_fraction, " %");
+      } else {
+        s += StrCat("; does NOT register to the ", view->previous_views,
+                    " previous view(s): ", view->registration_message,
+                    " (point the sensor to overlap them more)");
+      }
+    }
+  } else if (!view_message.empty()) {
+    s += StrCat("\n  ", view_message);
+  }
   return s;
 }
 
@@ -317,6 +338,8 @@ json ToJson(const CaptureSummary& s) {
                              {"decodable_pct", f.decodable_pct},
                              {"decode_status", f.decode_status}});
   }
+  j["view_feedback"] = s.view ? ToJson(*s.view) : json();
+  if (!s.view_message.empty()) j["view_feedback_message"] = s.view_message;
   return j;
 }
 
@@ -334,6 +357,12 @@ CaptureSummary CaptureIntoProject(const fs::path& root, const phase::PatternSche
     throw Error("--board: the first board pose needs --target FILE (the calibration board)");
   }
   if (!options.target_file.empty()) io::ReadTarget(options.target_file);  // validates it
+  // The feedback's rig is read before anything is shown: a bad file fails the capture now, not
+  // after the view was taken.
+  fs::path rig_file = options.rig_file;
+  if (rig_file.empty() && project.exists && fs::is_regular_file(root / "rig.json"))
+    rig_file = root / "rig.json";
+  if (!rig_file.empty() && options.feedback && !options.board) io::ReadRig(rig_file);
 
   CameraSettings settings = options.camera;
   if (!options.exposures_us.empty()) settings.exposure_us = options.exposures_us[0];
@@ -507,6 +536,21 @@ CaptureSummary CaptureIntoProject(const fs::path& root, const phase::PatternSche
       CameraFeedback f = AssessStack(scheme, images, devices.bit_depth, options.decode);
       f.camera = camera_names[c];
       summary.feedback.push_back(f);
+    }
+    if (rig_file.empty()) {
+      summary.view_message =
+          "markers and registration not assessed: no rig (give --rig FILE or put rig.json in the "
+          "project)";
+    } else {
+      ViewFeedbackOptions vo = options.view_feedback;
+      vo.reconstruction.decode = options.decode;
+      try {
+        summary.view = AssessViewIn3D(root, summary.name, rig_file, vo);
+      } catch (const Error& e) {
+        // The view is captured and kept; only its assessment failed (e.g. a rig for other
+        // cameras): the operator is told why.
+        summary.view_message = StrCat("markers and registration not assessed: ", e.what());
+      }
     }
   }
   summary.total_s = Seconds(start);

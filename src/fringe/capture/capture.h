@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "fringe/capture/camera.h"
+#include "fringe/capture/feedback.h"
 #include "fringe/capture/sequence.h"
 #include "fringe/phase/decode.h"
 #include "fringe/phase/pattern_scheme.h"
@@ -48,6 +49,11 @@ struct CaptureOptions {
   // Decode the new view for the feedback (ViewFeedback); off: only the capture is reported.
   bool feedback = true;
   phase::DecodeOptions decode;  // for the feedback
+  // The rig for the 3D feedback (reconstruction, markers, registration to the previous views,
+  // feedback.h): this rig file, else PROJECT/rig.json when it exists; neither: the 3D feedback
+  // is left out (CaptureSummary::view_message says so).
+  std::filesystem::path rig_file;
+  ViewFeedbackOptions view_feedback;  // its decode options are `decode`
   void Check() const;
 };
 
@@ -76,6 +82,10 @@ struct CaptureSummary {
   double capture_s = 0;          // sequence time (all exposures)
   double total_s = 0;            // with opening the devices, writing and the feedback
   std::vector<CameraFeedback> feedback;
+  // The 3D feedback of the new view (markers seen; once two views exist, whether it registers
+  // to the previous ones and its overlap), when a rig was available.
+  std::optional<ViewFeedback> view;
+  std::string view_message;  // why there is no 3D feedback (no rig, the rig does not fit)
   std::string BriefReport() const;
 };
 nlohmann::json ToJson(const CaptureSummary& summary);

@@ -358,6 +358,9 @@ TEST(Capture, CliDevicesAndCaptureExitCodes) {
   const auto summary = nlohmann::json::parse(out);
   EXPECT_EQ(summary["name"], "000");
   EXPECT_EQ(summary["feedback"].size(), 2u);
+  // Without a rig there is no 3D feedback, and the summary says why.
+  EXPECT_TRUE(summary["view_feedback"].is_null());
+  EXPECT_NE(summary["view_feedback_message"].get<std::string>().find("no rig"), std::string::npos);
   // The projector screen is 256 px wide, the scheme 1280 (the preset's default width).
   EXPECT_EQ(cli::RunCli(with({"--scheme", "heterodyne-4x3"}), &out, &err), 1);
   EXPECT_NE(err.find("fringe: error:"), std::string::npos) << err;

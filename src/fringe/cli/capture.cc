@@ -93,6 +93,10 @@ void AddCaptureCommand(CLI::App& app) {
                 "calibration/{left,right}/KKK.png instead of a view");
   sub->add_option("--target", a->options.target_file,
                   "--board: the calibration target JSON, copied into the project the first time");
+  sub->add_option("--rig", a->options.rig_file,
+                  "Rig JSON for the 3D feedback (markers seen, registration to the previous "
+                  "views and overlap); default PROJECT/rig.json when it exists")
+      ->check(CLI::ExistingFile);
   sub->add_flag("--no-feedback", a->no_feedback, "Do not decode the new view for the feedback");
   sub->add_flag("--json", a->json, "Print the capture summary as JSON");
   sub->callback([a] {

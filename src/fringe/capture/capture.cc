@@ -238,6 +238,9 @@ void CaptureOptions::Check() const {
     util::CheckOption(e > 0 && e <= 1e8, "CaptureOptions", "exposures_us", e,
                       "every exposure must be in (0, 1e8] us");
   }
+  auto_exposure_options.Check();
+  util::CheckOption(!auto_exposure || exposures_us.size() <= 1, "CaptureOptions", "auto_exposure",
+                    exposures_us.size(), "auto exposure picks one exposure, not several");
   util::CheckOption(!board || !right.empty(), "CaptureOptions", "board", "one camera",
                     "board poses are captured for a stereo rig (two cameras)");
 }
@@ -286,6 +289,13 @@ std::string CaptureSummary::BriefReport() const {
              exposures, " exposure(s) in ", capture_s, " s (settle ", settle_ms, " ms, ", retries,
              " retries, ", frames_failed, " failed frames)");
   if (latency_ms >= 0) s += StrCat("; latency ", latency_ms, " ms");
+  if (auto_exposure) {
+    double worst = 0;
+    for (double f : auto_exposure->chosen.saturated_fraction) worst = std::max(worst, f);
+    s += StrCat("\n  auto exposure: ", auto_exposure->exposure_us, " us (", 100 * worst,
+                " % of the lit pixels saturated under white; ", auto_exposure->probes.size(),
+                " probes in [", auto_exposure->min_us, ", ", auto_exposure->max_us, "] us)");
+  }
   for (const auto& f : feedback) {
     s += StrCat("\n  ", f.camera, ": saturated ", f.saturated_pct, " %, modulated ",
                 f.modulated_pct, " %, decodable ", f.decodable_pct, " %");
@@ -320,6 +330,8 @@ json ToJson(const CaptureSummary& s) {
             {"path", s.path.string()},
             {"latency_ms", s.latency_ms >= 0 ? json(s.latency_ms) : json()},
             {"settle_ms", s.settle_ms},
+            {"exposure_us", s.exposure_us},
+            {"auto_exposure", s.auto_exposure ? ToJson(*s.auto_exposure) : json()},
             {"patterns", s.patterns},
             {"exposures", s.exposures},
             {"retries", s.retries},
@@ -391,6 +403,17 @@ CaptureSummary CaptureIntoProject(const fs::path& root, const phase::PatternSche
 
   // Settle time: measured now, measured before, or given.
   SequenceOptions sequence = options.sequence;
+  if (options.settle_ms >= 0) {
+    sequence.settle_ms = options.settle_ms;
+  } else if (project.exists) {
+    if (auto ms = ReadProjectLatency(root)) sequence.settle_ms = *ms;
+  }
+  if (options.auto_exposure) {
+    summary.auto_exposure = FindExposure(devices.cameras, *devices.projector, settings,
+                                         options.auto_exposure_options, sequence);
+    settings.exposure_us = summary.auto_exposure->exposure_us;
+  }
+  summary.exposure_us = settings.exposure_us;
   if (options.measure_latency) {
     const LatencyResult latency =
         MeasureLatency(devices.cameras, *devices.projector, options.latency, sequence);
@@ -403,11 +426,6 @@ CaptureSummary CaptureIntoProject(const fs::path& root, const phase::PatternSche
     summary.path = root / kCaptureSettings;
     summary.total_s = Seconds(start);
     return summary;
-  }
-  if (options.settle_ms >= 0) {
-    sequence.settle_ms = options.settle_ms;
-  } else if (project.exists) {
-    if (auto ms = ReadProjectLatency(root)) sequence.settle_ms = *ms;
   }
   summary.settle_ms = sequence.settle_ms;
 
@@ -424,6 +442,7 @@ CaptureSummary CaptureIntoProject(const fs::path& root, const phase::PatternSche
                         {"bit_depth", devices.bit_depth},
                         {"camera_settings", SettingsToJson(settings)},
                         {"sequence", ToJson(sequence)}};
+  if (summary.auto_exposure) settings_json["auto_exposure"] = ToJson(*summary.auto_exposure);
 
   if (options.board) {
     // A plain image of the board under a white frame from both cameras.
@@ -468,7 +487,7 @@ CaptureSummary CaptureIntoProject(const fs::path& root, const phase::PatternSche
   const std::vector<cv::Mat> patterns =
       phase::GeneratePatterns(scheme, scheme.gamma_precompensation);
   std::vector<double> exposures = options.exposures_us;
-  if (exposures.empty()) exposures.push_back(settings.exposure_us);
+  if (exposures.empty() || options.auto_exposure) exposures = {settings.exposure_us};
   std::vector<StackCapture> stacks;
   const auto t0 = Clock::now();
   for (size_t e = 0; e < exposures.size(); ++e) {

@@ -38,6 +38,11 @@ struct CaptureOptions {
   // Settle time: < 0 uses the project's measured latency (PROJECT/capture.json), or
   // sequence.settle_ms when it was never measured; >= 0 overrides both, ms.
   double settle_ms = -1;
+  // --auto-exposure: before capturing, the longest exposure at which at most 0.1 % of the lit
+  // pixels saturate under a white frame (FindExposure) replaces camera.exposure_us. Not with
+  // several exposures_us.
+  bool auto_exposure = false;
+  AutoExposureOptions auto_exposure_options;
   // Measure the latency first (MeasureLatency) and store it in PROJECT/capture.json.
   bool measure_latency = false;
   LatencyOptions latency;
@@ -67,13 +72,15 @@ struct CameraFeedback {
 };
 
 struct CaptureSummary {
-  std::string kind;                 // "view" | "board"
-  std::string name;                 // "003" (view) or "003" (board pose)
-  std::filesystem::path path;       // the new view folder or board image
-  std::vector<CameraInfo> cameras;  // left (, right)
-  double latency_ms = -1;           // measured now (-1: not measured)
-  double settle_ms = 0;             // the settle time used
-  int patterns = 0;                 // images per camera and exposure
+  std::string kind;                                 // "view" | "board"
+  std::string name;                                 // "003" (view) or "003" (board pose)
+  std::filesystem::path path;                       // the new view folder or board image
+  std::vector<CameraInfo> cameras;                  // left (, right)
+  double latency_ms = -1;                           // measured now (-1: not measured)
+  double exposure_us = 0;                           // the (first) exposure used
+  std::optional<AutoExposureResult> auto_exposure;  // when --auto-exposure chose it
+  double settle_ms = 0;                             // the settle time used
+  int patterns = 0;                                 // images per camera and exposure
   int exposures = 1;
   int retries = 0;
   uint64_t frames_failed = 0;    // incomplete frames and timeouts (every camera)

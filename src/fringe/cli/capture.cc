@@ -56,6 +56,13 @@ void AddCaptureCommand(CLI::App& app) {
          "HDR: capture the stack at each exposure (us, comma-separated) into e0/, e1/, ...")
       ->delimiter(',')
       ->check(CLI::Range(1e-3, 1e8));
+  sub->add_flag("--auto-exposure", a->options.auto_exposure,
+                "Before capturing, pick the longest exposure at which at most 0.1 % of the lit "
+                "pixels saturate under a white frame (searched in the cameras' range)");
+  sub->add_option("--max-exposure-us", a->options.auto_exposure_options.max_exposure_us,
+                  "--auto-exposure: longest exposure searched, us")
+      ->capture_default_str()
+      ->check(CLI::Range(1.0, 1e8));
   sub->add_option("--gain", cam.gain, "Analog gain (the camera's unit, dB for GenICam)")
       ->capture_default_str()
       ->check(CLI::Range(0.0, 1000.0));

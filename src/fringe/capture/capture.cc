@@ -241,8 +241,11 @@ void CaptureOptions::Check() const {
   auto_exposure_options.Check();
   util::CheckOption(!auto_exposure || exposures_us.size() <= 1, "CaptureOptions", "auto_exposure",
                     exposures_us.size(), "auto exposure picks one exposure, not several");
-  util::CheckOption(!board || !right.empty(), "CaptureOptions", "board", "one camera",
-                    "board poses are captured for a stereo rig (two cameras)");
+  if (horizontal_scheme) {
+    util::CheckOption(horizontal_scheme->direction == phase::FringeDirection::kHorizontal,
+                      "CaptureOptions", "horizontal_scheme", horizontal_scheme->name,
+                      "must have horizontal fringes");
+  }
 }
 
 std::optional<double> ReadProjectLatency(const fs::path& project) {
@@ -444,6 +447,84 @@ CaptureSummary CaptureIntoProject(const fs::path& root, const phase::PatternSche
                         {"sequence", ToJson(sequence)}};
   if (summary.auto_exposure) settings_json["auto_exposure"] = ToJson(*summary.auto_exposure);
 
+  if (options.board && camera_count == 1) {
+    // Camera + projector calibration: the board pose under a white frame, then under the
+    // scheme's fringes in both directions, in one sequence (the board must not move), written
+    // as the pose folder calibration/KKK/{board.png, vertical/, horizontal/} that
+    // `fringe calibrate` and `fringe scan` read (calib/projector_folder.h).
+    if (scheme.direction != phase::FringeDirection::kVertical) {
+      throw Error(StrCat("--board: the scheme '", scheme.name,
+                         "' has horizontal fringes; give the vertical one (the horizontal one is "
+                         "derived from it)"));
+    }
+    phase::PatternScheme horizontal = scheme;
+    if (options.horizontal_scheme) {
+      horizontal = *options.horizontal_scheme;
+    } else {
+      // The same periods and steps along the rows (as the simulator's one-camera scans).
+      horizontal.direction = phase::FringeDirection::kHorizontal;
+      horizontal.name = scheme.name + "-horizontal";
+    }
+    horizontal.Check();
+    if (horizontal.projector_width != scheme.projector_width ||
+        horizontal.projector_height != scheme.projector_height) {
+      throw Error(StrCat("--board: the horizontal scheme '", horizontal.name, "' is for a ",
+                         horizontal.projector_width, "x", horizontal.projector_height,
+                         " projector, the vertical one for ", scheme.projector_width, "x",
+                         scheme.projector_height));
+    }
+    std::vector<cv::Mat> shown = {
+        cv::Mat(scheme.projector_height, scheme.projector_width, CV_8UC1, cv::Scalar(255))};
+    const std::vector<cv::Mat> vp = phase::GeneratePatterns(scheme, scheme.gamma_precompensation);
+    const std::vector<cv::Mat> hp =
+        phase::GeneratePatterns(horizontal, horizontal.gamma_precompensation);
+    shown.insert(shown.end(), vp.begin(), vp.end());
+    shown.insert(shown.end(), hp.begin(), hp.end());
+    const auto t0 = Clock::now();
+    StackCapture shot = CaptureStack(devices.cameras, *devices.projector, shown, sequence);
+    summary.capture_s = Seconds(t0);
+    AddStreamStatistics(devices, &summary);
+    summary.kind = "board";
+    summary.patterns = static_cast<int>(shown.size());
+    summary.retries = shot.retries;
+    summary.frames_failed = shot.frames_failed;
+    const int index = project.manifest.calibration_images;
+    summary.name = scan::IndexName(index);
+    scan::ScanManifest manifest = project.manifest;
+    manifest.calibration_images = index + 1;
+    manifest.calibration_target = "calibration/target.json";
+    const fs::path relative = fs::path("calibration") / summary.name;
+    summary.path = root / relative;
+    json pose_json = settings_json;
+    pose_json["format"] = "fringe-capture-board-pose";
+    pose_json["horizontal_scheme"] = horizontal.name;
+    pose_json["cameras"] = {ToJson(devices.infos[0])};
+    std::vector<std::string> names = {"board.png"};
+    for (const auto& n : scheme.ImageNames()) names.push_back("vertical/" + n);
+    for (const auto& n : horizontal.ImageNames()) names.push_back("horizontal/" + n);
+    pose_json["cameras"][0]["frames"] = FrameRecordsToJson(shot.records[0], names);
+    CommitView(
+        project, relative, manifest, scheme,
+        [&](const fs::path& dir) {
+          fs::create_directories(dir / "vertical");
+          fs::create_directories(dir / "horizontal");
+          for (size_t k = 0; k < names.size(); ++k) {
+            io::WriteImage(dir / names[k], shot.frames[0][k].image);
+          }
+          phase::WriteScheme(dir / "vertical" / "manifest.json", scheme);
+          phase::WriteScheme(dir / "horizontal" / "manifest.json", horizontal);
+          io::WriteJson(dir / kCaptureSettings, pose_json);
+        },
+        [&](const fs::path& dir) {
+          if (project.manifest.calibration_images > 0) return;
+          const fs::path target = scan::ScanLayout{dir}.Target();
+          fs::create_directories(target.parent_path());
+          util::WriteAtomically(
+              target, [&](const fs::path& tmp) { fs::copy_file(options.target_file, tmp); });
+        });
+    summary.total_s = Seconds(start);
+    return summary;
+  }
   if (options.board) {
     // A plain image of the board under a white frame from both cameras.
     const auto t0 = Clock::now();

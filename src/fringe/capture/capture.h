@@ -46,11 +46,17 @@ struct CaptureOptions {
   // Measure the latency first (MeasureLatency) and store it in PROJECT/capture.json.
   bool measure_latency = false;
   LatencyOptions latency;
-  // Capture a calibration board pose instead of a view: a plain image of each camera under a
-  // white frame into calibration/{left,right}/KKK.png (two cameras). `target_file` (a target
+  // Capture a calibration board pose instead of a view: two cameras, a plain image of each
+  // under a white frame into calibration/{left,right}/KKK.png; one camera (camera + projector
+  // calibration), the pose folder calibration/KKK/ with board.png (white frame) and the camera's
+  // fringe stacks of both directions in vertical/ and horizontal/ with their manifest.json
+  // (calib/projector_folder.h), plus the pose's capture.json. `target_file` (a target
   // JSON, docs/formats.md) is copied to calibration/target.json the first time.
   bool board = false;
   std::filesystem::path target_file;
+  // One-camera --board: the horizontal-fringe scheme (unset: the scheme with its direction turned
+  // horizontal, same periods and steps, named "<name>-horizontal").
+  std::optional<phase::PatternScheme> horizontal_scheme;
   // Decode the new view for the feedback (ViewFeedback); off: only the capture is reported.
   bool feedback = true;
   phase::DecodeOptions decode;  // for the feedback

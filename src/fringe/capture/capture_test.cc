@@ -282,6 +282,32 @@ TEST(Capture, LostPacketsAreResentOrTheFrameRegrabbed) {
   ASSERT_EQ(folder.manifest().views, 2);
   ExpectViewMatchesPatterns(folder.layout().ViewDir("000"), scheme);
   ExpectViewMatchesPatterns(folder.layout().ViewDir("001"), scheme);
+  // The retries are bounded: with none allowed, the first incomplete frame (of 24, each lost
+  // with probability ~1/3) ends the capture, naming the pattern, and no view is written.
+  o.sequence.max_retries = 0;
+  const std::string manifest_before = util::ReadTextFile(tmp / "scan" / "scan.json");
+  const std::string error =
+      fringe::test::ErrorOf([&] { CaptureIntoProject(tmp / "scan", scheme, o); });
+  EXPECT_NE(error.find("no good frame after 1 tries"), std::string::npos) << error;
+  EXPECT_NE(error.find("pattern"), std::string::npos) << error;
+  EXPECT_EQ(util::ReadTextFile(tmp / "scan" / "scan.json"), manifest_before);
+  EXPECT_FALSE(fs::exists(tmp / "scan" / "views" / "002"));
+}
+
+// The OpenCV (V4L2) backend without a webcam: what can be checked is how a camera is named and
+// that a device that is not there is a clear error naming it (no V4L2 device, and no
+// v4l2loopback, on the test machines; docs/capture.md).
+TEST(Capture, OpenCvCameraSpecsAndAMissingDevice) {
+  EXPECT_NE(fringe::test::ErrorOf([] { OpenCamera("opencv:x"); }).find("expected opencv:N"),
+            std::string::npos);
+  EXPECT_NE(fringe::test::ErrorOf([] { OpenCamera("/dev/video"); }).find("expected opencv:N"),
+            std::string::npos);
+  EXPECT_NE(fringe::test::ErrorOf([] { OpenCamera("opencv:256"); }).find("index"),
+            std::string::npos);
+  ASSERT_FALSE(fs::exists("/dev/video255"));
+  const std::string error = fringe::test::ErrorOf([] { OpenCamera("/dev/video255"); });
+  EXPECT_NE(error.find("/dev/video255"), std::string::npos) << error;
+  EXPECT_NE(error.find("opencv:255"), std::string::npos) << error;
 }
 
 TEST(Capture, MeasuredLatencyMatchesTheInjectedOne) {

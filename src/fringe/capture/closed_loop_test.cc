@@ -14,13 +14,16 @@
 #include <map>
 #include <mutex>
 
+#include "fringe/calib/projector_folder.h"
 #include "fringe/capture/capture.h"
 #include "fringe/capture/test_rig.h"
 #include "fringe/io/calibration_io.h"
 #include "fringe/io/image_io.h"
 #include "fringe/io/json.h"
+#include "fringe/phase/pattern_scheme.h"
 #include "fringe/pipeline/scan.h"
 #include "fringe/scan/scan_folder.h"
+#include "fringe/sim/projector_board.h"
 #include "fringe/sim/scan.h"
 #include "fringe_test.h"
 
@@ -212,6 +215,103 @@ TEST(ClosedLoop, CapturedScanReproducesTheSimulatorsTruth) {
   EXPECT_LT(captured.fused_rms_mm, 0.06);
   EXPECT_LT(captured.pose_rot_err_deg, 0.05);
   EXPECT_LT(captured.pose_trans_err_mm, 0.2);
+}
+
+// One camera + projector: `fringe capture --board` with one camera takes each board pose under
+// a white frame and under the fringes of both directions, into the pose folders that
+// `fringe calibrate` reads; the fake camera returns the simulator's images of the board at that
+// pose under whatever the screen shows. The captured poses are the simulated folder's images
+// under the same names, and they calibrate the projector to the truth (the bounds of
+// calib/projector_test.cc for this rig, 6 poses).
+TEST(ClosedLoop, OneCameraBoardPosesCalibrateTheProjector) {
+  test::EnterPrivateNetworkNamespace();
+  constexpr double kMaxFocalErrPct = 0.03;
+  constexpr double kMaxPrincipalErrPx = 0.3;
+  constexpr double kMaxTranslationErrMm = 0.1;
+  constexpr double kMaxRotationErrDeg = 0.015;
+  const StereoRig rig = sim::ScaledRig(StereoRig::Reference(), 0.5);
+  const CalibrationTarget target = CalibrationTarget::Reference();
+  fringe::test::TempDir tmp;
+  sim::ProjectorCalibrationFolderOptions so;
+  so.poses.count = 6;
+  so.poses.seed = 5;
+  so.fringes.supersampling = 1;  // as calib/projector_test.cc's two-camera test
+  sim::WriteProjectorCalibrationFolder(rig, target, tmp / "simulated", so);
+  const auto schemes = sim::BothDirectionSchemes(*rig.projector);
+
+  test::Xvfb xvfb(rig.projector->width, rig.projector->height);
+  Stage stage;
+  test::FakeCamera camera("127.0.0.2", "SIM-C", xvfb.display(),
+                          [&stage](const cv::Mat& screen, double, double, int w, int h, int) {
+                            return stage.Look(screen, 0, w, h);
+                          });
+  camera.SetSize(rig.left.width, rig.left.height);
+  CaptureOptions o;
+  o.left = "SIM-C";
+  o.projector = xvfb.display();
+  o.settle_ms = 5;
+  o.sequence.grab_timeout_ms = 10000;  // a loaded machine
+  o.board = true;
+  o.target_file = tmp / "simulated" / "target.json";
+  o.horizontal_scheme = schemes[1];  // the simulator's horizontal scheme
+  const fs::path project = tmp / "captured";
+  std::vector<cv::Mat> shown = {
+      cv::Mat(rig.projector->height, rig.projector->width, CV_8UC1, cv::Scalar(255))};
+  std::vector<std::string> names = {"board.png"};
+  for (const auto& s : schemes) {
+    for (const cv::Mat& p : phase::GeneratePatterns(s, s.gamma_precompensation)) shown.push_back(p);
+    for (const auto& n : s.ImageNames())
+      names.push_back(phase::DirectionName(s.direction) + "/" + n);
+  }
+  for (int k = 0; k < so.poses.count; ++k) {
+    const fs::path pose = tmp / "simulated" / scan::IndexName(k);
+    std::vector<std::array<cv::Mat, 2>> seen;
+    for (const auto& n : names) seen.push_back({io::ReadGrayImage(pose / n), cv::Mat()});
+    stage.Set(shown, seen);
+    const CaptureSummary s = CaptureIntoProject(project, schemes[0], o);
+    EXPECT_EQ(s.kind, "board");
+    EXPECT_EQ(s.name, scan::IndexName(k));
+    EXPECT_EQ(s.patterns, static_cast<int>(names.size()));
+  }
+  // The layout and every image: the simulated folder's.
+  const scan::ScanFolder folder = scan::ScanFolder::Open(project);
+  EXPECT_EQ(folder.manifest().cameras, 1);
+  EXPECT_EQ(folder.manifest().calibration_images, so.poses.count);
+  for (int k = 0; k < so.poses.count; ++k) {
+    const std::string pose = scan::IndexName(k);
+    for (const auto& n : names) {
+      const cv::Mat a = io::ReadGrayImage(project / "calibration" / pose / n);
+      const cv::Mat b = io::ReadGrayImage(tmp / "simulated" / pose / n);
+      ASSERT_EQ(cv::norm(a, b, cv::NORM_INF), 0) << "pose " << pose << " " << n;
+    }
+    for (const auto& s : schemes) {
+      const fs::path m =
+          project / "calibration" / pose / phase::DirectionName(s.direction) / "manifest.json";
+      EXPECT_EQ(phase::SchemeToJson(phase::ReadScheme(m)), phase::SchemeToJson(s)) << m;
+    }
+  }
+  // `fringe calibrate` of the captured poses: the camera + projector calibration recovers the
+  // true projector.
+  calib::ProjectorFolderOptions fo;
+  fo.features.window_radius_px = 10;  // half resolution
+  const calib::ProjectorFolderCalibration cal =
+      calib::CalibrateProjectorFolder(project / "calibration", target, fo);
+  ASSERT_EQ(cal.layout, calib::ProjectorFolderLayout::kCameraProjector);
+  ASSERT_TRUE(cal.ok()) << cal.message();
+  const CameraModel& p = *cal.rig.projector;
+  const double focal_err_pct = 100 * std::abs(p.fx - rig.projector->fx) / rig.projector->fx;
+  const double principal_err_px = std::hypot(p.cx - rig.projector->cx, p.cy - rig.projector->cy);
+  const Rigid3d d = cal.rig.projector_from_left * rig.projector_from_left.Inverse();
+  const double rotation_deg = Eigen::AngleAxisd(d.rotation()).angle() * 180 / M_PI;
+  const double translation_mm =
+      (cal.rig.projector_from_left.translation() - rig.projector_from_left.translation()).norm();
+  std::cerr << cal.BriefReport() << "\nfocal error " << focal_err_pct << " %, principal point "
+            << principal_err_px << " px, rotation " << rotation_deg << " deg, translation "
+            << translation_mm << " mm\n";
+  EXPECT_LT(focal_err_pct, kMaxFocalErrPct);
+  EXPECT_LT(principal_err_px, kMaxPrincipalErrPx);
+  EXPECT_LT(rotation_deg, kMaxRotationErrDeg);
+  EXPECT_LT(translation_mm, kMaxTranslationErrMm);
 }
 
 }  // namespace

@@ -96,8 +96,10 @@ void AddCaptureCommand(CLI::App& app) {
       ->capture_default_str()
       ->check(CLI::Range(1.0, 10000.0));
   sub->add_flag("--board", a->options.board,
-                "Capture a calibration board pose (plain images under a white frame) into "
-                "calibration/{left,right}/KKK.png instead of a view");
+                "Capture a calibration board pose instead of a view: two cameras, plain images "
+                "under a white frame into calibration/{left,right}/KKK.png; one camera, the pose "
+                "under white and fringes in both directions into calibration/KKK/ (projector "
+                "calibration)");
   sub->add_option("--target", a->options.target_file,
                   "--board: the calibration target JSON, copied into the project the first time");
   sub->add_option("--rig", a->options.rig_file,

@@ -105,6 +105,17 @@ class AravisCamera final : public Camera {
     info_ = ReadInfo();
   }
 
+  bool ExposureRangeUs(double* min_us, double* max_us) const override {
+    if (!arv_camera_is_exposure_time_available(camera_, nullptr)) return false;
+    GError* error = nullptr;
+    arv_camera_get_exposure_time_bounds(camera_, min_us, max_us, &error);
+    if (error) {
+      g_clear_error(&error);
+      return false;
+    }
+    return *min_us > 0 && *max_us >= *min_us;
+  }
+
   void Start() override {
     if (stream_) return;
     GError* error = nullptr;

@@ -106,6 +106,13 @@ class Camera {
   virtual void Stop() = 0;
   // Stream statistics since Start().
   virtual StreamStatistics Statistics() const = 0;
+  // The exposure times the device accepts, us; false when it does not say (webcams: V4L2's
+  // exposure is a driver-defined unit), and --auto-exposure cannot search it.
+  virtual bool ExposureRangeUs(double* min_us, double* max_us) const {
+    (void)min_us;
+    (void)max_us;
+    return false;
+  }
 };
 
 // Opens a camera by a user's spec:

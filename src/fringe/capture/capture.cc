@@ -238,8 +238,14 @@ void CaptureOptions::Check() const {
     util::CheckOption(e > 0 && e <= 1e8, "CaptureOptions", "exposures_us", e,
                       "every exposure must be in (0, 1e8] us");
   }
-  util::CheckOption(!board || !right.empty(), "CaptureOptions", "board", "one camera",
-                    "board poses are captured for a stereo rig (two cameras)");
+  auto_exposure_options.Check();
+  util::CheckOption(!auto_exposure || exposures_us.size() <= 1, "CaptureOptions", "auto_exposure",
+                    exposures_us.size(), "auto exposure picks one exposure, not several");
+  if (horizontal_scheme) {
+    util::CheckOption(horizontal_scheme->direction == phase::FringeDirection::kHorizontal,
+                      "CaptureOptions", "horizontal_scheme", horizontal_scheme->name,
+                      "must have horizontal fringes");
+  }
 }
 
 std::optional<double> ReadProjectLatency(const fs::path& project) {
@@ -286,9 +292,37 @@ std::string CaptureSummary::BriefReport() const {
              exposures, " exposure(s) in ", capture_s, " s (settle ", settle_ms, " ms, ", retries,
              " retries, ", frames_failed, " failed frames)");
   if (latency_ms >= 0) s += StrCat("; latency ", latency_ms, " ms");
+  if (auto_exposure) {
+    double worst = 0;
+    for (double f : auto_exposure->chosen.saturated_fraction) worst = std::max(worst, f);
+    s += StrCat("\n  auto exposure: ", auto_exposure->exposure_us, " us (", 100 * worst,
+                " % of the lit pixels saturated under white; ", auto_exposure->probes.size(),
+                " probes in [", auto_exposure->min_us, ", ", auto_exposure->max_us, "] us)");
+  }
   for (const auto& f : feedback) {
     s += StrCat("\n  ", f.camera, ": saturated ", f.saturated_pct, " %, modulated ",
                 f.modulated_pct, " %, decodable ", f.decodable_pct, " %");
+  }
+  if (view) {
+    if (!view->reconstructed) {
+      s += StrCat("\n  3D: not reconstructed: ", view->message);
+    } else {
+      s += StrCat("\n  3D: ", view->points, " points, ", view->markers, " markers seen (rings ",
+                  view->rings_left, " left, ", view->rings_right, " right)");
+      if (!view->registration_run) {
+        s += "; the first view (registration from the second on)";
+      } else if (view->registered) {
+        s += StrCat("; registers to the ", view->previous_views, " previous view(s) by ",
+                    view->registration_path, " (", view->matched_markers,
+                    " shared markers), overlap ", 100 * view->overlap_fraction, " %");
+      } else {
+        s += StrCat("; does NOT register to the ", view->previous_views,
+                    " previous view(s): ", view->registration_message,
+                    " (point the sensor to overlap them more)");
+      }
+    }
+  } else if (!view_message.empty()) {
+    s += StrCat("\n  ", view_message);
   }
   return s;
 }
@@ -299,6 +333,8 @@ json ToJson(const CaptureSummary& s) {
             {"path", s.path.string()},
             {"latency_ms", s.latency_ms >= 0 ? json(s.latency_ms) : json()},
             {"settle_ms", s.settle_ms},
+            {"exposure_us", s.exposure_us},
+            {"auto_exposure", s.auto_exposure ? ToJson(*s.auto_exposure) : json()},
             {"patterns", s.patterns},
             {"exposures", s.exposures},
             {"retries", s.retries},
@@ -317,6 +353,8 @@ json ToJson(const CaptureSummary& s) {
                              {"decodable_pct", f.decodable_pct},
                              {"decode_status", f.decode_status}});
   }
+  j["view_feedback"] = s.view ? ToJson(*s.view) : json();
+  if (!s.view_message.empty()) j["view_feedback_message"] = s.view_message;
   return j;
 }
 
@@ -334,6 +372,12 @@ CaptureSummary CaptureIntoProject(const fs::path& root, const phase::PatternSche
     throw Error("--board: the first board pose needs --target FILE (the calibration board)");
   }
   if (!options.target_file.empty()) io::ReadTarget(options.target_file);  // validates it
+  // The feedback's rig is read before anything is shown: a bad file fails the capture now, not
+  // after the view was taken.
+  fs::path rig_file = options.rig_file;
+  if (rig_file.empty() && project.exists && fs::is_regular_file(root / "rig.json"))
+    rig_file = root / "rig.json";
+  if (!rig_file.empty() && options.feedback && !options.board) io::ReadRig(rig_file);
 
   CameraSettings settings = options.camera;
   if (!options.exposures_us.empty()) settings.exposure_us = options.exposures_us[0];
@@ -362,6 +406,17 @@ CaptureSummary CaptureIntoProject(const fs::path& root, const phase::PatternSche
 
   // Settle time: measured now, measured before, or given.
   SequenceOptions sequence = options.sequence;
+  if (options.settle_ms >= 0) {
+    sequence.settle_ms = options.settle_ms;
+  } else if (project.exists) {
+    if (auto ms = ReadProjectLatency(root)) sequence.settle_ms = *ms;
+  }
+  if (options.auto_exposure) {
+    summary.auto_exposure = FindExposure(devices.cameras, *devices.projector, settings,
+                                         options.auto_exposure_options, sequence);
+    settings.exposure_us = summary.auto_exposure->exposure_us;
+  }
+  summary.exposure_us = settings.exposure_us;
   if (options.measure_latency) {
     const LatencyResult latency =
         MeasureLatency(devices.cameras, *devices.projector, options.latency, sequence);
@@ -374,11 +429,6 @@ CaptureSummary CaptureIntoProject(const fs::path& root, const phase::PatternSche
     summary.path = root / kCaptureSettings;
     summary.total_s = Seconds(start);
     return summary;
-  }
-  if (options.settle_ms >= 0) {
-    sequence.settle_ms = options.settle_ms;
-  } else if (project.exists) {
-    if (auto ms = ReadProjectLatency(root)) sequence.settle_ms = *ms;
   }
   summary.settle_ms = sequence.settle_ms;
 
@@ -395,7 +445,86 @@ CaptureSummary CaptureIntoProject(const fs::path& root, const phase::PatternSche
                         {"bit_depth", devices.bit_depth},
                         {"camera_settings", SettingsToJson(settings)},
                         {"sequence", ToJson(sequence)}};
+  if (summary.auto_exposure) settings_json["auto_exposure"] = ToJson(*summary.auto_exposure);
 
+  if (options.board && camera_count == 1) {
+    // Camera + projector calibration: the board pose under a white frame, then under the
+    // scheme's fringes in both directions, in one sequence (the board must not move), written
+    // as the pose folder calibration/KKK/{board.png, vertical/, horizontal/} that
+    // `fringe calibrate` and `fringe scan` read (calib/projector_folder.h).
+    if (scheme.direction != phase::FringeDirection::kVertical) {
+      throw Error(StrCat("--board: the scheme '", scheme.name,
+                         "' has horizontal fringes; give the vertical one (the horizontal one is "
+                         "derived from it)"));
+    }
+    phase::PatternScheme horizontal = scheme;
+    if (options.horizontal_scheme) {
+      horizontal = *options.horizontal_scheme;
+    } else {
+      // The same periods and steps along the rows (as the simulator's one-camera scans).
+      horizontal.direction = phase::FringeDirection::kHorizontal;
+      horizontal.name = scheme.name + "-horizontal";
+    }
+    horizontal.Check();
+    if (horizontal.projector_width != scheme.projector_width ||
+        horizontal.projector_height != scheme.projector_height) {
+      throw Error(StrCat("--board: the horizontal scheme '", horizontal.name, "' is for a ",
+                         horizontal.projector_width, "x", horizontal.projector_height,
+                         " projector, the vertical one for ", scheme.projector_width, "x",
+                         scheme.projector_height));
+    }
+    std::vector<cv::Mat> shown = {
+        cv::Mat(scheme.projector_height, scheme.projector_width, CV_8UC1, cv::Scalar(255))};
+    const std::vector<cv::Mat> vp = phase::GeneratePatterns(scheme, scheme.gamma_precompensation);
+    const std::vector<cv::Mat> hp =
+        phase::GeneratePatterns(horizontal, horizontal.gamma_precompensation);
+    shown.insert(shown.end(), vp.begin(), vp.end());
+    shown.insert(shown.end(), hp.begin(), hp.end());
+    const auto t0 = Clock::now();
+    StackCapture shot = CaptureStack(devices.cameras, *devices.projector, shown, sequence);
+    summary.capture_s = Seconds(t0);
+    AddStreamStatistics(devices, &summary);
+    summary.kind = "board";
+    summary.patterns = static_cast<int>(shown.size());
+    summary.retries = shot.retries;
+    summary.frames_failed = shot.frames_failed;
+    const int index = project.manifest.calibration_images;
+    summary.name = scan::IndexName(index);
+    scan::ScanManifest manifest = project.manifest;
+    manifest.calibration_images = index + 1;
+    manifest.calibration_target = "calibration/target.json";
+    const fs::path relative = fs::path("calibration") / summary.name;
+    summary.path = root / relative;
+    json pose_json = settings_json;
+    pose_json["format"] = "fringe-capture-board-pose";
+    pose_json["horizontal_scheme"] = horizontal.name;
+    pose_json["cameras"] = {ToJson(devices.infos[0])};
+    std::vector<std::string> names = {"board.png"};
+    for (const auto& n : scheme.ImageNames()) names.push_back("vertical/" + n);
+    for (const auto& n : horizontal.ImageNames()) names.push_back("horizontal/" + n);
+    pose_json["cameras"][0]["frames"] = FrameRecordsToJson(shot.records[0], names);
+    CommitView(
+        project, relative, manifest, scheme,
+        [&](const fs::path& dir) {
+          fs::create_directories(dir / "vertical");
+          fs::create_directories(dir / "horizontal");
+          for (size_t k = 0; k < names.size(); ++k) {
+            io::WriteImage(dir / names[k], shot.frames[0][k].image);
+          }
+          phase::WriteScheme(dir / "vertical" / "manifest.json", scheme);
+          phase::WriteScheme(dir / "horizontal" / "manifest.json", horizontal);
+          io::WriteJson(dir / kCaptureSettings, pose_json);
+        },
+        [&](const fs::path& dir) {
+          if (project.manifest.calibration_images > 0) return;
+          const fs::path target = scan::ScanLayout{dir}.Target();
+          fs::create_directories(target.parent_path());
+          util::WriteAtomically(
+              target, [&](const fs::path& tmp) { fs::copy_file(options.target_file, tmp); });
+        });
+    summary.total_s = Seconds(start);
+    return summary;
+  }
   if (options.board) {
     // A plain image of the board under a white frame from both cameras.
     const auto t0 = Clock::now();
@@ -439,7 +568,7 @@ CaptureSummary CaptureIntoProject(const fs::path& root, const phase::PatternSche
   const std::vector<cv::Mat> patterns =
       phase::GeneratePatterns(scheme, scheme.gamma_precompensation);
   std::vector<double> exposures = options.exposures_us;
-  if (exposures.empty()) exposures.push_back(settings.exposure_us);
+  if (exposures.empty() || options.auto_exposure) exposures = {settings.exposure_us};
   std::vector<StackCapture> stacks;
   const auto t0 = Clock::now();
   for (size_t e = 0; e < exposures.size(); ++e) {
@@ -507,6 +636,21 @@ CaptureSummary CaptureIntoProject(const fs::path& root, const phase::PatternSche
       CameraFeedback f = AssessStack(scheme, images, devices.bit_depth, options.decode);
       f.camera = camera_names[c];
       summary.feedback.push_back(f);
+    }
+    if (rig_file.empty()) {
+      summary.view_message =
+          "markers and registration not assessed: no rig (give --rig FILE or put rig.json in the "
+          "project)";
+    } else {
+      ViewFeedbackOptions vo = options.view_feedback;
+      vo.reconstruction.decode = options.decode;
+      try {
+        summary.view = AssessViewIn3D(root, summary.name, rig_file, vo);
+      } catch (const Error& e) {
+        // The view is captured and kept; only its assessment failed (e.g. a rig for other
+        // cameras): the operator is told why.
+        summary.view_message = StrCat("markers and registration not assessed: ", e.what());
+      }
     }
   }
   summary.total_s = Seconds(start);

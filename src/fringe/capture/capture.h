@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "fringe/capture/camera.h"
+#include "fringe/capture/feedback.h"
 #include "fringe/capture/sequence.h"
 #include "fringe/phase/decode.h"
 #include "fringe/phase/pattern_scheme.h"
@@ -37,17 +38,33 @@ struct CaptureOptions {
   // Settle time: < 0 uses the project's measured latency (PROJECT/capture.json), or
   // sequence.settle_ms when it was never measured; >= 0 overrides both, ms.
   double settle_ms = -1;
+  // --auto-exposure: before capturing, the longest exposure at which at most 0.1 % of the lit
+  // pixels saturate under a white frame (FindExposure) replaces camera.exposure_us. Not with
+  // several exposures_us.
+  bool auto_exposure = false;
+  AutoExposureOptions auto_exposure_options;
   // Measure the latency first (MeasureLatency) and store it in PROJECT/capture.json.
   bool measure_latency = false;
   LatencyOptions latency;
-  // Capture a calibration board pose instead of a view: a plain image of each camera under a
-  // white frame into calibration/{left,right}/KKK.png (two cameras). `target_file` (a target
+  // Capture a calibration board pose instead of a view: two cameras, a plain image of each
+  // under a white frame into calibration/{left,right}/KKK.png; one camera (camera + projector
+  // calibration), the pose folder calibration/KKK/ with board.png (white frame) and the camera's
+  // fringe stacks of both directions in vertical/ and horizontal/ with their manifest.json
+  // (calib/projector_folder.h), plus the pose's capture.json. `target_file` (a target
   // JSON, docs/formats.md) is copied to calibration/target.json the first time.
   bool board = false;
   std::filesystem::path target_file;
+  // One-camera --board: the horizontal-fringe scheme (unset: the scheme with its direction turned
+  // horizontal, same periods and steps, named "<name>-horizontal").
+  std::optional<phase::PatternScheme> horizontal_scheme;
   // Decode the new view for the feedback (ViewFeedback); off: only the capture is reported.
   bool feedback = true;
   phase::DecodeOptions decode;  // for the feedback
+  // The rig for the 3D feedback (reconstruction, markers, registration to the previous views,
+  // feedback.h): this rig file, else PROJECT/rig.json when it exists; neither: the 3D feedback
+  // is left out (CaptureSummary::view_message says so).
+  std::filesystem::path rig_file;
+  ViewFeedbackOptions view_feedback;  // its decode options are `decode`
   void Check() const;
 };
 
@@ -61,13 +78,15 @@ struct CameraFeedback {
 };
 
 struct CaptureSummary {
-  std::string kind;                 // "view" | "board"
-  std::string name;                 // "003" (view) or "003" (board pose)
-  std::filesystem::path path;       // the new view folder or board image
-  std::vector<CameraInfo> cameras;  // left (, right)
-  double latency_ms = -1;           // measured now (-1: not measured)
-  double settle_ms = 0;             // the settle time used
-  int patterns = 0;                 // images per camera and exposure
+  std::string kind;                                 // "view" | "board"
+  std::string name;                                 // "003" (view) or "003" (board pose)
+  std::filesystem::path path;                       // the new view folder or board image
+  std::vector<CameraInfo> cameras;                  // left (, right)
+  double latency_ms = -1;                           // measured now (-1: not measured)
+  double exposure_us = 0;                           // the (first) exposure used
+  std::optional<AutoExposureResult> auto_exposure;  // when --auto-exposure chose it
+  double settle_ms = 0;                             // the settle time used
+  int patterns = 0;                                 // images per camera and exposure
   int exposures = 1;
   int retries = 0;
   uint64_t frames_failed = 0;    // incomplete frames and timeouts (every camera)
@@ -76,6 +95,10 @@ struct CaptureSummary {
   double capture_s = 0;          // sequence time (all exposures)
   double total_s = 0;            // with opening the devices, writing and the feedback
   std::vector<CameraFeedback> feedback;
+  // The 3D feedback of the new view (markers seen; once two views exist, whether it registers
+  // to the previous ones and its overlap), when a rig was available.
+  std::optional<ViewFeedback> view;
+  std::string view_message;  // why there is no 3D feedback (no rig, the rig does not fit)
   std::string BriefReport() const;
 };
 nlohmann::json ToJson(const CaptureSummary& summary);

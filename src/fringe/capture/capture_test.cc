@@ -282,6 +282,32 @@ TEST(Capture, LostPacketsAreResentOrTheFrameRegrabbed) {
   ASSERT_EQ(folder.manifest().views, 2);
   ExpectViewMatchesPatterns(folder.layout().ViewDir("000"), scheme);
   ExpectViewMatchesPatterns(folder.layout().ViewDir("001"), scheme);
+  // The retries are bounded: with none allowed, the first incomplete frame (of 24, each lost
+  // with probability ~1/3) ends the capture, naming the pattern, and no view is written.
+  o.sequence.max_retries = 0;
+  const std::string manifest_before = util::ReadTextFile(tmp / "scan" / "scan.json");
+  const std::string error =
+      fringe::test::ErrorOf([&] { CaptureIntoProject(tmp / "scan", scheme, o); });
+  EXPECT_NE(error.find("no good frame after 1 tries"), std::string::npos) << error;
+  EXPECT_NE(error.find("pattern"), std::string::npos) << error;
+  EXPECT_EQ(util::ReadTextFile(tmp / "scan" / "scan.json"), manifest_before);
+  EXPECT_FALSE(fs::exists(tmp / "scan" / "views" / "002"));
+}
+
+// The OpenCV (V4L2) backend without a webcam: what can be checked is how a camera is named and
+// that a device that is not there is a clear error naming it (no V4L2 device, and no
+// v4l2loopback, on the test machines; docs/capture.md).
+TEST(Capture, OpenCvCameraSpecsAndAMissingDevice) {
+  EXPECT_NE(fringe::test::ErrorOf([] { OpenCamera("opencv:x"); }).find("expected opencv:N"),
+            std::string::npos);
+  EXPECT_NE(fringe::test::ErrorOf([] { OpenCamera("/dev/video"); }).find("expected opencv:N"),
+            std::string::npos);
+  EXPECT_NE(fringe::test::ErrorOf([] { OpenCamera("opencv:256"); }).find("index"),
+            std::string::npos);
+  ASSERT_FALSE(fs::exists("/dev/video255"));
+  const std::string error = fringe::test::ErrorOf([] { OpenCamera("/dev/video255"); });
+  EXPECT_NE(error.find("/dev/video255"), std::string::npos) << error;
+  EXPECT_NE(error.find("opencv:255"), std::string::npos) << error;
 }
 
 TEST(Capture, MeasuredLatencyMatchesTheInjectedOne) {
@@ -305,6 +331,85 @@ TEST(Capture, MeasuredLatencyMatchesTheInjectedOne) {
   EXPECT_EQ(*stored, s.latency_ms);
   // The project exists (no views yet) and later captures use the measured settle time.
   EXPECT_EQ(scan::ScanFolder::Open(tmp / "scan").manifest().views, 0);
+}
+
+// --auto-exposure against cameras whose brightness grows with the exposure: camera pixel i of
+// the part of the image that sees the projector gets 10 + level / 255 * exposure_us * rate_i DN
+// (every pixel its own rate, so the saturated fraction grows smoothly), the last quarter of the
+// columns sees only the ambient 10 DN (never lit). The exposure that saturates exactly 0.1 % of
+// the lit pixels follows from the rates.
+TEST(Capture, AutoExposureSaturatesAtMostATenthOfAPercentOfTheLitPixels) {
+  test::EnterPrivateNetworkNamespace();
+  test::Xvfb xvfb(kProjectorWidth, kProjectorHeight);
+  constexpr double kAmbientDn = 10;
+  // Rate of pixel (x, y) of the lit part, DN per us under white; the right camera is 1.25 x
+  // brighter, so it decides.
+  auto rate = [](int x, int y, double scale) {
+    const double t = (static_cast<double>(y) * kCameraWidth + x) / (kCameraWidth * kCameraHeight);
+    return scale * 0.008 * (1.0 + 0.5 * t);
+  };
+  const int lit_columns = kCameraWidth * 3 / 4;
+  auto render = [&](double scale) {
+    return [&, scale](const cv::Mat& screen, double exposure_us, double, int w, int h, int) {
+      cv::Mat out(h, w, CV_8UC1);
+      for (int y = 0; y < h; ++y) {
+        const int py = std::min(screen.rows - 1, y * screen.rows / h);
+        for (int x = 0; x < w; ++x) {
+          const int px = std::min(screen.cols - 1, x * screen.cols / w);
+          const double level = x < lit_columns ? screen.at<uint8_t>(py, px) / 255.0 : 0.0;
+          out.at<uint8_t>(y, x) = cv::saturate_cast<uint8_t>(
+              std::floor(kAmbientDn + level * exposure_us * rate(x, y, scale)));
+        }
+      }
+      return out;
+    };
+  };
+  FakeCamera left("127.0.0.2", "FRINGE-L", xvfb.display(), render(1.0));
+  FakeCamera right("127.0.0.3", "FRINGE-R", xvfb.display(), render(1.25));
+  left.SetSize(kCameraWidth, kCameraHeight);
+  right.SetSize(kCameraWidth, kCameraHeight);
+
+  // The truth: at most floor(0.1 % of the lit pixels) may reach 255 DN, i.e. the exposure must
+  // stay below 245 DN / the (allowed + 1)-th largest rate of the brighter camera.
+  std::vector<double> rates;
+  for (int y = 0; y < kCameraHeight; ++y) {
+    for (int x = 0; x < lit_columns; ++x) rates.push_back(rate(x, y, 1.25));
+  }
+  std::sort(rates.rbegin(), rates.rend());
+  const size_t allowed = static_cast<size_t>(0.001 * rates.size());
+  const double limit_us = (255 - kAmbientDn) / rates[allowed];
+
+  fringe::test::TempDir tmp;
+  CaptureOptions o;
+  o.left = "127.0.0.2";
+  o.right = "127.0.0.3";
+  o.projector = xvfb.display();
+  o.settle_ms = 5;
+  o.feedback = false;
+  o.auto_exposure = true;
+  o.auto_exposure_options.max_exposure_us = 100000;
+  const CaptureSummary s = CaptureIntoProject(tmp / "scan", SmallScheme(), o);
+  ASSERT_TRUE(s.auto_exposure.has_value());
+  std::cerr << s.BriefReport() << "\n";
+  // The bisection stops when its bracket is `resolution` wide: the longest good exposure is
+  // within that of the limit, never above it.
+  const double resolution = o.auto_exposure_options.resolution;
+  EXPECT_LT(s.auto_exposure->exposure_us, limit_us);
+  EXPECT_GE(s.auto_exposure->exposure_us, limit_us / (1 + resolution));
+  ASSERT_EQ(s.auto_exposure->chosen.saturated_fraction.size(), 2u);
+  EXPECT_LE(s.auto_exposure->chosen.saturated_fraction[1], 0.001);
+  // Only the part that sees the projector is lit.
+  EXPECT_NEAR(s.auto_exposure->chosen.lit_fraction[0], 0.75, 1e-9);
+  // The view was captured at that exposure, and says so.
+  EXPECT_EQ(s.exposure_us, s.auto_exposure->exposure_us);
+  const auto settings = io::ReadJson(tmp / "scan" / "views" / "000" / "capture.json");
+  EXPECT_EQ(settings["camera_settings"]["exposure_us"].get<double>(), s.exposure_us);
+  EXPECT_EQ(settings["auto_exposure"]["exposure_us"].get<double>(), s.exposure_us);
+  const cv::Mat white_seen = io::ReadGrayImage(tmp / "scan" / "views" / "000" / "right" /
+                                               SmallScheme().ImageNames().front());
+  double max_dn = 0;
+  cv::minMaxLoc(white_seen, nullptr, &max_dn);
+  EXPECT_LT(max_dn, 255);  // the fringe images stay below saturation
 }
 
 TEST(Capture, BoardPosesGoToTheCalibrationFolder) {
@@ -358,6 +463,9 @@ TEST(Capture, CliDevicesAndCaptureExitCodes) {
   const auto summary = nlohmann::json::parse(out);
   EXPECT_EQ(summary["name"], "000");
   EXPECT_EQ(summary["feedback"].size(), 2u);
+  // Without a rig there is no 3D feedback, and the summary says why.
+  EXPECT_TRUE(summary["view_feedback"].is_null());
+  EXPECT_NE(summary["view_feedback_message"].get<std::string>().find("no rig"), std::string::npos);
   // The projector screen is 256 px wide, the scheme 1280 (the preset's default width).
   EXPECT_EQ(cli::RunCli(with({"--scheme", "heterodyne-4x3"}), &out, &err), 1);
   EXPECT_NE(err.find("fringe: error:"), std::string::npos) << err;

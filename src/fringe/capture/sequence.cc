@@ -1,5 +1,6 @@
 #include "fringe/capture/sequence.h"
 
+#include <algorithm>
 #include <cmath>
 #include <thread>
 
@@ -197,6 +198,126 @@ LatencyResult MeasureLatency(const std::vector<Camera*>& cameras, Projector& pro
     }
   }
   r.latency_ms = hi;
+  r.seconds = Seconds(start, Clock::now());
+  return r;
+}
+
+void AutoExposureOptions::Check() const {
+  util::CheckOption(max_saturated_fraction >= 0 && max_saturated_fraction < 1,
+                    "AutoExposureOptions", "max_saturated_fraction", max_saturated_fraction,
+                    "must be in [0, 1)");
+  util::CheckOption(min_lit_contrast > 0 && min_lit_contrast < 1, "AutoExposureOptions",
+                    "min_lit_contrast", min_lit_contrast, "must be in (0, 1)");
+  util::CheckOption(max_exposure_us > 0 && max_exposure_us <= 1e8, "AutoExposureOptions",
+                    "max_exposure_us", max_exposure_us, "must be in (0, 1e8] us");
+  util::CheckOption(resolution > 0 && resolution < 1, "AutoExposureOptions", "resolution",
+                    resolution, "must be in (0, 1)");
+}
+
+nlohmann::json ToJson(const AutoExposureResult& r) {
+  auto probe = [](const AutoExposureProbe& p) {
+    return nlohmann::json{{"exposure_us", p.exposure_us},
+                          {"saturated_fraction", p.saturated_fraction},
+                          {"lit_fraction", p.lit_fraction}};
+  };
+  nlohmann::json probes = nlohmann::json::array();
+  for (const auto& p : r.probes) probes.push_back(probe(p));
+  return {{"exposure_us", r.exposure_us},
+          {"range_us", {r.min_us, r.max_us}},
+          {"chosen", probe(r.chosen)},
+          {"probes", probes},
+          {"seconds", r.seconds}};
+}
+
+AutoExposureResult FindExposure(const std::vector<Camera*>& cameras, Projector& projector,
+                                const CameraSettings& settings, const AutoExposureOptions& options,
+                                const SequenceOptions& sequence) {
+  options.Check();
+  sequence.Check();
+  if (cameras.empty()) throw Error("auto exposure: no camera");
+  AutoExposureResult r;
+  const auto start = Clock::now();
+  r.min_us = 0;
+  r.max_us = options.max_exposure_us;
+  for (Camera* c : cameras) {
+    double lo = 0, hi = 0;
+    if (!c->ExposureRangeUs(&lo, &hi)) {
+      throw Error(StrCat("auto exposure: camera ", c->Info().id,
+                         " does not report its exposure range; give --exposure-us"));
+    }
+    r.min_us = std::max(r.min_us, lo);
+    r.max_us = std::min(r.max_us, hi);
+  }
+  if (r.min_us > r.max_us) {
+    throw Error(StrCat("auto exposure: the cameras have no exposure in common below ",
+                       options.max_exposure_us, " us (shortest ", r.min_us, " us)"));
+  }
+  // The figures of every camera at one exposure: black and white frames, lit and saturated.
+  auto probe = [&](double exposure_us) {
+    CameraSettings s = settings;
+    s.exposure_us = exposure_us;
+    for (Camera* c : cameras) {
+      c->Stop();
+      c->Configure(s);
+      c->Start();
+    }
+    const std::vector<Frame> black = CaptureLevel(cameras, projector, 0, sequence);
+    const std::vector<Frame> white = CaptureLevel(cameras, projector, 255, sequence);
+    AutoExposureProbe p;
+    p.exposure_us = exposure_us;
+    for (size_t i = 0; i < cameras.size(); ++i) {
+      const double full = std::ldexp(1.0, white[i].bit_depth) - 1;
+      cv::Mat w, b;
+      white[i].image.convertTo(w, CV_32F);
+      black[i].image.convertTo(b, CV_32F);
+      const cv::Mat lit = (w - b) >= options.min_lit_contrast * full;
+      const cv::Mat saturated = lit & (w >= full);
+      const int lit_count = cv::countNonZero(lit);
+      p.lit_fraction.push_back(static_cast<double>(lit_count) / static_cast<double>(w.total()));
+      p.saturated_fraction.push_back(
+          lit_count > 0 ? static_cast<double>(cv::countNonZero(saturated)) / lit_count : 0.0);
+    }
+    r.probes.push_back(p);
+    return p;
+  };
+  auto good = [&](const AutoExposureProbe& p) {
+    for (double f : p.saturated_fraction) {
+      if (f > options.max_saturated_fraction) return false;
+    }
+    return true;
+  };
+  AutoExposureProbe best = probe(r.max_us);
+  double lo = r.min_us, hi = r.max_us;
+  if (!good(best)) {
+    AutoExposureProbe shortest = probe(r.min_us);
+    if (!good(shortest)) {
+      size_t worst = 0;
+      for (size_t i = 1; i < cameras.size(); ++i) {
+        if (shortest.saturated_fraction[i] > shortest.saturated_fraction[worst]) worst = i;
+      }
+      throw Error(StrCat("auto exposure: camera ", cameras[worst]->Info().id, " saturates ",
+                         100 * shortest.saturated_fraction[worst],
+                         " % of its lit pixels under white even at its shortest exposure ",
+                         r.min_us, " us (allowed ", 100 * options.max_saturated_fraction,
+                         " %): lower the gain or close the aperture"));
+    }
+    best = shortest;
+    // Invariant: lo is good, hi is not. Bisection on log(exposure).
+    while (hi > lo * (1 + options.resolution)) {
+      const double mid = std::sqrt(lo * hi);
+      const AutoExposureProbe p = probe(mid);
+      if (good(p)) {
+        lo = mid;
+        best = p;
+      } else {
+        hi = mid;
+      }
+    }
+    // Left configured at the chosen exposure.
+    if (r.probes.back().exposure_us != best.exposure_us) probe(best.exposure_us);
+  }
+  r.exposure_us = best.exposure_us;
+  r.chosen = best;
   r.seconds = Seconds(start, Clock::now());
   return r;
 }

@@ -92,4 +92,43 @@ nlohmann::json ToJson(const LatencyResult& result);
 LatencyResult MeasureLatency(const std::vector<Camera*>& cameras, Projector& projector,
                              const LatencyOptions& options, const SequenceOptions& sequence);
 
+// --auto-exposure: the longest exposure at which at most max_saturated_fraction of the lit
+// pixels saturate under a white frame. A pixel is lit when the white frame raises it by at least
+// min_lit_contrast of full scale over the black frame at the same exposure (the background and
+// the pixels that do not see the projector do not count); it saturates at full scale
+// (2^bit_depth - 1) under white. The saturated fraction grows with the exposure, so the search
+// is a bisection on log(exposure) between the cameras' common range (capped at
+// max_exposure_us), down to a bracket of relative width `resolution`. One exposure for all
+// cameras: the longest at which every one of them is within the limit.
+struct AutoExposureOptions {
+  double max_saturated_fraction = 0.001;  // of the lit pixels, [0, 1)
+  double min_lit_contrast = 0.02;         // of full scale, (0, 1)
+  double max_exposure_us = 200000;        // upper end of the search (and the camera's maximum), > 0
+  double resolution = 0.02;               // relative width of the final bracket, (0, 1)
+  void Check() const;
+};
+
+struct AutoExposureProbe {
+  double exposure_us = 0;
+  std::vector<double> saturated_fraction;  // per camera, of its lit pixels
+  std::vector<double> lit_fraction;        // per camera, of the image
+};
+
+struct AutoExposureResult {
+  double exposure_us = 0;         // chosen
+  double min_us = 0, max_us = 0;  // the range searched
+  std::vector<AutoExposureProbe> probes;
+  AutoExposureProbe chosen;  // the figures at the chosen exposure
+  double seconds = 0;
+};
+nlohmann::json ToJson(const AutoExposureResult& result);
+
+// Searches the exposure on Configure()d, Start()ed cameras (reconfigured with `settings` at each
+// probed exposure, and left configured and started at the chosen one). Throws fringe::Error
+// naming the camera when it does not report an exposure range, and when even the shortest
+// exposure saturates too many lit pixels (lower the gain or close the aperture).
+AutoExposureResult FindExposure(const std::vector<Camera*>& cameras, Projector& projector,
+                                const CameraSettings& settings, const AutoExposureOptions& options,
+                                const SequenceOptions& sequence);
+
 }  // namespace fringe::capture

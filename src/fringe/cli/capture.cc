@@ -56,6 +56,13 @@ void AddCaptureCommand(CLI::App& app) {
          "HDR: capture the stack at each exposure (us, comma-separated) into e0/, e1/, ...")
       ->delimiter(',')
       ->check(CLI::Range(1e-3, 1e8));
+  sub->add_flag("--auto-exposure", a->options.auto_exposure,
+                "Before capturing, pick the longest exposure at which at most 0.1 % of the lit "
+                "pixels saturate under a white frame (searched in the cameras' range)");
+  sub->add_option("--max-exposure-us", a->options.auto_exposure_options.max_exposure_us,
+                  "--auto-exposure: longest exposure searched, us")
+      ->capture_default_str()
+      ->check(CLI::Range(1.0, 1e8));
   sub->add_option("--gain", cam.gain, "Analog gain (the camera's unit, dB for GenICam)")
       ->capture_default_str()
       ->check(CLI::Range(0.0, 1000.0));
@@ -89,10 +96,16 @@ void AddCaptureCommand(CLI::App& app) {
       ->capture_default_str()
       ->check(CLI::Range(1.0, 10000.0));
   sub->add_flag("--board", a->options.board,
-                "Capture a calibration board pose (plain images under a white frame) into "
-                "calibration/{left,right}/KKK.png instead of a view");
+                "Capture a calibration board pose instead of a view: two cameras, plain images "
+                "under a white frame into calibration/{left,right}/KKK.png; one camera, the pose "
+                "under white and fringes in both directions into calibration/KKK/ (projector "
+                "calibration)");
   sub->add_option("--target", a->options.target_file,
                   "--board: the calibration target JSON, copied into the project the first time");
+  sub->add_option("--rig", a->options.rig_file,
+                  "Rig JSON for the 3D feedback (markers seen, registration to the previous "
+                  "views and overlap); default PROJECT/rig.json when it exists")
+      ->check(CLI::ExistingFile);
   sub->add_flag("--no-feedback", a->no_feedback, "Do not decode the new view for the feedback");
   sub->add_flag("--json", a->json, "Print the capture summary as JSON");
   sub->callback([a] {

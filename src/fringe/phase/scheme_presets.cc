@@ -64,7 +64,7 @@ PhaseShiftSet SlstudioSet(double period, int steps) {
 // The tools' presets (docs/formats.md, "Other tools' codecs"). `span` and the other sizes are
 // the projector's; every preset follows the tool's source revision named there.
 ToolScheme MakeToolScheme(const std::string& preset, int width, int height, bool horizontal,
-                          double count) {
+                          double count, int steps) {
   ToolScheme t;
   PatternScheme& s = t.scheme;
   s.name = preset;
@@ -147,6 +147,35 @@ ToolScheme MakeToolScheme(const std::string& preset, int width, int height, bool
     s.quantization = Quantization::kRoundHalfEven;
     for (int i = 0; i < 3; ++i) t.frames.push_back(i);
     t.names = "%d.png";
+  } else if (preset == "slmaster-sinus-comple-gray") {
+    // SLMaster (github.com/Practice3DVision/SLMaster, src/algorithm/cpuStructuredLight/
+    // sinusCompleGraycodePattern.cpp, revision 58e73231): shiftTime steps of
+    // uchar(127.5 + 127.5 cos(2 pi (u mod P) / P - pi + 2 pi i / N)) in double (truncated),
+    // P = span / nbrOfPeriods, then log2(nbrOfPeriods) + 1 images of the reflected binary
+    // sequence over blocks of span / 2^(i+1) px: the Gray code of the period with the
+    // complementary half-period bit last, thresholded by the mean of the phase images.
+    const int periods = count > 0 ? static_cast<int>(count) : 32;
+    const int n = steps > 0 ? steps : 4;
+    const int bits = CeilLog2(std::max(periods, 1));
+    if (count != std::floor(count) || periods < 2 || (1 << bits) != periods ||
+        span % periods != 0 || (span / periods) % 2 != 0) {
+      throw Error(StrCat("scheme ", preset,
+                         ": SLMaster's Gray code aligns with its periods only for a power-of-two "
+                         "number of periods (--counts, got ",
+                         periods, ") dividing the span of ", span, " px into even periods"));
+    }
+    const int period = span / periods;
+    PhaseShiftSet set;
+    set.period_px = period;
+    set.steps = n;
+    set.phase_offset_rad = -M_PI - M_PI / period;
+    for (int i = 0; i < n; ++i) set.shifts_rad.push_back(2 * M_PI / n * i);
+    s.phase_sets = {set};
+    s.gray_bits = bits;
+    s.gray_complementary = true;
+    s.quantization = Quantization::kFloor;
+    for (int i = 0; i < s.NumImages(); ++i) t.frames.push_back(i);
+    t.names = "%02d.png";  // SLMaster's GUI names its files itself: give --image-names
   } else {
     throw Error(StrCat("unknown tool codec '", preset, "'"));
   }
@@ -183,8 +212,9 @@ std::vector<std::string> FormatNames(const std::string& spec, const std::vector<
 }  // namespace
 
 std::vector<std::string> ToolPresetNames() {
-  return {"slstudio-phaseshift2x3", "slstudio-phaseshift3", "slstudio-phaseshift4",
-          "slstudio-graycode",      "opencv-graycode",      "opencv-psp"};
+  return {"slstudio-phaseshift2x3",    "slstudio-phaseshift3", "slstudio-phaseshift4",
+          "slstudio-graycode",         "opencv-graycode",      "opencv-psp",
+          "slmaster-sinus-comple-gray"};
 }
 
 bool SchemeParameters::AnySet() const {
@@ -238,16 +268,20 @@ std::vector<std::string> ExpandImageNames(const std::string& spec, int n) {
 PatternScheme MakePresetScheme(const std::string& preset, const SchemeParameters& p) {
   p.Check();
   if (IsToolPreset(preset)) {
-    if (p.period_px > 0 || p.gray_bits >= 0 || p.steps > 0 || !std::isnan(p.phase_offset_rad) ||
-        p.counts.size() > (preset == "opencv-psp" ? 1u : 0u)) {
+    // Only what the tool itself lets its user choose.
+    const bool counts = preset == "opencv-psp" || preset.rfind("slmaster-", 0) == 0;
+    const bool steps = preset.rfind("slmaster-", 0) == 0;
+    if (p.period_px > 0 || p.gray_bits >= 0 || (p.steps > 0 && !steps) ||
+        !std::isnan(p.phase_offset_rad) || p.counts.size() > (counts ? 1u : 0u)) {
       throw Error(StrCat("scheme ", preset,
                          ": the tool's codec fixes periods, steps, bits and offsets; give only "
                          "--width/--height, --horizontal, --image-names",
-                         preset == "opencv-psp" ? " and --counts (nbrOfPeriods)" : ""));
+                         counts ? " and --counts (nbrOfPeriods)" : "",
+                         steps ? " and --steps (shiftTime)" : ""));
     }
     ToolScheme t = MakeToolScheme(preset, p.projector_width > 0 ? p.projector_width : 1280,
                                   p.projector_height > 0 ? p.projector_height : 800, p.horizontal,
-                                  p.counts.empty() ? 0 : p.counts[0]);
+                                  p.counts.empty() ? 0 : p.counts[0], p.steps);
     PatternScheme& s = t.scheme;
     // A printf pattern numbers the tool's own frames; a list names the stack's images.
     const std::string spec = p.image_names.empty() ? t.names : p.image_names;

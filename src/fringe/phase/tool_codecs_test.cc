@@ -255,6 +255,53 @@ TEST(ToolCodecs, OpencvPspIsTheToolsPatterns) {
 #endif
 }
 
+TEST(ToolCodecs, SlmasterSinusCompleGrayIsTheToolsPatterns) {
+  // sinusCompleGraycodePattern.cpp (58e73231): N images of uchar(127.5 + 127.5 cos(2 pi (k mod
+  // P) / P - pi + 2 pi i / N)) with P = width / nbrOfPeriods; then the reflected sequence {0, 255}
+  // -> {0, 255, 255, 0} -> ... over blocks of width / size px, log2(nbrOfPeriods) + 1 images.
+  for (const auto& [w, periods, steps] :
+       std::vector<std::tuple<int, int, int>>{{1280, 32, 4}, {1920, 16, 3}, {1024, 64, 6}}) {
+    SchemeParameters p = Size(w, 720);
+    p.counts = {static_cast<double>(periods)};
+    p.steps = steps;
+    const PatternScheme s = MakePresetScheme("slmaster-sinus-comple-gray", p);
+    const auto ours = GeneratePatterns(s);
+    const int pp = w / periods;
+    std::vector<Profile> want;
+    for (int i = 0; i < steps; ++i) {
+      Profile prof(w);
+      const double shift = CV_2PI / steps * i;
+      for (int k = 0; k < w; ++k) {
+        const double wrapped = (k % pp) / static_cast<double>(pp) * CV_2PI - CV_PI;
+        prof[k] = static_cast<uint8_t>(127.5 + 127.5 * std::cos(wrapped + shift));
+      }
+      want.push_back(prof);
+    }
+    std::vector<uint8_t> sequence = {0, 255};
+    const int gray_images = static_cast<int>(std::log2(periods)) + 1;
+    for (int i = 0; i < gray_images; ++i) {
+      Profile prof(w, 0);
+      const int block = static_cast<int>(w / sequence.size());
+      for (size_t j = 0; j < sequence.size(); ++j) {
+        std::fill_n(prof.begin() + j * block, block, sequence[j]);
+      }
+      for (int j = static_cast<int>(sequence.size()) - 1; j >= 0; --j) {
+        sequence.push_back(sequence[j]);
+      }
+      want.push_back(prof);
+    }
+    ASSERT_EQ(ours.size(), want.size());
+    for (size_t i = 0; i < ours.size(); ++i) {
+      Profile prof(w);
+      for (int k = 0; k < w; ++k) prof[k] = ours[i].at<uint8_t>(0, k);
+      EXPECT_EQ(CountDifferences(prof, want[i]), 0) << w << " image " << i;
+    }
+  }
+  SchemeParameters p = Size(1280, 720);
+  p.counts = {40};  // not a power of two: the tool's own Gray code would not align
+  EXPECT_THROW(MakePresetScheme("slmaster-sinus-comple-gray", p), Error);
+}
+
 // A capture of the tool's own 8-bit patterns: each camera pixel sees projector coordinate u
 // (linear across the image), the projected byte interpolated linearly between projector pixels,
 // I = A + B (2 byte / 255 - 1) + noise; written with the scheme's (the tool's) file names and
@@ -327,7 +374,8 @@ TEST_F(ToolCodecDecode, PhaseShiftCodecsDecodeToTheProjectorColumn) {
   // coordinate's standard deviation; the largest error over ~5000 pixels stays within 6 sigma,
   // plus a quarter pixel for the patterns' 8-bit steps and the capture's interpolation.
   constexpr double kNoiseDn = 1.0, kModulationDn = 90.0, kSigmas = 6.0, kPatternPx = 0.25;
-  for (const char* preset : {"slstudio-phaseshift2x3", "slstudio-phaseshift4", "opencv-psp"}) {
+  for (const char* preset : {"slstudio-phaseshift2x3", "slstudio-phaseshift4", "opencv-psp",
+                             "slmaster-sinus-comple-gray"}) {
     const PatternScheme s = MakePresetScheme(preset, Size(1280, 800));
     const double tolerance_px =
         kSigmas * AbsolutePhaseSigmaPx(s, kNoiseDn, kModulationDn) + kPatternPx;

@@ -869,6 +869,12 @@ void DecodePureGrayRows(const PatternScheme& scheme, const std::vector<cv::Mat>&
   const bool reference = wi >= 0 && di >= 0;
   const float period = static_cast<float>(scheme.GrayPeriod());
   const int span = scheme.Span();
+  // Image of each bit and of its inverse (-1: thresholded against the reference frames).
+  std::vector<int> image(bits), inverse(bits);
+  for (int bit = 0; bit < bits; ++bit) {
+    image[bit] = scheme.GrayImageIndex(bit);
+    inverse[bit] = scheme.GrayInverseIndex(bit);
+  }
   tbb::parallel_for(tbb::blocked_range<int>(0, images[0].rows, 8), [&](const auto& range) {
     std::vector<const T*> rows(images.size());
     for (int r = range.begin(); r < range.end(); ++r) {
@@ -887,10 +893,8 @@ void DecodePureGrayRows(const PatternScheme& scheme, const std::vector<cv::Mat>&
             reference ? 0.5f * (static_cast<float>(rows[wi][c]) + static_cast<float>(rows[di][c]))
                       : 0.0f;
         for (int bit = 0; bit < bits; ++bit) {
-          const float p = static_cast<float>(rows[scheme.GrayImageIndex(bit)][c]);
-          const float n = scheme.gray_inverted
-                              ? static_cast<float>(rows[scheme.GrayInverseIndex(bit)][c])
-                              : thr;
+          const float p = static_cast<float>(rows[image[bit]][c]);
+          const float n = inverse[bit] >= 0 ? static_cast<float>(rows[inverse[bit]][c]) : thr;
           bin ^= p > n ? 1u : 0u;  // Gray -> binary, most significant first
           k = (k << 1) | bin;
           sum += p + n;

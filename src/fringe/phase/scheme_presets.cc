@@ -384,7 +384,14 @@ PatternScheme SchemeFromArgument(const std::string& name_or_path, const SchemePa
                        ": scheme parameters (--width, --period, --counts, ...) apply to presets; a "
                        "manifest file describes the whole scheme"));
   }
-  return SchemeFromNameOrFile(name_or_path);
+  if (std::filesystem::exists(name_or_path)) return SchemeFromNameOrFile(name_or_path);
+  try {
+    return SchemeFromNameOrFile(name_or_path);  // throws: a missing file or an unknown preset
+  } catch (const Error& e) {
+    std::string tools;
+    for (const auto& n : ToolPresetNames()) tools += StrCat(tools.empty() ? "" : ", ", n);
+    throw Error(StrCat(e.what(), "; other tools' codecs: ", tools));
+  }
 }
 
 }  // namespace fringe::phase

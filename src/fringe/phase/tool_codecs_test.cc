@@ -472,6 +472,16 @@ TEST(ToolCodecs, ManifestRoundTripAndBounds) {
   EXPECT_THROW(MakePresetScheme("slstudio-phaseshift2x3", p), Error);
 }
 
+TEST(ToolCodecs, AnUnknownNameListsTheToolCodecs) {
+  try {
+    SchemeFromArgument("slstudio-phaseshift9", {});
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("slstudio-phaseshift2x3"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("heterodyne-4x3"), std::string::npos) << e.what();
+  }
+}
+
 TEST(ToolCodecs, ImageNamesNumberTheToolsFrames) {
   SchemeParameters p = Size(1280, 800);
   p.image_names = "pattern_cam2_im%d.png";

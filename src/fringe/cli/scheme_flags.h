@@ -24,7 +24,7 @@ inline void AddSchemeFlags(CLI::App* sub, phase::SchemeParameters* p) {
       ->check(CLI::Range(2.0, 1e5));
   sub->add_option("--counts", p->counts,
                   "Heterodyne presets: fringes over the projector span, one per set (e.g. "
-                  "70,64,59)")
+                  "70,64,59); opencv-psp, slmaster-*: the tool's nbrOfPeriods")
       ->delimiter(',');
   sub->add_option("--steps", p->steps, "Phase steps per set (presets)")->check(CLI::Range(3, 64));
   sub->add_option("--gray-bits", p->gray_bits, "gray+N: number of Gray-code bits")
@@ -34,7 +34,8 @@ inline void AddSchemeFlags(CLI::App* sub, phase::SchemeParameters* p) {
                   "tool's wrapped phase is -pi at the start of a period)");
   sub->add_option("--image-names", p->image_names,
                   "Image file names: a pattern with one integer (%d.png, img_%02d.bmp) or a "
-                  "comma-separated list in stack order");
+                  "comma-separated list in stack order; with another tool's preset the integer "
+                  "numbers that tool's frames (pattern_cam2_im%d.png)");
 }
 
 // Many repaired or rejected fringe orders mean the scheme does not describe the capture (a

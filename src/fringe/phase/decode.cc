@@ -304,6 +304,26 @@ std::vector<UnwrapStepNoise> StepNoise(const PatternScheme& s) {
 
 double TwoSidedTail(double z) { return std::erfc(z / std::sqrt(2.0)); }
 
+// Per-bit error probability of pure Gray code at modulation b_dn (see GrayCodeThreshold).
+double GrayBitErrorProbability(const PatternScheme& scheme, double sigma_dn, double b_dn) {
+  // A pair decides on P - N = +-2B with noise variance 2 sigma^2; a single image on I - (W + D)/2
+  // = +-B with variance 1.5 sigma^2.
+  const double z = scheme.gray_inverted ? 2.0 * b_dn / (std::sqrt(2.0) * sigma_dn)
+                                        : b_dn / (std::sqrt(1.5) * sigma_dn);
+  return scheme.gray_bits * 0.5 * std::erfc(z / std::sqrt(2.0));
+}
+
+// Modulation (half the white-dark or pair difference, DN) at which some bit of a pixel in the
+// middle of a stripe is wrong with the given probability.
+double GrayCodeThreshold(const PatternScheme& scheme, double sigma_dn, double probability) {
+  double lo = 1e-3 * sigma_dn, hi = 1e6 * sigma_dn;
+  for (int i = 0; i < 100; ++i) {
+    const double mid = std::sqrt(lo * hi);
+    (GrayBitErrorProbability(scheme, sigma_dn, mid) > probability ? lo : hi) = mid;
+  }
+  return hi;
+}
+
 template <typename T>
 struct Kernel {
   const PatternScheme& scheme;
@@ -619,6 +639,8 @@ double WrappedPhaseSigma(const PatternScheme& scheme, int set, double sigma_dn, 
 
 double AbsolutePhaseSigmaPx(const PatternScheme& scheme, double sigma_dn, double b_dn,
                             bool whole_stack) {
+  // Pure Gray code: the stripe's centre, uniformly off by up to half a stripe.
+  if (scheme.phase_sets.empty()) return scheme.GrayPeriod() / std::sqrt(12.0);
   auto var_px = [&](size_t s) {
     const double p = scheme.phase_sets[s].period_px;
     return p * p / (4 * M_PI * M_PI) * PhaseVariancePerUnit(scheme, static_cast<int>(s)) *
@@ -646,10 +668,14 @@ double OrderErrorProbability(const std::vector<UnwrapStepNoise>& steps, double s
 }  // namespace
 
 double OrderErrorProbability(const PatternScheme& scheme, double sigma_dn, double b_dn) {
+  if (scheme.phase_sets.empty()) {
+    return std::min(1.0, GrayBitErrorProbability(scheme, sigma_dn, b_dn));
+  }
   return OrderErrorProbability(StepNoise(scheme), sigma_dn, b_dn);
 }
 
 double ModulationThreshold(const PatternScheme& scheme, double sigma_dn, double probability) {
+  if (scheme.phase_sets.empty()) return GrayCodeThreshold(scheme, sigma_dn, probability);
   // OrderErrorProbability decreases with B: bisection on log B.
   const auto steps = StepNoise(scheme);
   double lo = 1e-3 * sigma_dn, hi = 1e6 * sigma_dn;
@@ -825,6 +851,142 @@ std::string RejectionNotes(const DecodeSummary& sum, bool threshold_given) {
 
 }  // namespace
 
+namespace {
+
+// Pure Gray code (no phase-shift set; SLStudio's and OpenCV's Gray-code codecs): each bit from
+// its image and inverse (bright where the image exceeds the inverse) or against the mid-level of
+// the white and dark frames; the coordinate is the centre of the decoded stripe. Background and
+// modulation come from the white and dark frames ((W + D) / 2 and (W - D) / 2), else from the
+// pairs (mean level, smallest half-difference over the bits). A bright image may saturate
+// without harm; there is no wrapped phase (0) and no fringe order for the spatial check to
+// repair. Separate from the phase-shift kernel, which it shares nothing with.
+template <typename T>
+void DecodePureGrayRows(const PatternScheme& scheme, const std::vector<cv::Mat>& images,
+                        float b_min, float min_background, float min_ratio, DecodeResult* out,
+                        std::vector<std::array<int64_t, 6>>* row_counts) {
+  const int w = images[0].cols, bits = scheme.gray_bits;
+  const int wi = scheme.WhiteImageIndex(), di = scheme.DarkImageIndex();
+  const bool reference = wi >= 0 && di >= 0;
+  const float period = static_cast<float>(scheme.GrayPeriod());
+  const int span = scheme.Span();
+  // Image of each bit and of its inverse (-1: thresholded against the reference frames).
+  std::vector<int> image(bits), inverse(bits);
+  for (int bit = 0; bit < bits; ++bit) {
+    image[bit] = scheme.GrayImageIndex(bit);
+    inverse[bit] = scheme.GrayInverseIndex(bit);
+  }
+  tbb::parallel_for(tbb::blocked_range<int>(0, images[0].rows, 8), [&](const auto& range) {
+    std::vector<const T*> rows(images.size());
+    for (int r = range.begin(); r < range.end(); ++r) {
+      for (size_t i = 0; i < images.size(); ++i) rows[i] = images[i].ptr<T>(r);
+      float* abs = out->absolute_phase.ptr<float>(r);
+      float* mod = out->modulation.ptr<float>(r);
+      float* bg = out->background.ptr<float>(r);
+      uint8_t* mask = out->mask.ptr<uint8_t>(r);
+      uint8_t* reason = out->reason.ptr<uint8_t>(r);
+      std::fill_n(out->wrapped_phase.ptr<float>(r), w, 0.0f);
+      std::array<int64_t, 6> counts{};
+      for (int c = 0; c < w; ++c) {
+        float a = 0, b = std::numeric_limits<float>::max(), sum = 0;
+        unsigned bin = 0, k = 0;
+        const float thr =
+            reference ? 0.5f * (static_cast<float>(rows[wi][c]) + static_cast<float>(rows[di][c]))
+                      : 0.0f;
+        for (int bit = 0; bit < bits; ++bit) {
+          const float p = static_cast<float>(rows[image[bit]][c]);
+          const float n = inverse[bit] >= 0 ? static_cast<float>(rows[inverse[bit]][c]) : thr;
+          bin ^= p > n ? 1u : 0u;  // Gray -> binary, most significant first
+          k = (k << 1) | bin;
+          sum += p + n;
+          b = std::min(b, 0.5f * std::fabs(p - n));
+        }
+        if (reference) {
+          a = thr;
+          b = 0.5f * (static_cast<float>(rows[wi][c]) - static_cast<float>(rows[di][c]));
+        } else {
+          a = sum / static_cast<float>(2 * bits);
+        }
+        PixelReason why = PixelReason::kValid;
+        if (a < min_background) {
+          why = PixelReason::kUnderexposed;
+        } else if (b < b_min) {
+          why = PixelReason::kLowModulation;
+        } else if (b < min_ratio * a) {
+          why = PixelReason::kShadow;
+        } else if (static_cast<float>(k) * period >= static_cast<float>(span)) {
+          why = PixelReason::kOrderAmbiguous;  // a code no stripe of the projector has
+        }
+        bg[c] = a;
+        mod[c] = std::max(b, 0.0f);
+        reason[c] = static_cast<uint8_t>(why);
+        mask[c] = why == PixelReason::kValid ? 255 : 0;
+        abs[c] = why == PixelReason::kValid ? (static_cast<float>(k) + 0.5f) * period - 0.5f
+                                            : std::numeric_limits<float>::quiet_NaN();
+        ++counts[static_cast<int>(why)];
+      }
+      (*row_counts)[r] = counts;
+    }
+  });
+}
+
+void DecodePureGray(const PatternScheme& scheme, const std::vector<cv::Mat>& images,
+                    const DecodeOptions& options, double full, util::Timer* timer,
+                    DecodeResult* result) {
+  const cv::Size size = images[0].size();
+  NoiseEstimate noise;  // no phase set to estimate it from
+  if (options.noise_sigma_dn > 0) {
+    noise.sigma_dn = options.noise_sigma_dn;
+    noise.source = NoiseSource::kGiven;
+    noise.message = StrCat("camera noise ", noise.sigma_dn, " DN given");
+  } else {
+    noise.message = StrCat("camera noise ", kAssumedNoiseSigmaDn,
+                           " DN assumed (pure Gray code); give --noise-sigma if known");
+  }
+  double b_min = options.min_modulation_dn;
+  bool bounded = false;
+  if (b_min <= 0) {
+    b_min = GrayCodeThreshold(scheme, noise.sigma_dn, options.order_error_probability);
+    if (b_min > kMaxModulationThresholdFraction * full) {
+      b_min = kMaxModulationThresholdFraction * full;
+      bounded = true;
+    }
+  }
+  for (cv::Mat* m : {&result->absolute_phase, &result->wrapped_phase, &result->modulation,
+                     &result->background}) {
+    m->create(size, CV_32F);
+  }
+  result->mask.create(size, CV_8U);
+  result->reason.create(size, CV_8U);
+  result->exposure.release();
+  result->repaired_px.clear();
+  std::vector<std::array<int64_t, 6>> row_counts(size.height);
+  const float bmin = static_cast<float>(b_min);
+  const float min_bg = static_cast<float>(options.min_background_fraction * full);
+  const float ratio = static_cast<float>(options.min_modulation_ratio);
+  if (images[0].depth() == CV_16U) {
+    DecodePureGrayRows<uint16_t>(scheme, images, bmin, min_bg, ratio, result, &row_counts);
+  } else {
+    DecodePureGrayRows<uint8_t>(scheme, images, bmin, min_bg, ratio, result, &row_counts);
+  }
+  DecodeSummary& sum = result->summary;
+  sum = DecodeSummary();
+  sum.min_modulation_dn = b_min;
+  sum.threshold_bounded = bounded;
+  sum.full_scale_dn = full;
+  sum.noise = noise;
+  sum.pixels = static_cast<int64_t>(size.area());
+  std::array<int64_t, kNumReasons> total{};
+  for (const auto& rc : row_counts) {
+    for (int i = 0; i < 6; ++i) total[i] += rc[i];
+  }
+  SetCounts(total, &sum);
+  if (sum.valid == 0) sum.status = DecodeStatus::kNoValidPixels;
+  sum.message = RejectionNotes(sum, options.min_modulation_dn > 0);
+  sum.time_ms = timer->ElapsedMs();
+}
+
+}  // namespace
+
 void Decode(const PatternScheme& scheme, const std::vector<cv::Mat>& images,
             const DecodeOptions& options, DecodeResult* result) {
   util::Timer timer;
@@ -858,6 +1020,10 @@ void Decode(const PatternScheme& scheme, const std::vector<cv::Mat>& images,
                        "-bit images hold (", container_full, "): check the bit depth"));
   }
   const double full = options.full_scale_dn > 0 ? options.full_scale_dn : container_full;
+  if (scheme.phase_sets.empty()) {
+    DecodePureGray(scheme, images, options, full, &timer, result);
+    return;
+  }
 
   std::vector<SetCoefficients> coeffs;
   std::vector<std::unique_ptr<GammaPhaseCorrection>> gamma(scheme.phase_sets.size());

@@ -37,8 +37,10 @@ double ShiftConditioning(const std::vector<double>& shifts) {
   return evals.at<double>(2) / evals.at<double>(0);
 }
 
-// Relative tolerance of the coarsest period against the projector span.
-constexpr double kSpanTolerance = 1e-9;
+// Relative tolerance of the coarsest period against the projector span: periods given as span /
+// count round in the last digits, and tools that compute in single precision (OpenCV's period
+// 1 / float(1 / P)) fall short of the span by up to half a float ulp (6e-8).
+constexpr double kSpanTolerance = 1e-7;
 
 unsigned Gray(unsigned k) { return k ^ (k >> 1); }
 
@@ -62,23 +64,62 @@ int PatternScheme::NumPhaseImages() const {
 }
 
 int PatternScheme::NumImages() const {
-  return NumPhaseImages() + NumGrayImages() + (white_frame ? 1 : 0) + (dark_frame ? 1 : 0);
+  return NumPhaseImages() + NumGrayImages() + NumReferenceImages();
 }
 
 int PatternScheme::PhaseImageIndex(int set) const {
-  int n = 0;
+  int n = reference_frames_first ? NumReferenceImages() : 0;
   for (int s = 0; s < set; ++s) n += phase_sets[s].steps;
   return n;
 }
 
-int PatternScheme::GrayImageIndex(int bit) const { return NumPhaseImages() + bit; }
+int PatternScheme::GrayImageIndex(int bit) const {
+  return (reference_frames_first ? NumReferenceImages() : 0) + NumPhaseImages() +
+         (gray_inverted ? 2 * bit : bit);
+}
+
+int PatternScheme::GrayInverseIndex(int bit) const {
+  return gray_inverted ? GrayImageIndex(bit) + 1 : -1;
+}
 
 int PatternScheme::WhiteImageIndex() const {
-  return white_frame ? NumPhaseImages() + NumGrayImages() : -1;
+  if (!white_frame) return -1;
+  return reference_frames_first ? 0 : NumPhaseImages() + NumGrayImages();
 }
 
 int PatternScheme::DarkImageIndex() const {
-  return dark_frame ? NumPhaseImages() + NumGrayImages() + (white_frame ? 1 : 0) : -1;
+  if (!dark_frame) return -1;
+  return (reference_frames_first ? 0 : NumPhaseImages() + NumGrayImages()) + (white_frame ? 1 : 0);
+}
+
+uint8_t PatternScheme::Quantize(double linear, double gamma) const {
+  const double lin = std::clamp(linear, 0.0, 1.0);
+  const double x = 255.0 * (gamma == 1.0 ? lin : std::pow(lin, 1.0 / gamma));
+  switch (quantization) {
+    case Quantization::kFloor:
+      return static_cast<uint8_t>(std::floor(x));
+    case Quantization::kRoundHalfEven:
+      return static_cast<uint8_t>(std::nearbyint(x));  // default rounding mode: ties to even
+    case Quantization::kRound:
+      break;
+  }
+  return static_cast<uint8_t>(std::lround(x));
+}
+
+const char* QuantizationName(Quantization q) {
+  switch (q) {
+    case Quantization::kRound:
+      return "round";
+    case Quantization::kRoundHalfEven:
+      return "round-half-even";
+    case Quantization::kFloor:
+      return "floor";
+  }
+  return "?";
+}
+
+const char* ArithmeticName(Arithmetic a) {
+  return a == Arithmetic::kFloat32 ? "float32" : "double";
 }
 
 std::vector<std::string> PatternScheme::ImageNames() const {
@@ -96,8 +137,32 @@ void PatternScheme::Check() const {
   const char* o = "PatternScheme";
   CheckOption(projector_width > 0, o, "projector_width", projector_width, "must be > 0");
   CheckOption(projector_height > 0, o, "projector_height", projector_height, "must be > 0");
-  CheckOption(!phase_sets.empty(), o, "phase_sets", phase_sets.size(),
-              "need at least one phase-shift set");
+  CheckOption(!phase_sets.empty() || (gray_bits > 0 && gray_period_px > 0), o, "phase_sets",
+              phase_sets.size(),
+              "need at least one phase-shift set (or pure Gray code: gray_bits > 0 and "
+              "gray_period_px > 0)");
+  if (phase_sets.empty()) {
+    CheckOption(std::isfinite(gray_period_px) && gray_period_px >= 1, o, "gray_period_px",
+                gray_period_px, "must be >= 1 projector pixel");
+    CheckOption(!gray_complementary, o, "gray_complementary", gray_complementary,
+                "needs a phase-shift set to pick the order near stripe edges");
+  } else {
+    CheckOption(gray_period_px == 0 || gray_period_px == phase_sets[0].period_px, o,
+                "gray_period_px", gray_period_px,
+                "must be 0 (or the period of phase set 0) when there are phase-shift sets");
+  }
+  // A pure Gray code bit needs a reference: its inverse or the white and dark frames.
+  CheckOption(!phase_sets.empty() || gray_inverted || (white_frame && dark_frame), o,
+              "gray_inverted", gray_inverted,
+              "pure Gray code needs inverted images or white and dark frames to threshold by");
+  // The phase-shift decoder thresholds Gray images against the background; pairs of images and
+  // inverses are decoded for pure Gray code.
+  CheckOption(!gray_inverted || phase_sets.empty(), o, "gray_inverted", gray_inverted,
+              "is supported for pure Gray code only");
+  // The decoder's phase-set loops assume the phase images come first; only pure Gray code
+  // (SLStudio's order) puts the reference frames in front.
+  CheckOption(!reference_frames_first || phase_sets.empty(), o, "reference_frames_first",
+              reference_frames_first, "is supported for pure Gray code only");
   CheckOption(phase_sets.size() <= kMaxPhaseSets, o, "phase_sets", phase_sets.size(),
               StrCat("at most ", kMaxPhaseSets, " sets").c_str());
   for (size_t i = 0; i < phase_sets.size(); ++i) {
@@ -158,9 +223,9 @@ void PatternScheme::Check() const {
       break;
     case Unwrapping::kGray: {
       require(gray_bits > 0, "needs Gray code (gray_code.bits > 0)");
-      const double covered = std::ldexp(1.0, gray_bits) * phase_sets[0].period_px;
+      const double covered = std::ldexp(1.0, gray_bits) * GrayPeriod();
       CheckOption(covered >= span * (1 - kSpanTolerance), o, "gray_bits", gray_bits,
-                  StrCat("2^bits periods of ", phase_sets[0].period_px,
+                  StrCat("2^bits periods of ", GrayPeriod(),
                          " px must cover the projector span of ", span, " px")
                       .c_str());
       break;
@@ -202,6 +267,7 @@ std::string PatternScheme::HeterodyneMisfit() const {
   // the last (coarsest) period must cover the span so that the order is unambiguous.
   std::vector<double> p;
   for (const auto& s : phase_sets) p.push_back(s.period_px);
+  if (p.empty()) return "needs phase-shift sets";
   while (p.size() > 1) {
     std::vector<double> next;
     for (size_t i = 0; i + 1 < p.size(); ++i) {
@@ -224,7 +290,7 @@ std::string PatternScheme::HeterodyneMisfit() const {
 
 Unwrapping PatternScheme::Method() const {
   if (unwrapping != Unwrapping::kAuto) return unwrapping;
-  if (gray_bits > 0) return Unwrapping::kGray;
+  if (gray_bits > 0 || phase_sets.empty()) return Unwrapping::kGray;
   if (phase_sets.size() >= 2 && HeterodyneMisfit().empty()) return Unwrapping::kHeterodyne;
   // A coarsest set covering the span by itself (SLStudio's 2x3: 16 periods + 1 period).
   if (phase_sets.size() >= 2 && phase_sets.back().period_px >= Span() * (1 - kSpanTolerance)) {
@@ -432,9 +498,18 @@ json SchemeToJson(const PatternScheme& scheme) {
   }
   j["phase_sets"] = sets;
   j["gray_code"] = {{"bits", scheme.gray_bits}, {"complementary", scheme.gray_complementary}};
+  // Keys of other tools' conventions only when they differ from fringe's own, so that fringe's
+  // manifests stay as they were.
+  if (scheme.gray_inverted) j["gray_code"]["inverted"] = true;
+  if (scheme.gray_period_px > 0) j["gray_code"]["period_px"] = scheme.gray_period_px;
   if (scheme.unwrapping != Unwrapping::kAuto) j["unwrapping"] = UnwrappingName(scheme.unwrapping);
   j["white_frame"] = scheme.white_frame;
   j["dark_frame"] = scheme.dark_frame;
+  if (scheme.reference_frames_first) j["reference_frames"] = "first";
+  if (scheme.quantization != Quantization::kRound) {
+    j["quantization"] = QuantizationName(scheme.quantization);
+  }
+  if (scheme.arithmetic != Arithmetic::kDouble) j["arithmetic"] = ArithmeticName(scheme.arithmetic);
   j["images"] = scheme.ImageNames();
   return j;
 }
@@ -457,11 +532,12 @@ PatternScheme SchemeFromJson(const json& j, const std::string& context) {
     if (!j.contains("format") && !j.contains("phase_sets")) {
       throw foreign("no \"format\": \"fringe-patterns\" and no \"phase_sets\"");
     }
-    io::CheckKnownKeys(j,
-                       {"format", "version", "name", "projector", "direction", "intensity",
-                        "gamma_precompensation", "phase_sets", "gray_code", "unwrapping",
-                        "white_frame", "dark_frame", "images"},
-                       context);
+    io::CheckKnownKeys(
+        j,
+        {"format", "version", "name", "projector", "direction", "intensity",
+         "gamma_precompensation", "phase_sets", "gray_code", "unwrapping", "white_frame",
+         "dark_frame", "reference_frames", "quantization", "arithmetic", "images"},
+        context);
     io::OptionalInteger(j, "version", 1, 1, 1, context);
     s.name = io::OptionalString(j, "name", s.name, context);
     if (!j.contains("projector")) throw Error(StrCat(context, ": missing \"projector\""));
@@ -488,7 +564,11 @@ PatternScheme SchemeFromJson(const json& j, const std::string& context) {
           io::OptionalNumber(j["intensity"], "amplitude", s.intensity_amplitude, ic);
     }
     s.gamma_precompensation = io::OptionalNumber(j, "gamma_precompensation", 1.0, context);
-    if (!j.contains("phase_sets") || !j["phase_sets"].is_array() || j["phase_sets"].empty()) {
+    // Pure Gray code (gray_code.period_px) has no phase set.
+    const bool pure_gray = j.contains("gray_code") && j["gray_code"].is_object() &&
+                           j["gray_code"].contains("period_px");
+    if (!j.contains("phase_sets") || !j["phase_sets"].is_array() ||
+        (j["phase_sets"].empty() && !pure_gray)) {
       throw Error(StrCat(context, ": missing array \"phase_sets\""));
     }
     if (j["phase_sets"].size() > kMaxPhaseSets) {
@@ -516,9 +596,11 @@ PatternScheme SchemeFromJson(const json& j, const std::string& context) {
     }
     if (j.contains("gray_code")) {
       const std::string gc = context + ".gray_code";
-      io::CheckKnownKeys(j["gray_code"], {"bits", "complementary"}, gc);
+      io::CheckKnownKeys(j["gray_code"], {"bits", "complementary", "inverted", "period_px"}, gc);
       s.gray_bits = static_cast<int>(io::OptionalInteger(j["gray_code"], "bits", 0, 0, 16, gc));
       s.gray_complementary = io::OptionalBool(j["gray_code"], "complementary", false, gc);
+      s.gray_inverted = io::OptionalBool(j["gray_code"], "inverted", false, gc);
+      s.gray_period_px = io::OptionalNumber(j["gray_code"], "period_px", 0.0, gc);
     }
     if (j.contains("unwrapping")) {
       const std::string u = io::OptionalString(j, "unwrapping", "auto", context);
@@ -538,6 +620,23 @@ PatternScheme SchemeFromJson(const json& j, const std::string& context) {
     }
     s.white_frame = io::OptionalBool(j, "white_frame", false, context);
     s.dark_frame = io::OptionalBool(j, "dark_frame", false, context);
+    // Named choices: the value must be one of the listed names.
+    const auto choice = [&](const char* key, const std::vector<std::string>& names) {
+      const std::string v = io::OptionalString(j, key, names[0], context);
+      for (size_t k = 0; k < names.size(); ++k) {
+        if (v == names[k]) return static_cast<int>(k);
+      }
+      std::string list;
+      for (const auto& n : names) list += StrCat(list.empty() ? "" : " or ", "\"", n, "\"");
+      throw Error(StrCat(context, ".", key, ": ", io::Brief(j[key]), ": expected ", list));
+    };
+    s.reference_frames_first = choice("reference_frames", {"last", "first"}) == 1;
+    s.quantization = static_cast<Quantization>(choice(
+        "quantization",
+        {QuantizationName(Quantization::kRound), QuantizationName(Quantization::kRoundHalfEven),
+         QuantizationName(Quantization::kFloor)}));
+    s.arithmetic = static_cast<Arithmetic>(choice(
+        "arithmetic", {ArithmeticName(Arithmetic::kDouble), ArithmeticName(Arithmetic::kFloat32)}));
     if (j.contains("images")) {
       const json& names = j["images"];
       if (!names.is_array()) throw Error(StrCat(context, ".images: expected an array of names"));
@@ -584,6 +683,10 @@ double PatternIntensity(const PatternScheme& s, int index, double u) {
   assert(index >= 0 && index < s.NumImages());
   const double v = u + 0.5;  // from the projector's leading edge
   int i = index;
+  if (s.reference_frames_first) {
+    if (i < s.NumReferenceImages()) return i == 0 && s.white_frame ? 1.0 : 0.0;
+    i -= s.NumReferenceImages();
+  }
   for (const auto& set : s.phase_sets) {
     if (i < set.steps) {
       const double shift = set.shifts_rad.empty() ? kTwoPi * i / set.steps : set.shifts_rad[i];
@@ -593,17 +696,51 @@ double PatternIntensity(const PatternScheme& s, int index, double u) {
     i -= set.steps;
   }
   if (i < s.NumGrayImages()) {
-    // Bit i (0 = most significant) of the (bits+1)-bit Gray code of the half-period index; its
-    // first `bits` bits equal the bits-bit Gray code of the period index.
-    const double p = s.phase_sets[0].period_px;
-    const long half = static_cast<long>(std::floor(2.0 * v / p));
+    const bool inverse = s.gray_inverted && (i % 2 == 1);
+    const int bit = s.gray_inverted ? i / 2 : i;
+    // Bit `bit` (0 = most significant) of the (bits+1)-bit Gray code of the half-period index;
+    // its first `bits` bits equal the bits-bit Gray code of the period index.
+    const long half = static_cast<long>(std::floor(2.0 * v / s.GrayPeriod()));
     const unsigned code = Gray(static_cast<unsigned>(std::max(half, 0L)));
-    return ((code >> (s.gray_bits - i)) & 1u) ? 1.0 : 0.0;
+    const bool bright = ((code >> (s.gray_bits - bit)) & 1u) != 0;
+    return bright != inverse ? 1.0 : 0.0;
   }
   i -= s.NumGrayImages();
   if (s.white_frame && i == 0) return 1.0;
   return 0.0;  // dark frame
 }
+
+namespace {
+
+// Image `index` is a phase-shift image: its set and step (false otherwise).
+bool PhaseStep(const PatternScheme& s, int index, int* set, int* step) {
+  int i = index - (s.reference_frames_first ? s.NumReferenceImages() : 0);
+  if (i < 0) return false;
+  for (size_t k = 0; k < s.phase_sets.size(); ++k) {
+    if (i < s.phase_sets[k].steps) {
+      *set = static_cast<int>(k);
+      *step = i;
+      return true;
+    }
+    i -= s.phase_sets[k].steps;
+  }
+  return false;
+}
+
+// Arithmetic::kFloat32 (pattern_scheme.h): the profile of one phase-shift image at pixel index u,
+// every operation rounded to single precision as SLStudio's pstools::computePhaseVector does.
+float Float32Profile(const PatternScheme& s, int set, int step, int u) {
+  const PhaseShiftSet& ps = s.phase_sets[set];
+  const double shift = ps.Shifts()[step];
+  const float two_pi = static_cast<float>(kTwoPi);
+  const float period = static_cast<float>(ps.period_px);
+  const float delta = static_cast<float>(ps.phase_offset_rad + shift + M_PI / ps.period_px);
+  const float arg = two_pi * static_cast<float>(u) / period + delta;
+  return static_cast<float>(s.intensity_mean) +
+         static_cast<float>(s.intensity_amplitude) * std::cos(arg);
+}
+
+}  // namespace
 
 std::vector<cv::Mat> GeneratePatterns(const PatternScheme& scheme, double precompensate_gamma) {
   scheme.Check();
@@ -615,10 +752,13 @@ std::vector<cv::Mat> GeneratePatterns(const PatternScheme& scheme, double precom
   std::vector<cv::Mat> out;
   std::vector<uint8_t> profile(span);
   for (int i = 0; i < scheme.NumImages(); ++i) {
+    int set = 0, step = 0;
+    const bool float32 =
+        scheme.arithmetic == Arithmetic::kFloat32 && PhaseStep(scheme, i, &set, &step);
     for (int u = 0; u < span; ++u) {
-      const double lin = std::clamp(PatternIntensity(scheme, i, u), 0.0, 1.0);
-      profile[u] =
-          static_cast<uint8_t>(std::lround(255.0 * std::pow(lin, 1.0 / precompensate_gamma)));
+      const double lin = float32 ? static_cast<double>(Float32Profile(scheme, set, step, u))
+                                 : PatternIntensity(scheme, i, u);
+      profile[u] = scheme.Quantize(lin, precompensate_gamma);
     }
     cv::Mat img(h, w, CV_8UC1);
     for (int r = 0; r < h; ++r) {

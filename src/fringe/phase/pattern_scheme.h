@@ -17,12 +17,29 @@
 // the decoder remove the period-edge jumps of plain Gray code (Q. Zhang, X. Su, L. Xiang, X. Sun,
 // "3-D shape measurement based on complementary Gray-code light", Opt. Lasers Eng. 50, 2012).
 //
+// Pure Gray code (no phase set, as SLStudio's and OpenCV's Gray-code codecs): the bits count
+// stripes of gray_period_px projector pixels (1 = every column); the decoded coordinate is the
+// stripe's centre, (K + 0.5) * gray_period_px - 0.5.
+// Inverted Gray images (OpenCV's GrayCodePattern): every Gray image is followed by its inverse,
+// and the decoder takes each bit from the pair (bright where the image exceeds its inverse)
+// instead of from a threshold.
+//
 // Image order in a stack: phase set 0 (its N steps), phase set 1, ..., Gray bits (most
-// significant first), complementary bit, white frame, dark frame.
+// significant first; each followed by its inverse when inverted), complementary bit (and its
+// inverse), white frame, dark frame. With reference_frames_first the white and dark frames come
+// first instead (SLStudio's Gray code).
+//
+// 8-bit values: quantization says how the tool turns 255 * I into a byte (fringe rounds half away
+// from zero; OpenCV's saturate_cast rounds half to even; SLStudio and SLMaster convert to an
+// integer, i.e. truncate). arithmetic = kFloat32 evaluates the phase-shift profile in single
+// precision as SLStudio's pstools does, so that truncation hits the same byte: with u the pixel
+// index and delta = phase_offset_rad + shift + pi / P (the phase at u = 0),
+//     arg = fl(fl(fl(2 pi) * u) / fl(P)) + fl(delta),  I = fl(mean + amplitude * cosf(arg)).
 //
 // Thread safety: plain value types and pure functions.
 #pragma once
 
+#include <cstdint>
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
@@ -69,6 +86,13 @@ struct PhaseShiftSet {
 enum class Unwrapping { kAuto, kHeterodyne, kGray, kHierarchical, kNumberTheoretic };
 const char* UnwrappingName(Unwrapping u);  // "auto", "heterodyne", "gray", ...
 
+// How 255 * I becomes a byte (manifest "quantization").
+enum class Quantization { kRound, kRoundHalfEven, kFloor };
+const char* QuantizationName(Quantization q);  // "round", "round-half-even", "floor"
+// Precision of the phase-shift profile (manifest "arithmetic"): "double" or "float32".
+enum class Arithmetic { kDouble, kFloat32 };
+const char* ArithmeticName(Arithmetic a);
+
 // Bounds on what a manifest may ask for (checked before anything is allocated): more sets or
 // steps than any real scheme uses only serve to exhaust memory.
 inline constexpr size_t kMaxPhaseSets = 16;
@@ -80,11 +104,19 @@ struct PatternScheme {
   int projector_height = 800;  // projector pixels, > 0
   FringeDirection direction = FringeDirection::kVertical;
   // Phase-shift sets; set 0 is the measuring (finest) frequency. Multi-frequency (heterodyne)
-  // unwrapping needs the periods in increasing order with increasing beat periods.
+  // unwrapping needs the periods in increasing order with increasing beat periods. Empty only
+  // for pure Gray code (gray_bits > 0 and gray_period_px > 0).
   std::vector<PhaseShiftSet> phase_sets;
   Unwrapping unwrapping = Unwrapping::kAuto;  // manifest "unwrapping" (absent: kAuto)
-  int gray_bits = 0;                 // Gray-code bits counting periods of set 0 (0 = none), <= 16
-  bool gray_complementary = false;   // one extra Gray image shifted by half a period
+  int gray_bits = 0;                // Gray-code bits counting periods of set 0 (0 = none), <= 16
+  bool gray_complementary = false;  // one extra Gray image shifted by half a period
+  // Width of the stripes the Gray code counts (projector pixels, >= 1) when there is no phase
+  // set; 0 with phase sets (the bits then count periods of set 0).
+  double gray_period_px = 0;
+  bool gray_inverted = false;           // each Gray image followed by its inverse
+  bool reference_frames_first = false;  // white and dark frames before the other images
+  Quantization quantization = Quantization::kRound;
+  Arithmetic arithmetic = Arithmetic::kDouble;
   bool white_frame = false;          // a fully lit frame after the Gray code
   bool dark_frame = false;           // a dark frame after that
   double intensity_mean = 0.5;       // pattern mean, fraction of full scale, (0, 1)
@@ -101,16 +133,28 @@ struct PatternScheme {
     return direction == FringeDirection::kVertical ? projector_width : projector_height;
   }
   int NumPhaseImages() const;
-  int NumGrayImages() const { return gray_bits + (gray_bits > 0 && gray_complementary ? 1 : 0); }
+  int NumGrayImages() const {
+    return (gray_bits + (gray_bits > 0 && gray_complementary ? 1 : 0)) * (gray_inverted ? 2 : 1);
+  }
+  int NumReferenceImages() const { return (white_frame ? 1 : 0) + (dark_frame ? 1 : 0); }
   int NumImages() const;
   // Index of the first image of phase set s, of Gray bit b (0 = most significant; b == gray_bits
-  // is the complementary bit), of the white / dark frame (-1 when absent).
+  // is the complementary bit), of its inverse (-1 when not inverted), of the white / dark frame
+  // (-1 when absent).
   int PhaseImageIndex(int set) const;
   int GrayImageIndex(int bit) const;
+  int GrayInverseIndex(int bit) const;
   int WhiteImageIndex() const;
   int DarkImageIndex() const;
   // image_names or the default names.
   std::vector<std::string> ImageNames() const;
+  // The width the Gray code counts: period of set 0, or gray_period_px for pure Gray code.
+  double GrayPeriod() const {
+    return phase_sets.empty() ? gray_period_px : phase_sets[0].period_px;
+  }
+  // The 8-bit value of intensity `linear` in [0, 1] after pre-compensation for `gamma`, as the
+  // scheme's quantization makes it.
+  uint8_t Quantize(double linear, double gamma = 1.0) const;
 
   // Why heterodyne unwrapping does not fit the sets ("" when it does).
   std::string HeterodyneMisfit() const;

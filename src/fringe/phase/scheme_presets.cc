@@ -30,7 +30,192 @@ bool IsHeterodynePreset(const std::string& preset) {
   return preset == "heterodyne-4x3" || preset == "thesis-4+3+3" || preset == "heterodyne-3x3";
 }
 
+// ceil(log2(n)) for n >= 1, as the tools compute their bit counts.
+int CeilLog2(int n) {
+  int bits = 0;
+  while ((1L << bits) < n) ++bits;
+  return bits;
+}
+
+// A tool's pattern: the scheme and, per image of the scheme's stack, the tool's own frame
+// number (its position in the tool's sequence, which its file names count).
+struct ToolScheme {
+  PatternScheme scheme;
+  std::vector<int> frames;
+  std::string names;  // printf pattern of the tool's file names over `frames`
+};
+
+// SLStudio (github.com/jakobwilm/slstudio, src/codec/, revision 13f41924; docs/formats.md):
+// pstools::computePhaseVector shows 0.5 (1 + cos(2 pi u / pitch - phase_k)) truncated to a
+// byte, evaluated in single precision, with phase_k = float(2 pi_f / N * k) (pi_f = float(pi)).
+// In fringe's convention (v = u + 0.5) that is the offset -pi / P and the shifts -phase_k.
+PhaseShiftSet SlstudioSet(double period, int steps) {
+  PhaseShiftSet set;
+  set.period_px = period;
+  set.steps = steps;
+  set.phase_offset_rad = -M_PI / period;
+  const float pi_f = static_cast<float>(M_PI);
+  for (int k = 0; k < steps; ++k) {
+    set.shifts_rad.push_back(-static_cast<double>(static_cast<float>(2.0 * pi_f / steps * k)));
+  }
+  return set;
+}
+
+// The tools' presets (docs/formats.md, "Other tools' codecs"). `span` and the other sizes are
+// the projector's; every preset follows the tool's source revision named there.
+ToolScheme MakeToolScheme(const std::string& preset, int width, int height, bool horizontal,
+                          double count, int steps) {
+  ToolScheme t;
+  PatternScheme& s = t.scheme;
+  s.name = preset;
+  s.projector_width = width;
+  s.projector_height = height;
+  s.direction = horizontal ? FringeDirection::kHorizontal : FringeDirection::kVertical;
+  const int span = s.Span();
+  if (preset.rfind("slstudio-", 0) == 0) {
+    t.names = "frameSeq_%d.bmp";  // SLScanWorker writes the sequence as frameSeq_<i>.bmp
+    s.quantization = Quantization::kFloor;
+    s.arithmetic = Arithmetic::kFloat32;
+    if (preset == "slstudio-phaseshift2x3") {
+      // 3 steps at 16 periods over the span, then 3 steps at 1 period (the phase cue).
+      s.phase_sets = {SlstudioSet(span / 16.0, 3), SlstudioSet(span, 3)};
+      s.unwrapping = Unwrapping::kHierarchical;
+    } else if (preset == "slstudio-phaseshift4" || preset == "slstudio-phaseshift3") {
+      // One period over the span: absolute on its own. PhaseShift3 rounds (convertTo) and adds
+      // fresh Gaussian noise to every pattern (sigma 0.05 of full scale), which no preset can
+      // reproduce: fringe shows its noise-free patterns.
+      const int n = preset == "slstudio-phaseshift4" ? 4 : 3;
+      s.phase_sets = {SlstudioSet(span, n)};
+      if (n == 3) s.quantization = Quantization::kRoundHalfEven;
+    } else if (preset == "slstudio-graycode") {
+      // White, black, then the Gray code of the column (row) index, most significant bit first:
+      // ceil(log2(span)) bits of which only the first 10 (6 for rows) are shown, so the code
+      // counts stripes of 2^(bits - shown) pixels.
+      const int shown = horizontal ? 6 : 10;
+      const int bits = CeilLog2(span);
+      if (bits < shown) {
+        throw Error(StrCat("scheme ", preset, ": SLStudio shows ", shown,
+                           " Gray bits, which needs ", horizontal ? "a height" : "a width",
+                           " above ", 1 << (shown - 1), " px (got ", span, ")"));
+      }
+      s.gray_bits = shown;
+      s.gray_period_px = std::ldexp(1.0, bits - shown);
+      s.white_frame = s.dark_frame = true;
+      s.reference_frames_first = true;
+    } else {
+      throw Error(StrCat("unknown SLStudio codec '", preset, "'"));
+    }
+    for (int i = 0; i < s.NumImages(); ++i) t.frames.push_back(i);
+  } else if (preset == "opencv-graycode") {
+    // structured_light::GrayCodePattern: for every bit (most significant first) the image and
+    // its inverse, the column images then the row images; the capture sample appends white and
+    // black (getImagesForShadowMasks) and names frame i pattern_cam1_im<i+1>.png.
+    const int cols = CeilLog2(width), rows = CeilLog2(height);
+    s.gray_bits = horizontal ? rows : cols;
+    s.gray_period_px = 1;
+    s.gray_inverted = true;
+    s.white_frame = s.dark_frame = true;
+    const int first = horizontal ? 2 * cols : 0;
+    for (int i = 0; i < 2 * s.gray_bits; ++i) t.frames.push_back(first + i + 1);
+    t.frames.push_back(2 * (cols + rows) + 1);
+    t.frames.push_back(2 * (cols + rows) + 2);
+    t.names = "pattern_cam1_im%d.png";
+  } else if (preset == "opencv-psp") {
+    // structured_light::SinusoidalPattern (PSP): saturate_cast<uchar>(127.5 + 127.5 sin(2 pi f u
+    // + i shift)) with period = span / nbrOfPeriods in integer pixels, f = float(1 / period) and
+    // shift = float(2 pi / 3). OpenCV unwraps spatially; fringe decodes absolutely, so the
+    // preset has one period over the span unless --counts says otherwise (then it needs a
+    // temporal partner fringe cannot take from OpenCV's sequence).
+    const int periods = count > 0 ? static_cast<int>(count) : 1;
+    if (periods != 1 || count != std::floor(count)) {
+      throw Error(StrCat("scheme ", preset, ": ", count,
+                         " periods over the span need OpenCV's spatial (histogram) unwrapping, "
+                         "which fringe does not do; fringe decodes one period over the span "
+                         "absolutely (--counts 1, the default)"));
+    }
+    const int period = span / periods;
+    const float f = 1.0f / static_cast<float>(period);
+    const double p = 1.0 / static_cast<double>(f);
+    PhaseShiftSet set;
+    set.period_px = p;
+    set.steps = 3;
+    // sin(x) = cos(x - pi/2); x = 2 pi f u = Phi(u) - pi f (fringe's v = u + 0.5).
+    set.phase_offset_rad = -M_PI / p - M_PI / 2;
+    const float shift = static_cast<float>(2 * M_PI / 3);
+    for (int k = 0; k < 3; ++k) set.shifts_rad.push_back(static_cast<double>(k * shift));
+    s.phase_sets = {set};
+    s.quantization = Quantization::kRoundHalfEven;
+    for (int i = 0; i < 3; ++i) t.frames.push_back(i);
+    t.names = "%d.png";
+  } else if (preset == "slmaster-sinus-comple-gray") {
+    // SLMaster (github.com/Practice3DVision/SLMaster, src/algorithm/cpuStructuredLight/
+    // sinusCompleGraycodePattern.cpp, revision 58e73231): shiftTime steps of
+    // uchar(127.5 + 127.5 cos(2 pi (u mod P) / P - pi + 2 pi i / N)) in double (truncated),
+    // P = span / nbrOfPeriods, then log2(nbrOfPeriods) + 1 images of the reflected binary
+    // sequence over blocks of span / 2^(i+1) px: the Gray code of the period with the
+    // complementary half-period bit last, thresholded by the mean of the phase images.
+    const int periods = count > 0 ? static_cast<int>(count) : 32;
+    const int n = steps > 0 ? steps : 4;
+    const int bits = CeilLog2(std::max(periods, 1));
+    if (count != std::floor(count) || periods < 2 || (1 << bits) != periods ||
+        span % periods != 0 || (span / periods) % 2 != 0) {
+      throw Error(StrCat("scheme ", preset,
+                         ": SLMaster's Gray code aligns with its periods only for a power-of-two "
+                         "number of periods (--counts, got ",
+                         periods, ") dividing the span of ", span, " px into even periods"));
+    }
+    const int period = span / periods;
+    PhaseShiftSet set;
+    set.period_px = period;
+    set.steps = n;
+    set.phase_offset_rad = -M_PI - M_PI / period;
+    for (int i = 0; i < n; ++i) set.shifts_rad.push_back(2 * M_PI / n * i);
+    s.phase_sets = {set};
+    s.gray_bits = bits;
+    s.gray_complementary = true;
+    s.quantization = Quantization::kFloor;
+    for (int i = 0; i < s.NumImages(); ++i) t.frames.push_back(i);
+    t.names = "%02d.png";  // SLMaster's GUI names its files itself: give --image-names
+  } else {
+    throw Error(StrCat("unknown tool codec '", preset, "'"));
+  }
+  return t;
+}
+
+bool IsToolPreset(const std::string& preset) {
+  for (const auto& n : ToolPresetNames()) {
+    if (n == preset) return true;
+  }
+  return false;
+}
+
+// A printf pattern with one integer conversion applied to `numbers` (validated as names).
+std::vector<std::string> FormatNames(const std::string& spec, const std::vector<int>& numbers) {
+  const size_t pos = spec.find('%');
+  size_t end = pos + 1;
+  while (end < spec.size() && std::isdigit(static_cast<unsigned char>(spec[end]))) ++end;
+  if (pos == std::string::npos || end >= spec.size() || spec[end] != 'd' ||
+      spec.find('%', end) != std::string::npos || end - pos > 3) {
+    throw Error(
+        StrCat("--image-names '", spec, "': expected one integer conversion such as %d or %02d"));
+  }
+  std::vector<std::string> names;
+  for (const int n : numbers) {
+    char buf[64];
+    std::snprintf(buf, sizeof(buf), spec.substr(pos, end + 1 - pos).c_str(), n);
+    names.push_back(spec.substr(0, pos) + buf + spec.substr(end + 1));
+  }
+  util::CheckRelativeNames(names, "--image-names", util::ImageExtensions(), "image name");
+  return names;
+}
+
 }  // namespace
+
+std::vector<std::string> ToolPresetNames() {
+  return {"slstudio-phaseshift2x3",    "slstudio-phaseshift3", "slstudio-phaseshift4",
+          "slstudio-graycode",         "opencv-graycode",      "opencv-psp",
+          "slmaster-sinus-comple-gray"};
+}
 
 bool SchemeParameters::AnySet() const {
   return projector_width > 0 || projector_height > 0 || horizontal || period_px > 0 ||
@@ -61,20 +246,9 @@ std::vector<std::string> ExpandImageNames(const std::string& spec, int n) {
   std::vector<std::string> names;
   if (spec.find('%') != std::string::npos) {
     // Exactly one integer conversion, nothing else that printf would interpret.
-    const size_t pos = spec.find('%');
-    size_t end = pos + 1;
-    while (end < spec.size() && std::isdigit(static_cast<unsigned char>(spec[end]))) ++end;
-    if (end >= spec.size() || spec[end] != 'd' || spec.find('%', end) != std::string::npos ||
-        end - pos > 3) {
-      throw Error(
-          StrCat("--image-names '", spec, "': expected one integer conversion such as %d or %02d"));
-    }
-    const std::string suffix = spec.substr(end + 1);
-    for (int i = 0; i < n; ++i) {
-      char buf[64];
-      std::snprintf(buf, sizeof(buf), spec.substr(pos, end + 1 - pos).c_str(), i);
-      names.push_back(spec.substr(0, pos) + buf + suffix);
-    }
+    std::vector<int> numbers(std::max(n, 0));
+    for (int i = 0; i < n; ++i) numbers[i] = i;
+    return FormatNames(spec, numbers);
   } else {
     size_t start = 0;
     while (start <= spec.size()) {
@@ -93,6 +267,33 @@ std::vector<std::string> ExpandImageNames(const std::string& spec, int n) {
 
 PatternScheme MakePresetScheme(const std::string& preset, const SchemeParameters& p) {
   p.Check();
+  if (IsToolPreset(preset)) {
+    // Only what the tool itself lets its user choose.
+    const bool counts = preset == "opencv-psp" || preset.rfind("slmaster-", 0) == 0;
+    const bool steps = preset.rfind("slmaster-", 0) == 0;
+    if (p.period_px > 0 || p.gray_bits >= 0 || (p.steps > 0 && !steps) ||
+        !std::isnan(p.phase_offset_rad) || p.counts.size() > (counts ? 1u : 0u)) {
+      throw Error(StrCat("scheme ", preset,
+                         ": the tool's codec fixes periods, steps, bits and offsets; give only "
+                         "--width/--height, --horizontal, --image-names",
+                         counts ? " and --counts (nbrOfPeriods)" : "",
+                         steps ? " and --steps (shiftTime)" : ""));
+    }
+    ToolScheme t = MakeToolScheme(preset, p.projector_width > 0 ? p.projector_width : 1280,
+                                  p.projector_height > 0 ? p.projector_height : 800, p.horizontal,
+                                  p.counts.empty() ? 0 : p.counts[0], p.steps);
+    PatternScheme& s = t.scheme;
+    // A printf pattern numbers the tool's own frames; a list names the stack's images.
+    const std::string spec = p.image_names.empty() ? t.names : p.image_names;
+    s.image_names = spec.find('%') != std::string::npos ? FormatNames(spec, t.frames)
+                                                        : ExpandImageNames(spec, s.NumImages());
+    try {
+      s.Check();
+    } catch (const Error& e) {
+      throw Error(StrCat("scheme ", preset, ": ", e.what()));
+    }
+    return s;
+  }
   const bool slsdk = preset == "slsdk-phasegray";
   const int gray_steps = slsdk ? 4 : GrayFamilySteps(preset);
   PatternScheme s;
@@ -176,14 +377,21 @@ PatternScheme MakePresetScheme(const std::string& preset, const SchemeParameters
 
 PatternScheme SchemeFromArgument(const std::string& name_or_path, const SchemeParameters& p) {
   const bool preset = GrayFamilySteps(name_or_path) > 0 || IsHeterodynePreset(name_or_path) ||
-                      name_or_path == "slsdk-phasegray";
+                      name_or_path == "slsdk-phasegray" || IsToolPreset(name_or_path);
   if (preset) return MakePresetScheme(name_or_path, p);
   if (p.AnySet()) {
     throw Error(StrCat(name_or_path,
                        ": scheme parameters (--width, --period, --counts, ...) apply to presets; a "
                        "manifest file describes the whole scheme"));
   }
-  return SchemeFromNameOrFile(name_or_path);
+  if (std::filesystem::exists(name_or_path)) return SchemeFromNameOrFile(name_or_path);
+  try {
+    return SchemeFromNameOrFile(name_or_path);  // throws: a missing file or an unknown preset
+  } catch (const Error& e) {
+    std::string tools;
+    for (const auto& n : ToolPresetNames()) tools += StrCat(tools.empty() ? "" : ", ", n);
+    throw Error(StrCat(e.what(), "; other tools' codecs: ", tools));
+  }
 }
 
 }  // namespace fringe::phase

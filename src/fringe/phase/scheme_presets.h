@@ -13,6 +13,13 @@
 //                     three frequencies; --counts A,B,C sets the number of fringes over the
 //                     projector span (periods span/A, span/B, span/C; default 70,64,59 over 1.25
 //                     x span, pattern_scheme.h).
+//   slstudio-phaseshift2x3, slstudio-phaseshift3, slstudio-phaseshift4, slstudio-graycode,
+//   opencv-graycode, opencv-psp
+//                     other tools' codecs (docs/formats.md, "Other tools' codecs"), their images
+//                     byte for byte as the tool makes them, in the tool's order and with its file
+//                     names; only --width/--height, --horizontal and --image-names apply
+//                     (opencv-psp also --counts: nbrOfPeriods). A printf --image-names numbers
+//                     the tool's own frames (pattern_cam2_im%d.png for OpenCV's second camera).
 // Thread safety: pure functions.
 #pragma once
 
@@ -51,6 +58,9 @@ PatternScheme MakePresetScheme(const std::string& preset, const SchemeParameters
 // missing file.
 PatternScheme SchemeFromArgument(const std::string& name_or_path,
                                  const SchemeParameters& parameters);
+
+// The presets of other tools' codecs.
+std::vector<std::string> ToolPresetNames();
 
 // Expands SchemeParameters::image_names for n images (validated as names inside a folder).
 std::vector<std::string> ExpandImageNames(const std::string& spec, int n);

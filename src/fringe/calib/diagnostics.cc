@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "fringe/calib/calibrate_folder.h"
+#include "fringe/io/json.h"
 #include "fringe/util/error.h"
 
 namespace fringe::calib {
@@ -513,6 +514,63 @@ io::Report CalibrationReport(const CalibrationDiagnostics& d,
     r.sections.push_back(s);
   }
   return r;
+}
+
+CalibrationDiagnosis DiagnoseFolderCalibration(const FolderCalibration& cal,
+                                               const CalibrationTarget& target,
+                                               const DiagnosticsOptions& options) {
+  CalibrationDiagnosis out;
+  if (cal.stereo) {
+    out.devices = {{"left", &cal.pair.left}, {"right", &cal.pair.right}};
+    out.diagnostics =
+        DiagnoseCalibration(out.devices, cal.names, target,
+                            {{"baseline", cal.pair.rig.BaselineMm()}}, &cal.pair, options);
+  } else {
+    out.devices = {{"camera", &cal.mono}};
+    out.diagnostics = DiagnoseCalibration(out.devices, cal.names, target, {}, nullptr, options);
+  }
+  return out;
+}
+
+CalibrationDiagnosis DiagnoseProjectorCalibration(const ProjectorFolderCalibration& cal,
+                                                  const CalibrationTarget& target,
+                                                  const DiagnosticsOptions& options) {
+  CalibrationDiagnosis out;
+  if (cal.layout == ProjectorFolderLayout::kCamerasProjector) {
+    const MultiDeviceCalibration& j = cal.cameras.joint;
+    const char* names[] = {"left", "right", "projector"};
+    std::vector<std::pair<std::string, double>> distances;
+    for (size_t d = 0; d < j.devices.size() && d < 3; ++d) {
+      out.devices.push_back({names[d], &j.devices[d]});
+      if (d > 0 && d < j.device_from_reference.size()) {
+        distances.emplace_back(d == 1 ? "baseline" : "projector distance",
+                               j.device_from_reference[d].translation().norm());
+      }
+    }
+    out.diagnostics =
+        DiagnoseCalibration(out.devices, cal.names, target, distances, nullptr, options);
+    out.diagnostics.prediction_message =
+        "two cameras + projector: the depth prediction is given for stereo and camera + "
+        "projector calibrations";
+  } else {
+    const StereoCalibration& j = cal.camera_projector.joint;
+    out.devices = {{"camera", &j.left}, {"projector", &j.right}};
+    out.diagnostics = DiagnoseCalibration(
+        out.devices, cal.names, target, {{"projector distance", j.rig.BaselineMm()}}, &j, options);
+  }
+  return out;
+}
+
+void WriteCalibrationReport(const std::filesystem::path& dir, const CalibrationDiagnosis& d,
+                            const nlohmann::json& calibration_json,
+                            const util::OutputFolderOptions& output) {
+  const nlohmann::json summary = {{"calibration", calibration_json},
+                                  {"diagnostics", ToJson(d.diagnostics)}};
+  const io::Report report = CalibrationReport(d.diagnostics, d.devices);
+  util::WriteFolderAtomically(dir, output, [&](const std::filesystem::path& tmp) {
+    io::WriteJson(tmp / "summary.json", summary);
+    report.Write(tmp / "report.html");
+  });
 }
 
 }  // namespace fringe::calib

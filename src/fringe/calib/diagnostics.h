@@ -22,14 +22,18 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <filesystem>
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 #include <string>
 #include <vector>
 
 #include "fringe/calib/calibrate.h"
+#include "fringe/calib/calibrate_folder.h"
+#include "fringe/calib/projector_folder.h"
 #include "fringe/geometry/calibration_target.h"
 #include "fringe/io/report.h"
+#include "fringe/util/files.h"
 
 namespace fringe::calib {
 
@@ -141,5 +145,28 @@ nlohmann::json ToJson(const CalibrationDiagnostics& d);
 // uncertainty with its map.
 io::Report CalibrationReport(const CalibrationDiagnostics& d,
                              const std::vector<DiagnosedDevice>& devices);
+
+// The diagnostics of what `fringe calibrate` produced, with the devices they describe (which
+// point into the calibration: it must outlive this).
+struct CalibrationDiagnosis {
+  CalibrationDiagnostics diagnostics;
+  std::vector<DiagnosedDevice> devices;
+};
+// One camera ("camera") or a stereo pair ("left", "right"; baseline, predicted depth sigma).
+CalibrationDiagnosis DiagnoseFolderCalibration(const FolderCalibration& cal,
+                                               const CalibrationTarget& target,
+                                               const DiagnosticsOptions& options = {});
+// Camera + projector ("camera", "projector"; projector distance, predicted depth sigma of the
+// camera-projector pair triangulated from both projector coordinates) or two cameras +
+// projector ("left", "right", "projector"; both distances; no depth prediction yet: the joint
+// solve of three devices does not keep its covariance).
+CalibrationDiagnosis DiagnoseProjectorCalibration(const ProjectorFolderCalibration& cal,
+                                                  const CalibrationTarget& target,
+                                                  const DiagnosticsOptions& options = {});
+// Writes the folder `dir` atomically: summary.json ({"calibration": calibration_json,
+// "diagnostics": ToJson(...)}) and report.html (CalibrationReport).
+void WriteCalibrationReport(const std::filesystem::path& dir, const CalibrationDiagnosis& d,
+                            const nlohmann::json& calibration_json,
+                            const util::OutputFolderOptions& output = {});
 
 }  // namespace fringe::calib

@@ -134,8 +134,9 @@ int FreeParameters(const ceres::Problem& problem) {
 }  // namespace
 
 bool StandardDeviations(ceres::Problem* problem, const std::vector<const double*>& blocks,
-                        std::vector<std::vector<double>>* std_devs) {
+                        std::vector<std::vector<double>>* std_devs, Eigen::MatrixXd* covariance) {
   std_devs->assign(blocks.size(), {});
+  if (covariance) covariance->resize(0, 0);
   for (size_t i = 0; i < blocks.size(); ++i) {
     (*std_devs)[i].assign(problem->ParameterBlockSize(blocks[i]), 0.0);
   }
@@ -150,8 +151,15 @@ bool StandardDeviations(ceres::Problem* problem, const std::vector<const double*
   const double sigma2 = 2 * cost / (m - n);
 
   std::vector<std::pair<const double*, const double*>> pairs;
-  for (const double* b : blocks) {
-    if (!problem->IsParameterBlockConstant(const_cast<double*>(b))) pairs.emplace_back(b, b);
+  for (size_t i = 0; i < blocks.size(); ++i) {
+    if (problem->IsParameterBlockConstant(const_cast<double*>(blocks[i]))) continue;
+    pairs.emplace_back(blocks[i], blocks[i]);
+    if (!covariance) continue;
+    for (size_t j = i + 1; j < blocks.size(); ++j) {
+      if (!problem->IsParameterBlockConstant(const_cast<double*>(blocks[j]))) {
+        pairs.emplace_back(blocks[i], blocks[j]);
+      }
+    }
   }
   if (pairs.empty()) return true;
   ceres::Covariance::Options co;
@@ -172,6 +180,26 @@ bool StandardDeviations(ceres::Problem* problem, const std::vector<const double*
     for (int k = 0; k < size; ++k) {
       (*std_devs)[i][k] = std::sqrt(std::max(0.0, sigma2 * c[k * size + k]));
     }
+  }
+  if (covariance) {
+    // The joint matrix in the order of `blocks` (zero rows and columns for constant blocks).
+    std::vector<int> offset(blocks.size() + 1, 0);
+    for (size_t i = 0; i < blocks.size(); ++i) {
+      offset[i + 1] = offset[i] + problem->ParameterBlockSize(blocks[i]);
+    }
+    Eigen::MatrixXd joint = Eigen::MatrixXd::Zero(offset.back(), offset.back());
+    for (size_t i = 0; i < blocks.size(); ++i) {
+      if (problem->IsParameterBlockConstant(const_cast<double*>(blocks[i]))) continue;
+      for (size_t j = i; j < blocks.size(); ++j) {
+        if (problem->IsParameterBlockConstant(const_cast<double*>(blocks[j]))) continue;
+        const int ni = offset[i + 1] - offset[i], nj = offset[j + 1] - offset[j];
+        Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> c(ni, nj);
+        if (!cov->GetCovarianceBlock(blocks[i], blocks[j], c.data())) return false;
+        joint.block(offset[i], offset[j], ni, nj) = sigma2 * c;
+        joint.block(offset[j], offset[i], nj, ni) = sigma2 * c.transpose();
+      }
+    }
+    *covariance = std::move(joint);
   }
   return true;
 }

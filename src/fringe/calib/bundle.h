@@ -183,8 +183,13 @@ SolveReport Solve(const SolveOptions& options, ceres::Problem* problem);
 // blocks), sigma^2 = sum of squared residuals / (residuals - free parameters), the unit
 // weight's variance estimated from the fit. ceres::Covariance with SPARSE_QR; if the Jacobian is
 // rank deficient, DENSE_SVD with the null space dropped (a pseudo-inverse). Returns false
-// (std_devs zero) when neither works or the problem has no redundancy.
+// (std_devs zero) when neither works or the problem has no redundancy. With `covariance`, also
+// the joint covariance of all the blocks (sigma^2 (J^T J)^-1 with the cross terms; rows and
+// columns in the order of `blocks`, each block's ambient coordinates; empty on failure): what
+// propagating the calibration's uncertainty into a measurement needs (the parameters are
+// strongly correlated, e.g. a focal length with the translation).
 bool StandardDeviations(ceres::Problem* problem, const std::vector<const double*>& blocks,
-                        std::vector<std::vector<double>>* std_devs);
+                        std::vector<std::vector<double>>* std_devs,
+                        Eigen::MatrixXd* covariance = nullptr);
 
 }  // namespace fringe::calib

@@ -94,6 +94,10 @@ class Bundle {
   std::vector<IntrinsicsBlock> std_intrinsics;
   std::vector<PoseBlock> std_device_from_reference;
   bool std_dev_ok = false;
+  // With want_covariance, the joint covariance of the last solve's intrinsics blocks (devices
+  // in order) and device_from_reference blocks (devices 1.. in order); empty when unknown.
+  bool want_covariance = false;
+  Eigen::MatrixXd covariance;
 
   Rigid3d DeviceFromBoard(int device, int view) const {
     const Rigid3d reference_from_board_pose = RigidFromPoseBlock(reference_from_board[view].data());
@@ -167,7 +171,8 @@ class Bundle {
       if (device_seen[d]) blocks.push_back(device_from_reference[d].data());
     }
     std::vector<std::vector<double>> std_devs;
-    std_dev_ok = StandardDeviations(&problem, blocks, &std_devs);
+    std_dev_ok =
+        StandardDeviations(&problem, blocks, &std_devs, want_covariance ? &covariance : nullptr);
     std_intrinsics.assign(devices.size(), IntrinsicsBlock{});
     std_device_from_reference.assign(devices.size(), PoseBlock{});
     size_t i = 0;
@@ -343,10 +348,14 @@ void RunRounds(Bundle* b, const std::vector<const CalibrationTarget*>& targets_p
     int used = 0;
     for (size_t v = 0; v < view_rms.size(); ++v) used += view_n[v] > 0 ? 1 : 0;
     for (size_t v = 0; v < view_rms.size(); ++v) {
-      if (view_n[v] > 0 && view_rms[v] > limit && used > options.min_views) {
+      if (options.reject_outlier_views && view_n[v] > 0 && view_rms[v] > limit &&
+          used > options.min_views) {
         b->view_used[v] = false;
         s->views[v].used = false;
-        s->views[v].message = util::StrCat("rejected: RMS ", view_rms[v], " px > ", limit, " px");
+        s->views[v].message = util::StrCat(
+            "rejected: RMS ", view_rms[v], " px is an outlier among the poses (limit ", limit,
+            " px = max(", options.max_image_rms_px, " px, 3 x the median pose RMS ", median,
+            " px)); the calibration was redone without it");
         --used;
         changed = true;
       }
@@ -595,6 +604,7 @@ StereoCalibration CalibrateStereo(const std::vector<TargetDetection>& left,
   b.devices = {out.left.camera, out.right.camera};
   b.device_from_reference = {PoseBlock{}, PoseBlockOf(MedoidTransform(rel))};
   Configure(options, &b);
+  b.want_covariance = true;  // rig_covariance: the predicted measurement uncertainty
   b.view_used = pair;
   b.reference_from_board.assign(left.size(), PoseBlock{});
   for (size_t v = 0; v < left.size(); ++v) {
@@ -633,6 +643,9 @@ StereoCalibration CalibrateStereo(const std::vector<TargetDetection>& left,
   out.rig.right = b.devices[1];
   out.rig.right_from_left = RigidFromPoseBlock(b.device_from_reference[1].data());
   out.extrinsic_std_dev = b.std_device_from_reference[1];
+  if (b.std_dev_ok && b.covariance.rows() == 2 * kNumIntrinsics + kPoseBlockSize) {
+    out.rig_covariance = b.covariance;
+  }
   out.left_from_board.assign(left.size(), Rigid3d());
   for (size_t v = 0; v < left.size(); ++v) {
     if (b.view_used[v]) out.left_from_board[v] = b.DeviceFromBoard(0, static_cast<int>(v));

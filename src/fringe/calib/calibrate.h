@@ -20,10 +20,11 @@
 // the pole-polar centre. This removes the ellipse-centre bias (~0.05-0.4 px) and the
 // distortion-induced one.
 //
-// Robustness: views whose RMS exceeds max(max_image_rms_px, 3 x median) are rejected with a
-// message and the problem solved again; single features beyond outlier_sigma x RMS are dropped.
-// Standard deviations: sqrt(diag(sigma^2 (J^T J)^-1)) at the optimum from ceres::Covariance,
-// sigma^2 = SSE / (m - n) (bundle.h, StandardDeviations).
+// Robustness: views whose RMS exceeds max(max_image_rms_px, 3 x median) (the median over the
+// views: a robust statistic that one bad pose does not move) are rejected with a message naming
+// the limit and the problem solved again (unless reject_outlier_views is false); single features
+// beyond outlier_sigma x RMS are dropped. Standard deviations: sqrt(diag(sigma^2 (J^T J)^-1)) at
+// the optimum from ceres::Covariance, sigma^2 = SSE / (m - n) (bundle.h, StandardDeviations).
 //
 // Stereo: both cameras calibrated alone, right_from_left initialised from the per-view relative
 // poses, then one joint refinement of both intrinsics, left_from_board per view and
@@ -53,9 +54,12 @@ struct CalibrationOptions {
   int max_iterations = 200;         // Ceres iterations per solve, >= 1
   int centre_rounds = 3;            // re-measurements of circular centres with the model, [0, 10]
   double max_image_rms_px = 1.0;    // views above max(this, 3 x median RMS) are rejected, > 0
-  double outlier_sigma = 6.0;       // drop features beyond this many RMS (and > 1 px), > 0
-  int min_features = 6;             // fewer features in a view: the view is not used, >= 4
-  int min_views = 3;                // fewer usable views: calibration fails, >= 2
+  // Reject the views whose RMS is an outlier among the views (above) and solve again; false
+  // keeps every usable view (`fringe calibrate --keep-all`).
+  bool reject_outlier_views = true;
+  double outlier_sigma = 6.0;           // drop features beyond this many RMS (and > 1 px), > 0
+  int min_features = 6;                 // fewer features in a view: the view is not used, >= 4
+  int min_views = 3;                    // fewer usable views: calibration fails, >= 2
   RobustLoss loss = RobustLoss::kNone;  // robust loss on each feature's reprojection error
   double loss_scale_px = 1.0;           // the loss's scale (pixels), > 0
   void Check() const;
@@ -122,8 +126,12 @@ struct StereoCalibration {
   CameraCalibration left, right;
   std::vector<Rigid3d> left_from_board;       // per view pair (identity where unused)
   std::array<double, 6> extrinsic_std_dev{};  // rotation vector (rad) x y z, translation (mm)
-  int num_pairs = 0;                          // view pairs used jointly
-  double rms_px = 0;                          // joint reprojection RMS, both cameras
+  // Joint covariance (24 x 24) of the final solve's rig parameters: left intrinsics (9, the
+  // order of std_dev), right intrinsics (9), right_from_left (rotation vector rad, translation
+  // mm); coordinates held fixed have zero rows. Empty when it could not be computed.
+  Eigen::MatrixXd rig_covariance;
+  int num_pairs = 0;  // view pairs used jointly
+  double rms_px = 0;  // joint reprojection RMS, both cameras
   double epipolar_rms_px = 0, epipolar_max_px = 0;
   CalibrationSummary summary;
   std::string BriefReport() const;

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "fringe/calib/calibrate_folder.h"
+#include "fringe/calib/diagnostics.h"
 #include "fringe/calib/projector_folder.h"
 #include "fringe/cli/cli.h"
 #include "fringe/io/calibration_io.h"
@@ -31,9 +32,23 @@ namespace {
 namespace fs = std::filesystem;
 
 struct CalibrateArgs {
-  std::string dir, target, out, residual_image, centres;
+  std::string dir, target, out, residual_image, centres, report;
   bool k3 = false;
+  bool keep_all = false;
+  calib::DiagnosticsOptions diagnostics;
 };
+
+// The diagnostics: always printed (warnings and rejections are what a user must see); with
+// --report, the report folder (summary.json, report.html) is written before the other outputs
+// are committed.
+void Diagnose(const CalibrateArgs& a, const calib::CalibrationDiagnosis& d,
+              const nlohmann::json& calibration_json) {
+  std::cout << d.diagnostics.BriefReport() << "\n";
+  if (a.report.empty()) return;
+  util::OutputFolderOptions output;
+  output.inputs = {a.dir, a.target};
+  calib::WriteCalibrationReport(a.report, d, calibration_json, output);
+}
 
 // Camera(s) + projector calibration of the pose folders (calib/projector_folder.h); writes the
 // rig and the residual image together.
@@ -53,6 +68,8 @@ void CalibrateProjector(const CalibrateArgs& a, const CalibrationTarget& target,
   const Rigid3d& t = cal.rig.projector_from_left;
   std::cout << "projector_from_left: rotation " << t.AngleRad() * 180 / M_PI << " deg, t = ("
             << t.translation().transpose() << ") mm\n";
+  Diagnose(a, calib::DiagnoseProjectorCalibration(cal, target, a.diagnostics),
+           cal.CalibrationJson());
   util::OutputTransaction outputs;
   outputs.Write(a.out, [&](const fs::path& tmp) {
     io::WriteRig(tmp, cal.rig, {{"calibration", cal.CalibrationJson()}});
@@ -75,6 +92,7 @@ void CalibrateProjector(const CalibrateArgs& a, const CalibrationTarget& target,
   std::cout << "wrote " << a.out << "\n";
   if (!a.residual_image.empty()) std::cout << "wrote " << a.residual_image << "\n";
   if (!a.centres.empty()) std::cout << "wrote " << a.centres << "\n";
+  if (!a.report.empty()) std::cout << "wrote " << a.report << "\n";
 }
 
 }  // namespace
@@ -93,6 +111,15 @@ void AddCalibrateCommand(CLI::App& app) {
   sub->add_option("--residual-image", a->residual_image,
                   "Write an image of residual vectors and coverage (left camera)");
   sub->add_flag("--k3", a->k3, "Also estimate the radial coefficient k3");
+  sub->add_flag("--keep-all", a->keep_all,
+                "Keep every usable board pose (default: poses whose RMS is an outlier among the "
+                "poses are rejected, named with the reason, and the calibration redone)");
+  sub->add_option("--report", a->report,
+                  "Write the calibration report folder: report.html (residual vectors, coverage "
+                  "maps, per-pose residuals, warnings, predicted depth uncertainty) and "
+                  "summary.json");
+  sub->add_option("--pixel-size-um", a->diagnostics.pixel_size_um,
+                  "Sensor pixel size, um: checks that the focal length in mm is plausible");
   sub->add_option("--centres", a->centres,
                   "Write every detected centre (raw and bias-corrected, per view and camera, "
                   "with the board feature index) as CSV or JSON, by the file's extension");
@@ -107,9 +134,26 @@ void AddCalibrateCommand(CLI::App& app) {
       util::CheckOutputFile(a->centres, inputs);
     }
     util::CheckDistinctOutputs({a->out, a->residual_image, a->centres});  // empty: not given
+    if (!a->report.empty()) {
+      util::OutputFolderOptions report;
+      report.inputs = inputs;
+      util::CheckOutputFolder(a->report, report);
+      for (const std::string& file : {a->out, a->residual_image, a->centres}) {
+        if (file.empty()) continue;
+        // A file inside the report folder would be lost when the folder is written.
+        const fs::path rel =
+            fs::weakly_canonical(file).lexically_relative(fs::weakly_canonical(a->report));
+        if (!rel.empty() && *rel.begin() != "..") {
+          throw Error(util::StrCat(file, ": inside the --report folder ", a->report,
+                                   ", which is written as a whole"));
+        }
+      }
+    }
+    a->diagnostics.Check();
     const CalibrationTarget target = io::ReadTarget(a->target);
     calib::CalibrationOptions options;
     options.estimate_k3 = a->k3;
+    options.reject_outlier_views = !a->keep_all;
     util::RequireDirectory(a->dir, "image folder");
     std::vector<fs::path> projector_poses;
     if (calib::FindProjectorPoseFolders(a->dir, &projector_poses) !=
@@ -147,6 +191,8 @@ void AddCalibrateCommand(CLI::App& app) {
           result.stereo ? result.pair.summary.message : result.mono.summary.message, hint));
     }
     std::cout << result.Report();
+    Diagnose(*a, calib::DiagnoseFolderCalibration(result, target, a->diagnostics),
+             calib::CalibrationToJson(result));
     // Both outputs are committed together or not at all.
     util::OutputTransaction outputs;
     outputs.Write(a->out, [&](const fs::path& tmp) { calib::WriteFolderCalibration(tmp, result); });
@@ -163,6 +209,7 @@ void AddCalibrateCommand(CLI::App& app) {
     std::cout << "wrote " << a->out << "\n";
     if (!a->residual_image.empty()) std::cout << "wrote " << a->residual_image << "\n";
     if (!a->centres.empty()) std::cout << "wrote " << a->centres << "\n";
+    if (!a->report.empty()) std::cout << "wrote " << a->report << "\n";
   });
 }
 

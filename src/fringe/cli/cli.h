@@ -33,7 +33,7 @@ using AddCommandFn = void (*)(CLI::App& app);
 
 // Registers a subcommand; `order` sets its place in --help (the pipeline order:
 // 10 demo, 20 simulate, 30 patterns, 40 decode, 50 calibrate, 60 reconstruct, 70 register,
-// 80 fuse, 90 scan, 100 evaluate, 110 info).
+// 80 fuse, 90 scan, 100 evaluate, 105 check, 110 info).
 struct CommandRegistration {
   CommandRegistration(int order, AddCommandFn add);
 };

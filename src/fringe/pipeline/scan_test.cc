@@ -25,7 +25,7 @@
 #include "fringe/io/calibration_io.h"
 #include "fringe/io/mesh_io.h"
 #include "fringe/io/ply.h"
-#include "fringe/pipeline/report_test_util.h"
+#include "fringe/io/report_test_util.h"
 #include "fringe/registration/markers.h"
 #include "fringe/registration/registration_io.h"
 #include "fringe/scan/scan_folder.h"
@@ -279,7 +279,7 @@ TEST_F(ScanTest, WholeChainMatchesTheTruth) {
   // The report is self-contained: every picture is embedded and decodes.
   const std::string html = util::ReadTextFile(out / "report.html");
   int sources = 0;
-  const std::vector<cv::Mat> images = testing::EmbeddedImages(html, &sources);
+  const std::vector<cv::Mat> images = io::testing::EmbeddedImages(html, &sources);
   // Per view: phase, depth, modulation, texture with markers; then residual histograms (one per
   // ICP level, before and after ICP), the marker map, mesh renderings and the deviation maps.
   const auto& levels = summary["registration"]["icp"]["levels"];

@@ -5,7 +5,7 @@
 #include <string>
 #include <vector>
 
-namespace fringe::pipeline::testing {
+namespace fringe::io::testing {
 
 // Inverse of Base64 (the library only encodes).
 inline std::vector<uint8_t> DecodeBase64(const std::string& s) {
@@ -53,4 +53,4 @@ inline std::vector<cv::Mat> EmbeddedImages(const std::string& html, int* sources
   return out;
 }
 
-}  // namespace fringe::pipeline::testing
+}  // namespace fringe::io::testing

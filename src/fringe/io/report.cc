@@ -1,0 +1,286 @@
+#include "fringe/io/report.h"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <iomanip>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <sstream>
+
+#include "fringe/util/error.h"
+#include "fringe/util/files.h"
+
+namespace fringe::io {
+namespace {
+
+std::string EscapeHtml(const std::string& s) {
+  std::string out;
+  out.reserve(s.size());
+  for (char c : s) {
+    switch (c) {
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      default:
+        out += c;
+    }
+  }
+  return out;
+}
+
+std::string PngDataUri(const cv::Mat& image, const std::string& caption) {
+  std::vector<uint8_t> png;
+  if (image.empty() || !cv::imencode(".png", image, png)) {
+    throw Error(util::StrCat("report: cannot encode the picture '", caption, "' as PNG"));
+  }
+  return "data:image/png;base64," + Base64(png);
+}
+
+std::string FormatTick(double v) {
+  std::ostringstream os;
+  const double a = std::abs(v);
+  os << std::setprecision(a != 0 && (a < 0.01 || a >= 1e5) ? 2 : 4) << v;
+  return os.str();
+}
+
+}  // namespace
+
+std::string Base64(const std::vector<uint8_t>& bytes) {
+  static constexpr char kAlphabet[] =
+      "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  std::string out;
+  out.reserve((bytes.size() + 2) / 3 * 4);
+  size_t i = 0;
+  for (; i + 2 < bytes.size(); i += 3) {
+    const uint32_t v = (uint32_t(bytes[i]) << 16) | (uint32_t(bytes[i + 1]) << 8) | bytes[i + 2];
+    out += kAlphabet[(v >> 18) & 63];
+    out += kAlphabet[(v >> 12) & 63];
+    out += kAlphabet[(v >> 6) & 63];
+    out += kAlphabet[v & 63];
+  }
+  if (i + 1 == bytes.size()) {
+    const uint32_t v = uint32_t(bytes[i]) << 16;
+    out += kAlphabet[(v >> 18) & 63];
+    out += kAlphabet[(v >> 12) & 63];
+    out += "==";
+  } else if (i + 2 == bytes.size()) {
+    const uint32_t v = (uint32_t(bytes[i]) << 16) | (uint32_t(bytes[i + 1]) << 8);
+    out += kAlphabet[(v >> 18) & 63];
+    out += kAlphabet[(v >> 12) & 63];
+    out += kAlphabet[(v >> 6) & 63];
+    out += '=';
+  }
+  return out;
+}
+
+std::array<double, 2> DisplayRange(const cv::Mat& values, double p) {
+  CV_Assert(values.type() == CV_32F);
+  std::vector<float> finite;
+  finite.reserve(values.total());
+  for (int r = 0; r < values.rows; ++r) {
+    const float* row = values.ptr<float>(r);
+    for (int c = 0; c < values.cols; ++c) {
+      if (std::isfinite(row[c])) finite.push_back(row[c]);
+    }
+  }
+  if (finite.empty()) return {0.0, 1.0};
+  auto quantile = [&](double q) {
+    const size_t k = std::min(finite.size() - 1, static_cast<size_t>(q * (finite.size() - 1)));
+    std::nth_element(finite.begin(), finite.begin() + static_cast<std::ptrdiff_t>(k), finite.end());
+    return static_cast<double>(finite[k]);
+  };
+  double lo = quantile(p), hi = quantile(1 - p);
+  if (!(hi > lo)) {
+    lo -= 0.5;
+    hi += 0.5;
+  }
+  return {lo, hi};
+}
+
+cv::Mat ColourBar(int width_px, double lo, double hi, const std::string& unit) {
+  CV_Assert(width_px > 24 && hi > lo);
+  // A gradient strip and five labelled ticks, white background.
+  const int width = width_px, margin = 12, strip_h = 14, bar_h = 52;
+  cv::Mat bar(bar_h, width, CV_8UC3, cv::Scalar(255, 255, 255));
+  cv::Mat ramp(1, width - 2 * margin, CV_8U);
+  for (int c = 0; c < ramp.cols; ++c) {
+    ramp.at<uint8_t>(0, c) = static_cast<uint8_t>(255.0 * c / std::max(1, ramp.cols - 1));
+  }
+  cv::Mat ramp_colour;
+  cv::applyColorMap(ramp, ramp_colour, cv::COLORMAP_TURBO);
+  cv::resize(ramp_colour, ramp_colour, cv::Size(ramp.cols, strip_h), 0, 0, cv::INTER_NEAREST);
+  ramp_colour.copyTo(bar(cv::Rect(margin, 4, ramp.cols, strip_h)));
+  const double font = 0.4;
+  for (int k = 0; k <= 4; ++k) {
+    const int x = margin + static_cast<int>(std::lround(k * (ramp.cols - 1) / 4.0));
+    cv::line(bar, {x, 4 + strip_h}, {x, 4 + strip_h + 4}, cv::Scalar(0, 0, 0));
+    const std::string label = FormatTick(lo + (hi - lo) * k / 4.0);
+    int baseline = 0;
+    const cv::Size ts = cv::getTextSize(label, cv::FONT_HERSHEY_SIMPLEX, font, 1, &baseline);
+    const int tx = std::clamp(x - ts.width / 2, 0, std::max(0, width - ts.width));
+    cv::putText(bar, label, {tx, 4 + strip_h + 6 + ts.height}, cv::FONT_HERSHEY_SIMPLEX, font,
+                cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+  }
+  int baseline = 0;
+  const cv::Size us = cv::getTextSize(unit, cv::FONT_HERSHEY_SIMPLEX, font, 1, &baseline);
+  cv::putText(bar, unit, {std::max(0, (width - us.width) / 2), bar_h - 4}, cv::FONT_HERSHEY_SIMPLEX,
+              font, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+  return bar;
+}
+
+cv::Mat ColourMapWithBar(const cv::Mat& values, double lo, double hi, const std::string& unit,
+                         int max_width_px) {
+  CV_Assert(values.type() == CV_32F && !values.empty() && hi > lo && max_width_px > 0);
+  // Shrink by area averaging over the finite values only (NaN must not bleed into neighbours).
+  cv::Mat finite_mask(values.size(), CV_32F), filled(values.size(), CV_32F);
+  for (int r = 0; r < values.rows; ++r) {
+    for (int c = 0; c < values.cols; ++c) {
+      const float v = values.at<float>(r, c);
+      const bool ok = std::isfinite(v);
+      finite_mask.at<float>(r, c) = ok ? 1.f : 0.f;
+      filled.at<float>(r, c) = ok ? v : 0.f;
+    }
+  }
+  cv::Mat small = filled, small_mask = finite_mask;
+  if (values.cols > max_width_px) {
+    const cv::Size size(
+        max_width_px, std::max(1, static_cast<int>(std::lround(double(values.rows) * max_width_px /
+                                                               values.cols))));
+    cv::resize(filled, small, size, 0, 0, cv::INTER_AREA);
+    cv::resize(finite_mask, small_mask, size, 0, 0, cv::INTER_AREA);
+  }
+  cv::Mat grey(small.size(), CV_8U);
+  for (int r = 0; r < small.rows; ++r) {
+    for (int c = 0; c < small.cols; ++c) {
+      const float m = small_mask.at<float>(r, c);
+      const double v = m > 0.5f ? small.at<float>(r, c) / m : 0.0;
+      grey.at<uint8_t>(r, c) =
+          static_cast<uint8_t>(std::clamp((v - lo) / (hi - lo), 0.0, 1.0) * 255);
+    }
+  }
+  cv::Mat colour;
+  cv::applyColorMap(grey, colour, cv::COLORMAP_TURBO);
+  for (int r = 0; r < small.rows; ++r) {
+    for (int c = 0; c < small.cols; ++c) {
+      if (small_mask.at<float>(r, c) <= 0.5f) colour.at<cv::Vec3b>(r, c) = cv::Vec3b(48, 48, 48);
+    }
+  }
+  const cv::Mat bar = ColourBar(colour.cols, lo, hi, unit);
+  cv::Mat out;
+  cv::vconcat(colour, bar, out);
+  return out;
+}
+
+cv::Mat HistogramImage(const std::vector<double>& values, double lo, double hi, int bins,
+                       const std::string& unit, const std::vector<double>& marks, int width_px,
+                       int height_px) {
+  CV_Assert(hi > lo && bins >= 1 && width_px > 60 && height_px > 60);
+  std::vector<int64_t> count(static_cast<size_t>(bins), 0);
+  int64_t below = 0, above = 0, n = 0;
+  for (double v : values) {
+    if (!std::isfinite(v)) continue;
+    ++n;
+    below += v < lo;
+    above += v > hi;
+    const int k = static_cast<int>(std::floor((v - lo) / (hi - lo) * bins));
+    ++count[static_cast<size_t>(std::clamp(k, 0, bins - 1))];
+  }
+  cv::Mat img(height_px, width_px, CV_8UC3, cv::Scalar(255, 255, 255));
+  const int left = 10, right = width_px - 10, top = 18, bottom = height_px - 36;
+  const int64_t peak = std::max<int64_t>(1, *std::max_element(count.begin(), count.end()));
+  const double bar_w = double(right - left) / bins;
+  for (int k = 0; k < bins; ++k) {
+    const int h = static_cast<int>(std::lround(double(count[size_t(k)]) / peak * (bottom - top)));
+    const int x0 = left + static_cast<int>(std::lround(k * bar_w));
+    const int x1 = left + static_cast<int>(std::lround((k + 1) * bar_w)) - 1;
+    if (h > 0) {
+      cv::rectangle(img, {x0, bottom - h}, {std::max(x0, x1), bottom}, cv::Scalar(180, 110, 40),
+                    cv::FILLED);
+    }
+  }
+  cv::line(img, {left, bottom}, {right, bottom}, cv::Scalar(0, 0, 0));
+  for (double m : marks) {
+    if (!(m >= lo && m <= hi)) continue;
+    const int x = left + static_cast<int>(std::lround((m - lo) / (hi - lo) * (right - left)));
+    cv::line(img, {x, top}, {x, bottom}, cv::Scalar(0, 0, 220), 1, cv::LINE_AA);
+  }
+  const double font = 0.4;
+  for (int k = 0; k <= 4; ++k) {
+    const int x = left + static_cast<int>(std::lround(k * (right - left) / 4.0));
+    cv::line(img, {x, bottom}, {x, bottom + 4}, cv::Scalar(0, 0, 0));
+    const std::string label = FormatTick(lo + (hi - lo) * k / 4.0);
+    int baseline = 0;
+    const cv::Size ts = cv::getTextSize(label, cv::FONT_HERSHEY_SIMPLEX, font, 1, &baseline);
+    const int tx = std::clamp(x - ts.width / 2, 0, std::max(0, width_px - ts.width));
+    cv::putText(img, label, {tx, bottom + 6 + ts.height}, cv::FONT_HERSHEY_SIMPLEX, font,
+                cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+  }
+  const std::string caption = util::StrCat(
+      unit, "   (n = ", n, ", peak bin ", peak, below + above > 0 ? ", " : "",
+      below + above > 0 ? util::StrCat(below + above, " outside, in the end bins") : std::string(),
+      ")");
+  cv::putText(img, caption, {left, height_px - 6}, cv::FONT_HERSHEY_SIMPLEX, font,
+              cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+  return img;
+}
+
+std::string Report::ToHtml() const {
+  std::ostringstream os;
+  os << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>"
+     << EscapeHtml(title) << "</title>\n<style>\n"
+     << "body{font-family:sans-serif;margin:1.5em;color:#222;max-width:1400px}\n"
+     << "h1{font-size:1.5em}h2{font-size:1.2em;border-bottom:1px solid #ccc;margin-top:1.6em}\n"
+     << "table{border-collapse:collapse;margin:.6em 0}td,th{border:1px solid #ccc;"
+        "padding:2px 8px;text-align:right;font-size:.9em}th{background:#f0f0f0}\n"
+     << "td:first-child,th:first-child{text-align:left}caption{text-align:left;"
+        "font-weight:bold;padding:2px 0}\n"
+     << "figure{display:inline-block;margin:.4em;vertical-align:top}"
+        "figcaption{font-size:.85em;max-width:640px}\n"
+     << "</style></head><body>\n<h1>" << EscapeHtml(title) << "</h1>\n";
+  for (const ReportSection& s : sections) {
+    os << "<h2>" << EscapeHtml(s.title) << "</h2>\n";
+    for (const std::string& p : s.paragraphs) os << "<p>" << EscapeHtml(p) << "</p>\n";
+    for (const ReportTable& t : s.tables) {
+      os << "<table>";
+      if (!t.caption.empty()) os << "<caption>" << EscapeHtml(t.caption) << "</caption>";
+      os << "\n<tr>";
+      for (const std::string& h : t.header) os << "<th>" << EscapeHtml(h) << "</th>";
+      os << "</tr>\n";
+      for (const auto& row : t.rows) {
+        os << "<tr>";
+        for (const std::string& cell : row) os << "<td>" << EscapeHtml(cell) << "</td>";
+        os << "</tr>\n";
+      }
+      os << "</table>\n";
+    }
+    for (const ReportImage& im : s.images) {
+      os << "<figure><img src=\"" << PngDataUri(im.image, im.caption) << "\" alt=\""
+         << EscapeHtml(im.caption) << "\" width=\"" << im.image.cols << "\" height=\""
+         << im.image.rows << "\"><figcaption>" << EscapeHtml(im.caption)
+         << "</figcaption></figure>\n";
+    }
+  }
+  os << "</body></html>\n";
+  return os.str();
+}
+
+void Report::Write(const std::filesystem::path& path) const {
+  const std::string html = ToHtml();
+  util::WriteAtomically(path, [&](const std::filesystem::path& tmp) {
+    std::ofstream out(tmp, std::ios::binary);
+    out << html;
+    util::CloseOutput(out, path);
+  });
+}
+
+}  // namespace fringe::io

@@ -1,5 +1,7 @@
 #include "fringe/geometry/stereo_rig.h"
 
+#include <limits>
+
 #include "fringe/util/error.h"
 
 namespace fringe {
@@ -49,6 +51,20 @@ void StereoRig::Check() const {
   if (projector) projector->Check();
   util::CheckOption(BaselineMm() > 0, "StereoRig", "right_from_left.translation", BaselineMm(),
                     "baseline must be > 0 mm");
+}
+
+double SignedEpipolarDistancePx(const StereoRig& rig, const Eigen::Vector2d& left_px,
+                                const Eigen::Vector2d& right_px) {
+  const Eigen::Vector2d xl = rig.left.Unproject(left_px);
+  const Eigen::Vector2d xr = rig.right.Unproject(right_px);
+  const Eigen::Matrix3d R = rig.right_from_left.rotation_matrix();
+  const Eigen::Vector3d& t = rig.right_from_left.translation();
+  Eigen::Matrix3d tx;
+  tx << 0, -t.z(), t.y(), t.z(), 0, -t.x(), -t.y(), t.x(), 0;
+  const Eigen::Vector3d line = (tx * R) * Eigen::Vector3d(xl.x(), xl.y(), 1);
+  const double norm = line.head<2>().norm();
+  if (norm <= 0) return std::numeric_limits<double>::infinity();
+  return line.dot(Eigen::Vector3d(xr.x(), xr.y(), 1)) / norm * rig.right.fx;
 }
 
 }  // namespace fringe

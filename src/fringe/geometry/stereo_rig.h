@@ -29,4 +29,10 @@ struct StereoRig {
   double BaselineMm() const { return right_from_left.translation().norm(); }
 };
 
+// Signed distance of right_px to the epipolar line of left_px in the right image, pixels (the
+// lens distortion removed; the sign is the side of the line): a drifted camera moves every pair
+// to the same side, noise to both sides (pipeline/drift.h, calib/refine_rig.h).
+double SignedEpipolarDistancePx(const StereoRig& rig, const Eigen::Vector2d& left_px,
+                                const Eigen::Vector2d& right_px);
+
 }  // namespace fringe

@@ -380,6 +380,11 @@ ViewResult ProcessView(const scan::ScanFolder& folder, const std::string& name,
     }
     s.points = rec.summary.points;
     s.valid_fraction = s.points / std::max(1.0, pixels);
+    // The phase is dropped with the view's images: the projector figures of the drift check
+    // are taken now (the markers' come after the view stage).
+    if (options.check_drift && folder.stereo()) {
+      MeasureProjectorConsistency(rig, rec.cloud, rec.phase_left, options.drift, &s.drift);
+    }
     for (ReportImage& p : ViewPictures(name, rec.cloud)) v.pictures.push_back(std::move(p));
     if (options.detect_markers) {
       stage = "markers";
@@ -479,6 +484,44 @@ void CheckProjectorColumns(const ScanOptions& options, std::vector<ViewResult>* 
       {"rows", {{r(0, 0), r(0, 1), r(0, 2), r(0, 3)}, {r(1, 0), r(1, 1), r(1, 2), r(1, 3)}}}};
 }
 
+// The drift verdict of every view that worked (pipeline/drift.h) and the scan's: the markers'
+// epipolar residual (stereo) or the two-direction residual (one camera, both directions), with
+// the projector figures ProcessView took.
+void CheckDrift(const scan::ScanFolder& folder, size_t num_schemes, const StereoRig& rig,
+                const ScanOptions& options, std::vector<ViewResult>* results, ScanSummary* s) {
+  s->drift_options = options.drift;
+  std::vector<const ViewDrift*> checked;
+  std::vector<std::string> drifted;
+  for (ViewResult& v : *results) {
+    if (!v.summary.ok) continue;
+    ViewDrift& d = v.summary.drift;
+    if (folder.stereo()) {
+      MeasureMarkerEpipolar(rig, v.markers, &d);
+    } else if (num_schemes >= 2) {
+      MeasureTwoDirectionResidual(v.cloud, &d);
+    }
+    DecideDrift(options.drift, &d);
+    if (!d.checked) continue;
+    checked.push_back(&d);
+    ++s->drift_views_checked;
+    for (const std::string& e : d.evidence) {
+      // "markers (23 in both images)" -> "markers": the kinds of evidence over the scan.
+      const std::string kind = e.substr(0, e.find(" ("));
+      if (std::find(s->drift_evidence.begin(), s->drift_evidence.end(), kind) ==
+          s->drift_evidence.end()) {
+        s->drift_evidence.push_back(kind);
+      }
+    }
+    if (d.drift) drifted.push_back(StrCat("view ", v.summary.name, ": ", d.message));
+  }
+  s->epipolar_rms_px = PooledEpipolarRmsPx(checked);
+  s->calibration_drift = !drifted.empty();
+  for (const std::string& w : drifted) util::LogWarning("scan: " + w);
+  if (s->drift_views_checked == 0) {
+    util::LogInfo("scan: calibration drift not checked: no view had redundant evidence");
+  }
+}
+
 ReportTable ViewTable(const std::vector<ScanViewSummary>& views, bool stereo) {
   ReportTable t;
   t.caption = "Views";
@@ -493,18 +536,28 @@ ReportTable ViewTable(const std::vector<ScanViewSummary>& views, bool stereo) {
               stereo ? "decoded right" : "decoded 2nd direction",
               "read s",
               "decode s",
-              "reconstruct s"};
+              "reconstruct s",
+              "epipolar RMS px",
+              "projector bias px",
+              "drift"};
   for (const ScanViewSummary& v : views) {
     if (!v.ok) {
       t.rows.push_back({v.name, "FAILED in " + v.failed_stage + ": " + v.message, "", "", "", "",
-                        "", Fixed(v.read_s, 3), Fixed(v.decode_s, 3), Fixed(v.reconstruct_s, 3)});
+                        "", Fixed(v.read_s, 3), Fixed(v.decode_s, 3), Fixed(v.reconstruct_s, 3), "",
+                        "", ""});
       continue;
     }
+    const ViewDrift& d = v.drift;
     t.rows.push_back({v.name, "ok", std::to_string(v.points), std::to_string(v.markers),
                       Fixed(100 * v.valid_fraction, 1) + " %",
                       Fixed(100 * v.decode_valid_left, 1) + " %",
                       Fixed(100 * v.decode_valid_right, 1) + " %", Fixed(v.read_s, 3),
-                      Fixed(v.decode_s, 3), Fixed(v.reconstruct_s, 3)});
+                      Fixed(v.decode_s, 3), Fixed(v.reconstruct_s, 3),
+                      std::isfinite(d.epipolar_rms_px) ? Fixed(d.epipolar_rms_px, 3) : "-",
+                      std::isfinite(d.projector_bias_px) ? Fixed(d.projector_bias_px, 3) : "-",
+                      !d.checked ? "not checked"
+                      : d.drift  ? "DRIFT"
+                                 : "no"});
   }
   return t;
 }
@@ -839,6 +892,32 @@ void HandleFailures(const fs::path& project, const fs::path& out, bool keep_goin
   }
 }
 
+// The drift verdict for the report: the warning first, with the views and the evidence.
+std::string DriftParagraph(const ScanSummary& s) {
+  if (s.drift_views_checked == 0) {
+    return "Calibration drift: not checked (no view had redundant evidence: markers seen by both "
+           "cameras, a calibrated projector, or fringes in two directions).";
+  }
+  std::string evidence;
+  for (const std::string& e : s.drift_evidence) evidence += (evidence.empty() ? "" : ", ") + e;
+  std::string p = s.calibration_drift
+                      ? "WARNING: calibration drift. The rig no longer describes the sensor: "
+                      : "Calibration drift: none found. ";
+  p += StrCat(s.drift_views_checked, " of ", s.views_ok, " views checked from ", evidence,
+              "; epipolar RMS over the views ",
+              std::isfinite(s.epipolar_rms_px) ? Fixed(s.epipolar_rms_px, 3) + " px" : "-",
+              " (thresholds: systematic epipolar residual ",
+              s.drift_options.max_epipolar_systematic_px, " px, projector bias ",
+              s.drift_options.max_projector_bias_px, " px).");
+  for (const ScanViewSummary& v : s.views) {
+    if (v.ok && v.drift.drift) p += StrCat(" View ", v.name, ": ", v.drift.message, ".");
+  }
+  if (s.calibration_drift) {
+    p += " Recalibrate, or refine the rig from this scan (fringe refine).";
+  }
+  return p;
+}
+
 ReportSection RegistrationSection(const ScanSummary& s, const Model& m) {
   ReportSection sec;
   sec.title = "Registration";
@@ -1032,6 +1111,7 @@ Report BuildReport(const fs::path& project, const ScanSummary& s, const Calibrat
     ReportSection sec;
     sec.title = "Calibration";
     sec.paragraphs.push_back("Rig from " + cal.source + ".");
+    sec.paragraphs.push_back(DriftParagraph(s));
     ReportTable t;
     // The second device: the right camera, or in a camera + projector scan the projector.
     const CameraModel& second = s.stereo ? cal.rig.right : *cal.rig.projector;
@@ -1129,6 +1209,7 @@ void ScanOptions::Check() const {
   projector_calibration.Check();
   reconstruction.Check();
   projector_columns.Check();
+  drift.Check();
   registration.Check();
   fusion.Check();
   mesh.Check();
@@ -1160,6 +1241,7 @@ std::string ScanSummary::BriefReport() const {
                 Fixed(single_view_rms_mm, 4), " mm, fused RMS ", Fixed(fused_rms_mm, 4),
                 " mm (merged points ", Fixed(fused_overlap_rms_mm, 4), " mm)");
   }
+  if (calibration_drift) s += "; WARNING: calibration drift (see the views' drift check)";
   if (!message.empty()) s += ": " + message;
   return s;
 }
@@ -1205,7 +1287,9 @@ json ScanSummary::FiguresJson() const {
           {"single_view_sensor_rms_mm", figure(single_view_sensor_rms_mm)},
           {"single_view_all_rms_mm", figure(single_view_all_rms_mm)},
           {"mesh_rms_mm", figure(mesh_rms_mm)},
-          {"mesh_truth_rms_mm", figure(mesh_truth_rms_mm)}};
+          {"mesh_truth_rms_mm", figure(mesh_truth_rms_mm)},
+          {"calibration_drift", calibration_drift},
+          {"epipolar_rms_px", figure(epipolar_rms_px)}};
 }
 
 json ScanSummary::ToJson() const {
@@ -1229,6 +1313,13 @@ json ScanSummary::ToJson() const {
   j["mesh"] = meshing;
   j["mode"] = stereo ? "stereo" : "camera-projector";
   j["projector_columns"] = projector_columns;
+  j["drift"] = {{"views_checked", drift_views_checked},
+                {"evidence", drift_evidence},
+                {"max_epipolar_systematic_px", drift_options.max_epipolar_systematic_px},
+                {"min_markers", drift_options.min_markers},
+                {"max_projector_bias_px", drift_options.max_projector_bias_px},
+                {"min_projector_points", drift_options.min_projector_points},
+                {"max_two_direction_rms_px", drift_options.max_two_direction_rms_px}};
   if (calibration_rms_left_px > 0) {
     j["calibration_rms_left_px"] = calibration_rms_left_px;
     if (stereo) {
@@ -1258,7 +1349,10 @@ json ScanSummary::ToJson() const {
            {"overlap_fraction", e.overlap_fraction},
            {"rot_err_deg", figure(e.rot_err_deg)},
            {"trans_err_mm", figure(e.trans_err_mm)},
-           {"truth_rms_mm", figure(e.truth_rms_mm)}};
+           {"truth_rms_mm", figure(e.truth_rms_mm)},
+           {"epipolar_rms_px", figure(e.drift.epipolar_rms_px)},
+           {"drift", e.drift.drift},
+           {"drift_check", e.drift.ToJson()}};
     if (!e.ok) {
       o["failed_stage"] = e.failed_stage;
       o["message"] = e.message;
@@ -1388,6 +1482,7 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
       tbb::parallel_for(size_t{0}, results.size(),
                         [&](size_t i) { WriteViewCloud(dir, &results[i]); });
     }
+    if (options.check_drift) CheckDrift(folder, schemes.size(), cal.rig, options, &results, &s);
     s.views_s = timer.ElapsedSeconds();
     s.views_cpu_s = cpu.ElapsedSeconds();
     for (const ViewResult& v : results) {

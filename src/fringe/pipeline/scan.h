@@ -15,6 +15,9 @@
 //      OUT/registered/NNN.ply (organized, world frame);
 //   4. fusion (fusion::FuseViews) into OUT/fused.ply and screened Poisson meshing
 //      (fusion::MeshPoisson) into OUT/mesh.ply and OUT/mesh.stl;
+//   2b. drift: every view is checked against the rig (pipeline/drift.h: the markers' epipolar
+//      residual, the calibrated projector, two-direction phase), each verdict in the summary
+//      with the evidence it rests on, a warning when a view drifted;
 //   5. when the scan folder has truth (a simulated scan): pose errors, single-view and fused
 //      RMS deviation from the truth mesh, a deviation colour map;
 //   6. OUT/summary.json with every figure and OUT/report.html (pipeline/report.h).
@@ -45,6 +48,7 @@
 #include "fringe/fusion/fuse.h"
 #include "fringe/fusion/mesh.h"
 #include "fringe/geometry/stereo_rig.h"
+#include "fringe/pipeline/drift.h"
 #include "fringe/registration/markers.h"
 #include "fringe/registration/register_views.h"
 #include "fringe/stereo/projector_columns.h"
@@ -89,6 +93,9 @@ struct ScanOptions {
   // "projector_columns".
   bool fit_projector_columns = true;
   stereo::ProjectorColumnFitOptions projector_columns;
+  // Drift detection on every view (pipeline/drift.h); false skips it (no verdict).
+  bool check_drift = true;
+  DriftOptions drift;
   // Sticky markers of every view (registration/markers.h), written as OUT/views/NNN.markers.json.
   bool detect_markers = true;
   registration::MarkerDetectionOptions markers;
@@ -129,6 +136,8 @@ struct ScanViewSummary {
   double decode_valid_left = 0, decode_valid_right = 0;  // decoded pixel fractions
   double read_s = 0, decode_s = 0, reconstruct_s = 0;    // reconstruct_s: match to normals
   double markers_s = 0;
+  // Drift check of the view against the rig (ScanOptions::check_drift).
+  ViewDrift drift;
   // Registration (when the view got that far).
   std::string registration_path;  // "world", "markers", "marker-free", ...
   int matched_markers = 0;
@@ -148,6 +157,13 @@ struct ScanSummary {
   // 0 unless calibrated here; one camera: left = the camera, and the projector's.
   double calibration_rms_left_px = 0, calibration_rms_right_px = 0;
   double calibration_rms_projector_px = 0;
+  // Drift (pipeline/drift.h): true when any view drifted; the epipolar RMS pooled over the
+  // views (NaN without evidence); the views with a verdict; what the verdicts rest on.
+  bool calibration_drift = false;
+  double epipolar_rms_px = std::numeric_limits<double>::quiet_NaN();
+  int drift_views_checked = 0;
+  std::vector<std::string> drift_evidence;
+  DriftOptions drift_options;
   std::vector<ScanViewSummary> views;
   int views_ok = 0;
   int views_resumed = 0;  // views taken from an interrupted run (ScanOptions::resume)

@@ -57,6 +57,13 @@ constexpr double kMaxMeshRmsMm = 0.15;
 // so about twice the depth noise) and markers are measured in one camera (ring centre ray
 // against the fitted surface), so registration is looser than in stereo.
 constexpr double kMaxTransErrMmCameraProjector = 0.1;
+// Drift on the true rig: the markers' epipolar residual is their centres' noise (0.09-0.13 px
+// RMS on this half-size rig, ~12 px markers), its systematic part (the fitted plane) a fraction
+// of it (0.02-0.065 px), and the points' mean projector column residual nearly zero (0.002 px);
+// inside DriftOptions' thresholds (0.1 px, 0.05 px), which the drifted rig below exceeds.
+constexpr double kMaxIntactEpipolarRmsPx = 0.2;
+constexpr double kMaxIntactSystematicPx = 0.08;
+constexpr double kMaxIntactProjectorBiasPx = 0.02;
 
 // Small, quick meshing for tests (the default depth 10 is for the full-size scan).
 ScanOptions TestOptions() {
@@ -240,6 +247,17 @@ TEST_F(ScanTest, WholeChainMatchesTheTruth) {
     }
     EXPECT_LT(worst_mm, kFloatStorageMm) << name;
   }
+  // The true rig: no view drifted, each checked by its markers and the calibrated projector.
+  EXPECT_FALSE(s.calibration_drift);
+  EXPECT_EQ(s.drift_views_checked, 3);
+  EXPECT_LT(s.epipolar_rms_px, kMaxIntactEpipolarRmsPx);
+  for (const ScanViewSummary& v : s.views) {
+    EXPECT_TRUE(v.drift.checked) << v.name << ": " << v.drift.message;
+    EXPECT_FALSE(v.drift.drift) << v.name << ": " << v.drift.message;
+    EXPECT_EQ(v.drift.evidence.size(), 2u) << v.name;
+    EXPECT_LT(v.drift.epipolar_systematic_px, kMaxIntactSystematicPx) << v.name;
+    EXPECT_LT(std::abs(v.drift.projector_bias_px), kMaxIntactProjectorBiasPx) << v.name;
+  }
   EXPECT_TRUE(s.has_truth);
   EXPECT_LT(s.pose_rot_err_deg, kMaxRotErrDeg);
   EXPECT_LT(s.pose_trans_err_mm, kMaxTransErrMm);
@@ -268,6 +286,12 @@ TEST_F(ScanTest, WholeChainMatchesTheTruth) {
 
   const auto summary = io::ReadJson(out / "summary.json");
   EXPECT_EQ(summary["views_ok"].get<int>(), 3);
+  EXPECT_FALSE(summary["calibration_drift"].get<bool>());
+  EXPECT_TRUE(summary["epipolar_rms_px"].is_number());
+  for (const auto& v : summary["view_results"]) {
+    EXPECT_TRUE(v["epipolar_rms_px"].is_number());
+    EXPECT_FALSE(v["drift"].get<bool>());
+  }
   EXPECT_EQ(summary["points"].get<int64_t>(), points);
   EXPECT_EQ(summary["status"].get<std::string>(), "ok");
   for (const char* key :
@@ -301,6 +325,40 @@ TEST_F(ScanTest, WholeChainMatchesTheTruth) {
   }
   EXPECT_EQ(static_cast<int>(images.size()), sources);
   EXPECT_EQ(html.find("://"), std::string::npos);  // no external URL (base64 has no colon)
+}
+
+// The right camera rotated by 0.02 degrees about its x axis (pitch: a vertical disparity the
+// markers show, 0.44 px on this half-size rig) and its y axis (yaw: a change of depth that only
+// the projector shows): both pieces of evidence flag every view, and the report warns.
+TEST_F(ScanTest, DriftedRightCameraIsFlaggedByMarkersAndProjector) {
+  const fs::path scan = CopyOfScan("drifted");
+  StereoRig rig = io::ReadRig(Scan() / "rig.json");
+  const double angle_rad = 0.02 * M_PI / 180;
+  rig.right_from_left =
+      Rigid3d::FromAxisAngle(Eigen::Vector3d::UnitX(), angle_rad, Eigen::Vector3d::Zero()) *
+      Rigid3d::FromAxisAngle(Eigen::Vector3d::UnitY(), angle_rad, Eigen::Vector3d::Zero()) *
+      rig.right_from_left;
+  io::WriteRig(scan / "rig.json", rig);
+  ScanOptions o = TestOptions();
+  o.evaluate_truth = false;
+  const fs::path out = tmp_ / "out";
+  const ScanSummary s = RunScan(scan, out, o);
+  EXPECT_TRUE(s.calibration_drift);
+  EXPECT_EQ(s.drift_views_checked, 3);
+  for (const ScanViewSummary& v : s.views) {
+    ASSERT_TRUE(v.ok) << v.name << ": " << v.message;
+    EXPECT_TRUE(v.drift.drift) << v.name;
+    EXPECT_GT(v.drift.epipolar_systematic_px, o.drift.max_epipolar_systematic_px) << v.name;
+    EXPECT_GT(std::abs(v.drift.projector_bias_px), o.drift.max_projector_bias_px) << v.name;
+    EXPECT_NE(v.drift.message.find("markers' systematic epipolar"), std::string::npos)
+        << v.drift.message;
+    EXPECT_NE(v.drift.message.find("projector column"), std::string::npos) << v.drift.message;
+  }
+  const auto summary = io::ReadJson(out / "summary.json");
+  EXPECT_TRUE(summary["calibration_drift"].get<bool>());
+  EXPECT_TRUE(summary["view_results"][0]["drift"].get<bool>());
+  EXPECT_NE(util::ReadTextFile(out / "report.html").find("WARNING: calibration drift"),
+            std::string::npos);
 }
 
 // A camera + projector scan folder made from the stereo one (the same rendered left images):
@@ -488,6 +546,17 @@ TEST_F(OneCameraScanTest, BothDirectionsAndExposuresMatchTheTruth) {
         EXPECT_GT(v.decode_valid_right, kMinValidFraction) << v.name;
       } else {
         EXPECT_EQ(v.decode_valid_right, 0.0) << v.name;
+      }
+      // Drift: two directions give a redundant projector coordinate, the true rig passes; one
+      // direction has nothing redundant and says so.
+      EXPECT_EQ(v.drift.checked, c.both_directions) << v.name << ": " << v.drift.message;
+      EXPECT_FALSE(v.drift.drift) << v.name << ": " << v.drift.message;
+      if (c.both_directions) {
+        EXPECT_EQ(v.drift.epipolar_source, "two-direction phase");
+        std::cout << v.name << ": two-direction residual RMS " << v.drift.epipolar_rms_px
+                  << " px\n";
+      } else {
+        EXPECT_NE(v.drift.message.find("not checked"), std::string::npos) << v.drift.message;
       }
     }
     EXPECT_LT(s.pose_rot_err_deg, kMaxRotErrDeg);

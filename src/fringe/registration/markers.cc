@@ -58,16 +58,7 @@ std::string MarkerDetectionSummary::BriefReport() const {
 }
 
 double EpipolarDistancePx(const StereoRig& rig, const Vector2d& left_px, const Vector2d& right_px) {
-  const Vector2d xl = rig.left.Unproject(left_px);
-  const Vector2d xr = rig.right.Unproject(right_px);
-  const Eigen::Matrix3d R = rig.right_from_left.rotation_matrix();
-  const Vector3d& t = rig.right_from_left.translation();
-  Eigen::Matrix3d tx;
-  tx << 0, -t.z(), t.y(), t.z(), 0, -t.x(), -t.y(), t.x(), 0;
-  const Vector3d line = (tx * R) * Vector3d(xl.x(), xl.y(), 1);
-  const double norm = line.head<2>().norm();
-  if (norm <= 0) return std::numeric_limits<double>::infinity();
-  return std::abs(line.dot(Vector3d(xr.x(), xr.y(), 1))) / norm * rig.right.fx;
+  return std::abs(SignedEpipolarDistancePx(rig, left_px, right_px));
 }
 
 namespace {

@@ -124,6 +124,7 @@ ViewMarkers DetectViewMarkersOneCamera(const CameraModel& camera, const cv::Mat&
 // lens distortion removed).
 double EpipolarDistancePx(const StereoRig& rig, const Eigen::Vector2d& left_px,
                           const Eigen::Vector2d& right_px);
+// (The signed distance: SignedEpipolarDistancePx, geometry/stereo_rig.h.)
 
 // ---- Files (docs/formats.md, "View markers") ----
 

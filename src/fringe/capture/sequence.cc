@@ -229,6 +229,25 @@ nlohmann::json ToJson(const AutoExposureResult& r) {
           {"seconds", r.seconds}};
 }
 
+LitPixels ClassifyLit(const Frame& black, const Frame& white, double min_lit_contrast) {
+  if (black.image.size() != white.image.size()) {
+    throw Error(StrCat("lit pixels: the black frame is ", black.image.cols, "x", black.image.rows,
+                       " but the white frame ", white.image.cols, "x", white.image.rows));
+  }
+  const double full = std::ldexp(1.0, white.bit_depth) - 1;
+  cv::Mat w, b;
+  white.image.convertTo(w, CV_32F);
+  black.image.convertTo(b, CV_32F);
+  LitPixels r;
+  r.lit = (w - b) >= min_lit_contrast * full;
+  r.saturated = r.lit & (w >= full);
+  const int lit_count = cv::countNonZero(r.lit);
+  r.lit_fraction = static_cast<double>(lit_count) / static_cast<double>(w.total());
+  r.saturated_fraction =
+      lit_count > 0 ? static_cast<double>(cv::countNonZero(r.saturated)) / lit_count : 0.0;
+  return r;
+}
+
 AutoExposureResult FindExposure(const std::vector<Camera*>& cameras, Projector& projector,
                                 const CameraSettings& settings, const AutoExposureOptions& options,
                                 const SequenceOptions& sequence) {
@@ -266,16 +285,9 @@ AutoExposureResult FindExposure(const std::vector<Camera*>& cameras, Projector& 
     AutoExposureProbe p;
     p.exposure_us = exposure_us;
     for (size_t i = 0; i < cameras.size(); ++i) {
-      const double full = std::ldexp(1.0, white[i].bit_depth) - 1;
-      cv::Mat w, b;
-      white[i].image.convertTo(w, CV_32F);
-      black[i].image.convertTo(b, CV_32F);
-      const cv::Mat lit = (w - b) >= options.min_lit_contrast * full;
-      const cv::Mat saturated = lit & (w >= full);
-      const int lit_count = cv::countNonZero(lit);
-      p.lit_fraction.push_back(static_cast<double>(lit_count) / static_cast<double>(w.total()));
-      p.saturated_fraction.push_back(
-          lit_count > 0 ? static_cast<double>(cv::countNonZero(saturated)) / lit_count : 0.0);
+      const LitPixels lit = ClassifyLit(black[i], white[i], options.min_lit_contrast);
+      p.lit_fraction.push_back(lit.lit_fraction);
+      p.saturated_fraction.push_back(lit.saturated_fraction);
     }
     r.probes.push_back(p);
     return p;

@@ -108,6 +108,18 @@ struct AutoExposureOptions {
   void Check() const;
 };
 
+// Which pixels of a camera the projector lights, from one frame under a black and one under a
+// white projector frame (same exposure): lit where white - black >= min_lit_contrast of full
+// scale, saturated where lit and white is at full scale (2^bit_depth - 1). The one
+// classification of --auto-exposure (FindExposure) and --preview (preview.h).
+struct LitPixels {
+  cv::Mat lit;                    // CV_8UC1, 255 where lit
+  cv::Mat saturated;              // CV_8UC1, 255 where lit and saturated under white
+  double lit_fraction = 0;        // of the image
+  double saturated_fraction = 0;  // of the lit pixels (0 when none is lit)
+};
+LitPixels ClassifyLit(const Frame& black, const Frame& white, double min_lit_contrast);
+
 struct AutoExposureProbe {
   double exposure_us = 0;
   std::vector<double> saturated_fraction;  // per camera, of its lit pixels

@@ -7,9 +7,11 @@
 #include <memory>
 
 #include "fringe/capture/capture.h"
+#include "fringe/capture/preview.h"
 #include "fringe/cli/cli.h"
 #include "fringe/cli/scheme_flags.h"
 #include "fringe/scan/scan_folder.h"
+#include "fringe/util/error.h"
 
 namespace fringe::cli {
 
@@ -23,6 +25,10 @@ void AddCaptureCommand(CLI::App& app) {
     std::vector<int> roi;
     bool json = false;
     bool no_feedback = false;
+    bool preview = false;
+    std::string preview_screen;
+    std::string preview_pattern = "white";
+    int preview_frames = 0;
   };
   auto a = std::make_shared<Args>();
   CLI::App* sub = app.add_subcommand(
@@ -107,7 +113,22 @@ void AddCaptureCommand(CLI::App& app) {
                   "views and overlap); default PROJECT/rig.json when it exists")
       ->check(CLI::ExistingFile);
   sub->add_flag("--no-feedback", a->no_feedback, "Do not decode the new view for the feedback");
-  sub->add_flag("--json", a->json, "Print the capture summary as JSON");
+  sub->add_flag("--preview", a->preview,
+                "Set up the sensor instead of capturing: both cameras live in a window (saturated "
+                "pixels red, a focus measure, the fraction each camera sees lit by the projector); "
+                "nothing is written to PROJECT");
+  sub->add_option("--preview-screen", a->preview_screen,
+                  "--preview: the operator's X11 display for the window (default $DISPLAY)");
+  sub->add_option("--preview-pattern", a->preview_pattern,
+                  "--preview: what the projector shows: white, focus (a fine checkerboard) or "
+                  "crosshair; keys w, f, c switch in the window")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"white", "focus", "crosshair"}));
+  sub->add_option("--preview-frames", a->preview_frames,
+                  "--preview: refreshes before exiting (0: until the window is closed or q)")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 1000000));
+  sub->add_flag("--json", a->json, "Print the capture summary (--preview: the figures) as JSON");
   sub->callback([a] {
     capture::CaptureOptions o = a->options;
     o.camera.trigger = capture::ParseTriggerSource(a->trigger);
@@ -129,6 +150,44 @@ void AddCaptureCommand(CLI::App& app) {
     } else {
       scheme = phase::SchemeFromArgument(a->scheme.empty() ? "heterodyne-4x3" : a->scheme,
                                          a->parameters);
+    }
+    if (a->preview) {
+      // Setting up only: the settings that decide what a capture writes have no meaning here.
+      if (o.board || o.measure_latency || o.auto_exposure || !o.exposures_us.empty()) {
+        throw Error(
+            "--preview does not capture: drop --board, --measure-latency, --auto-exposure and "
+            "--exposures");
+      }
+      capture::PreviewOptions p;
+      p.left = o.left;
+      p.right = o.right;
+      p.projector = o.projector;
+      p.projector_width = scheme.projector_width;
+      p.projector_height = scheme.projector_height;
+      p.preview_screen = a->preview_screen;
+      p.camera = o.camera;
+      p.sequence = o.sequence;
+      // The project is only read (its measured latency), never created.
+      if (o.settle_ms >= 0) {
+        p.sequence.settle_ms = o.settle_ms;
+      } else if (auto ms = capture::ReadProjectLatency(a->project)) {
+        p.sequence.settle_ms = *ms;
+      }
+      p.pattern = capture::ParsePreviewPattern(a->preview_pattern);
+      p.frames = a->preview_frames;
+      const capture::PreviewResult r = capture::RunPreview(p);
+      if (a->json) {
+        std::cout << capture::ToJson(r).dump(2) << "\n";
+      } else {
+        std::cout << "preview: " << r.refreshes << " refreshes in " << r.seconds << " s, "
+                  << r.pattern << "\n";
+        for (const auto& f : r.cameras) {
+          std::cout << "  " << f.camera << " " << f.id << ": saturated " << f.saturated_pct
+                    << " % (" << f.saturated_lit_pct << " % of the lit pixels under white), focus "
+                    << f.focus << ", lit " << 100 * f.lit_fraction << " %\n";
+        }
+      }
+      return;
     }
     const capture::CaptureSummary s = capture::CaptureIntoProject(a->project, scheme, o);
     if (a->json) {

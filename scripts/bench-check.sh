@@ -43,7 +43,7 @@ start_all=$SECONDS
 run phase "$bench/bench_phase" --json --quick --repeats 5
 run reconstruction "$bench/bench_reconstruction" --json --quick
 run fusion "$bench/bench_fusion" --json --scale 0.25 --views 4 --registration injected \
-  --no-mesh --cache "$work/fusion"
+  --no-mesh
 run pipeline "$bench/bench_pipeline" --json --views 2 --rig-scale 0.5 --work "$work/pipeline"
 echo "total: $((SECONDS - start_all)) s" >>"$out/seconds.txt"
 

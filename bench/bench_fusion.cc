@@ -34,9 +34,14 @@
 // Usage: bench_fusion [--json] [--views 8] [--scale 0.5] [--noise 1.5]
 //                     [--registration module|injected] [--rot-err-deg 0.005]
 //                     [--trans-err-mm 0.01] [--poisson-depth 10] [--no-peers] [--no-mesh]
-//                     [--no-cgal] [--cache DIR] [--diagnose]
+//                     [--no-cgal] [--cgal-budget-gib 0] [--cgal-budget-s 300] [--cache DIR]
+//                     [--diagnose]
+// CGAL's Poisson (the meshing peer) runs within a memory and time budget (default: half the
+// available memory, at most 8 GiB, and 300 s); past either it is stopped and skipped, with the
+// reason in mesh_cgal_skipped (it grew past 23 GB on the demo part).
 #include <sys/resource.h>
 #include <tbb/parallel_for.h>
+#include <unistd.h>
 
 #include <open3d/camera/PinholeCameraIntrinsic.h>
 #include <open3d/geometry/Image.h>
@@ -47,14 +52,19 @@
 #include <open3d/pipelines/integration/ScalableTSDFVolume.h>
 #include <CLI/CLI.hpp>
 #include <algorithm>
+#include <chrono>
 #include <cmath>
+#include <condition_variable>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <mutex>
+#include <new>
 #include <nlohmann/json.hpp>
 #include <random>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "fringe/eval/deviation.h"
@@ -67,6 +77,7 @@
 #include "fringe/sim/demo_part.h"
 #include "fringe/sim/scan.h"
 #include "fringe/stereo/reconstruct_view.h"
+#include "fringe/util/error.h"
 #include "fringe/util/memory.h"
 #include "fringe/util/random.h"
 #include "fringe/util/timer.h"
@@ -92,6 +103,71 @@ double CpuSeconds() {
   getrusage(RUSAGE_SELF, &u);
   return static_cast<double>(u.ru_utime.tv_sec + u.ru_stime.tv_sec) +
          1e-6 * static_cast<double>(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
+}
+
+// Memory the kernel can still give this process (MemAvailable), GiB; 0 when unknown.
+double AvailableMemoryGiB() {
+  std::ifstream in("/proc/meminfo");
+  std::string key;
+  double kib = 0;
+  std::string unit;
+  while (in >> key >> kib >> unit) {
+    if (key == "MemAvailable:") return kib / (1024.0 * 1024.0);
+  }
+  return 0;
+}
+
+// Address space of this process (VmSize), bytes.
+double AddressSpaceBytes() {
+  std::ifstream in("/proc/self/statm");
+  double pages = 0;
+  in >> pages;
+  return pages * static_cast<double>(sysconf(_SC_PAGESIZE));
+}
+
+// Runs f with at most budget_gib more address space and budget_s seconds: past either, the
+// next allocation fails (RLIMIT_AS lowered, at the deadline by a watchdog thread) and f's
+// std::bad_alloc is caught. Returns "" when f finished, else why it was stopped. For a peer
+// whose memory cannot be predicted (CGAL's Poisson grew past 23 GB on the demo part): it must
+// not exhaust the machine, and the run must end in a known time.
+template <typename F>
+std::string RunWithinBudget(double budget_gib, double budget_s, F&& f) {
+  rlimit old{};
+  getrlimit(RLIMIT_AS, &old);
+  auto set_limit = [&](double bytes) {
+    rlimit lim = old;
+    lim.rlim_cur = static_cast<rlim_t>(bytes);
+    if (old.rlim_max != RLIM_INFINITY) lim.rlim_cur = std::min(lim.rlim_cur, old.rlim_max);
+    setrlimit(RLIMIT_AS, &lim);
+  };
+  set_limit(AddressSpaceBytes() + budget_gib * 1024.0 * 1024.0 * 1024.0);
+  std::mutex m;
+  std::condition_variable cv;
+  bool done = false, timed_out = false;
+  std::thread watchdog([&] {
+    std::unique_lock<std::mutex> lock(m);
+    if (!cv.wait_for(lock, std::chrono::duration<double>(budget_s), [&] { return done; })) {
+      timed_out = true;
+      set_limit(AddressSpaceBytes());  // no more memory: f's next allocation throws
+    }
+  });
+  std::string why;
+  try {
+    f();
+  } catch (const std::bad_alloc&) {
+    why = "stopped";
+  }
+  {
+    std::lock_guard<std::mutex> lock(m);
+    done = true;
+  }
+  cv.notify_one();
+  watchdog.join();
+  setrlimit(RLIMIT_AS, &old);
+  if (why.empty()) return why;
+  return timed_out ? util::StrCat("skipped: did not finish within ", budget_s, " s")
+                   : util::StrCat("skipped: needed more than ", budget_gib,
+                                  " GiB beyond the process's memory");
 }
 
 std::string DigestHex(uint64_t digest) {
@@ -315,6 +391,13 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   bool no_cgal = false;
   app.add_flag("--no-cgal", no_cgal, "Skip CGAL's Poisson (the meshing peer)");
+  double cgal_budget_gib = 0, cgal_budget_s = 300;
+  app.add_option("--cgal-budget-gib", cgal_budget_gib,
+                 "Memory CGAL's Poisson may take beyond the process's; past it the peer is "
+                 "skipped with a note (0: half the available memory, at most 8 GiB)");
+  app.add_option("--cgal-budget-s", cgal_budget_s,
+                 "Time CGAL's Poisson may take; past it the peer is skipped with a note")
+      ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   peers = !no_peers;
   const bool injected = registration_mode == "injected";
@@ -630,6 +713,9 @@ int main(int argc, char** argv) {
     j["tsdf_rms_mm"] = StatsOf(d_tsdf).rms;
     j["tsdf_p95_mm"] = StatsOf(d_tsdf).p95;
     j["tsdf_detail_err_mm"] = DetailRms(tsdf->points_, d_tsdf);
+    // Same-run ratios to the peer (scripts/bench-check.sh): its time over ours, its RMS over ours.
+    j["speedup_vs_tsdf"] = j["tsdf_s"].get<double>() / time_s;
+    j["rms_ratio_tsdf_over_fused"] = StatsOf(d_tsdf).rms / s_fused.rms;
 
     // Poisson on the concatenation.
     if (mesh) {
@@ -681,7 +767,17 @@ int main(int argc, char** argv) {
     if (cgal) {
       fusion::MeshOptions co = mo;
       co.library = fusion::MeshLibrary::kCgal;
-      run_mesh(co, "mesh_cgal_");
+      const double budget_gib =
+          cgal_budget_gib > 0 ? cgal_budget_gib : std::min(8.0, 0.5 * AvailableMemoryGiB());
+      j["mesh_cgal_budget_gib"] = budget_gib;
+      j["mesh_cgal_budget_s"] = cgal_budget_s;
+      util::Timer t;
+      const std::string note =
+          RunWithinBudget(budget_gib, cgal_budget_s, [&] { run_mesh(co, "mesh_cgal_"); });
+      if (!note.empty()) {
+        j["mesh_cgal_skipped"] = note;
+        j["mesh_cgal_time_s"] = t.ElapsedSeconds();
+      }
     }
     if (m.summary.ok()) {
       fusion::MeshOptions wt = mo;

@@ -5,7 +5,13 @@
 #include <time.h>
 
 #include <algorithm>
+#include <cstdint>
+#include <cstdio>
+#include <cstring>
+#include <string>
 #include <vector>
+
+#include <tbb/parallel_for.h>
 
 #include "fringe/util/timer.h"
 
@@ -45,6 +51,36 @@ double TimeMs(int repeats, F&& f) {
     t.push_back(timer.ElapsedMs());
   }
   return Median(t);
+}
+
+// FNV-1a over bytes: two builds whose digests of the same outputs agree computed identical bits.
+struct Digest {
+  uint64_t value = 14695981039346656037ull;
+  void Add(const void* data, size_t bytes) {
+    const auto* b = static_cast<const unsigned char*>(data);
+    for (size_t k = 0; k < bytes; ++k) value = (value ^ b[k]) * 1099511628211ull;
+  }
+  std::string Hex() const {
+    char text[17];
+    std::snprintf(text, sizeof(text), "%016llx", static_cast<unsigned long long>(value));
+    return text;
+  }
+};
+
+// This machine's memory bandwidth, GB/s: bytes copied per second by memcpy over buffers far
+// larger than any cache (256 MiB), split over all threads; the best of `repeats` copies.
+inline double CopyBandwidthGbPerS(int repeats = 5) {
+  const size_t bytes = size_t{256} << 20;
+  std::vector<char> from(bytes, 1), to(bytes, 2);
+  const size_t chunk = size_t{4} << 20;
+  double best_s = 1e30;
+  for (int i = 0; i < repeats; ++i) {
+    util::Timer timer;
+    tbb::parallel_for(size_t{0}, bytes / chunk,
+                      [&](size_t c) { std::memcpy(&to[c * chunk], &from[c * chunk], chunk); });
+    best_s = std::min(best_s, timer.ElapsedSeconds());
+  }
+  return bytes / best_s * 1e-9;
 }
 
 }  // namespace fringe::bench

@@ -59,27 +59,32 @@ inline float Wrap01Small(float x) { return x < 0.0f ? x + 1.0f : x; }
 // without run-time alias checks; the heaviest ones are also compiled for AVX2 and picked at run
 // time (GCC function multi-versioning), the default build staying baseline x86-64.
 #if defined(__GNUC__) && defined(__x86_64__) && !defined(__clang__)
-#define FRINGE_CLONES __attribute__((target_clones("avx2", "default")))
+#define FRINGE_CLONES __attribute__((target_clones("arch=x86-64-v4", "avx2", "default")))
 #else
 #define FRINGE_CLONES
 #endif
 
 // One phase-shift set over a row: least-squares A, B^2, wrapped phase psi and the fraction of
-// the period (psi - offset) / 2 pi in [0, 1). kN > 0 fixes the number of steps at compile time
-// (unrolled); kN == 0 uses n.
+// the period (psi - offset) / 2 pi in [0, 1); maxi: raised to the largest value of the set's
+// images (saturation over all sets in the same pass over the images). kN > 0
+// fixes the number of steps at compile time (unrolled); kN == 0 uses n.
 template <typename T, int kN>
 FRINGE_CLONES void SetRow(int w, const T* const* rows, int n, const float* ca, const float* cc,
                           const float* cs, float offset, float* __restrict psi_out,
-                          float* __restrict frac, float* __restrict bsq, float* __restrict a_out) {
+                          float* __restrict frac, float* __restrict bsq, float* __restrict a_out,
+                          float* __restrict maxi) {
   const int steps = kN > 0 ? kN : n;
   for (int c = 0; c < w; ++c) {
     float sa = 0.0f, sc = 0.0f, ss = 0.0f;
+    float m = maxi[c];
     for (int k = 0; k < steps; ++k) {
       const float x = static_cast<float>(rows[k][c]);
+      m = x > m ? x : m;
       sa += ca[k] * x;
       sc += cc[k] * x;
       ss += cs[k] * x;
     }
+    maxi[c] = m;
     const float psi = FastAtan2(ss, sc);
     bsq[c] = sc * sc + ss * ss;
     a_out[c] = sa;
@@ -90,16 +95,99 @@ FRINGE_CLONES void SetRow(int w, const T* const* rows, int n, const float* ca, c
   }
 }
 
+// out = in - other in cycles, wrapped to [0, 1): one heterodyne beat.
+FRINGE_CLONES void BeatRow(int w, const float* __restrict a, const float* __restrict b,
+                           float* __restrict out) {
+  for (int c = 0; c < w; ++c) out[c] = Wrap01Small(a[c] - b[c]);
+}
+
+// The coarsest level (cycles of period pt) placed in the one period centred on `centre`, px.
+FRINGE_CLONES void TopRow(int w, const float* __restrict top, float pt, float centre,
+                          float* __restrict v) {
+  for (int c = 0; c < w; ++c) {
+    const float x = top[c] * pt;
+    v[c] = x + pt * RoundF((centre - x) / pt);
+  }
+}
+
+// One unwrapping step: the order of the finer level ff (cycles of period pf) from the coarser
+// estimate v (px); resid keeps the largest rounding residual.
+FRINGE_CLONES void DownRow(int w, const float* __restrict ff, float pf, float* __restrict v,
+                           float* __restrict resid) {
+  const float inv = 1.0f / pf;
+  for (int c = 0; c < w; ++c) {
+    const float t = v[c] * inv - ff[c];
+    const float k = RoundF(t);
+    const float e = std::fabs(t - k);
+    resid[c] = resid[c] < e ? e : resid[c];
+    v[c] = (ff[c] + k) * pf;
+  }
+}
+
+// Whole stack: once the orders are known every set measures the same projector coordinate:
+// each set's order from the finest estimate v, the sets combined weighted by their inverse
+// variance, B_s^2 / (P_s^2 var_s) with var_s the set's phase variance per unit noise
+// (weights[s] = 1 / (P_s^2 var_s)). Sets in the outer loop so that the pixels vectorise; the
+// sums per pixel are taken in the same order as set by set.
+FRINGE_CLONES void WholeStackRow(int w, int num_sets, const float* __restrict frac,
+                                 const float* __restrict bsq, const float* periods,
+                                 const float* weights, float* __restrict num, float* __restrict den,
+                                 float* __restrict v) {
+  for (int c = 0; c < w; ++c) num[c] = den[c] = 0.0f;
+  for (int s = 0; s < num_sets; ++s) {
+    const float ps = periods[s], sw = weights[s];
+    const float* f = frac + static_cast<size_t>(s) * w;
+    const float* b = bsq + static_cast<size_t>(s) * w;
+    for (int c = 0; c < w; ++c) {
+      const float us = (f[c] + RoundF(v[c] / ps - f[c])) * ps;
+      const float ws = b[c] * sw;
+      num[c] += ws * (us - v[c]);
+      den[c] += ws;
+    }
+  }
+  for (int c = 0; c < w; ++c) v[c] += den[c] > 0.0f ? num[c] / den[c] : 0.0f;
+}
+
+// Gray code: the mid-level of the white and dark frames.
 template <typename T>
-FRINGE_CLONES void MaxRow(int w, const T* __restrict p, T* __restrict m) {
-  for (int c = 0; c < w; ++c) m[c] = p[c] > m[c] ? p[c] : m[c];
+FRINGE_CLONES void MidLevelRow(int w, const T* __restrict white, const T* __restrict dark,
+                               float* __restrict thr) {
+  for (int c = 0; c < w; ++c) {
+    thr[c] = 0.5f * (static_cast<float>(white[c]) + static_cast<float>(dark[c]));
+  }
 }
 
-void BeatRow(int w, float* __restrict a, const float* __restrict b) {
-  for (int c = 0; c < w; ++c) a[c] = Wrap01Small(a[c] - b[c]);
+// One Gray bit: Gray -> binary (bin), appended to the code.
+template <typename T>
+FRINGE_CLONES void GrayBitRow(int w, const T* __restrict p, const float* __restrict thr,
+                              int32_t* __restrict bin, int32_t* __restrict code) {
+  for (int c = 0; c < w; ++c) {
+    bin[c] ^= static_cast<float>(p[c]) > thr[c] ? 1 : 0;
+    code[c] = (code[c] << 1) | bin[c];
+  }
 }
 
-void SqrtRow(int w, const float* __restrict x, float* __restrict y) {
+// The projector coordinate from the Gray code and set 0's fraction f; with the complementary
+// bit (complementary != nullptr) the order near period edges comes from the half-period-shifted
+// code, so there are no edge jumps.
+template <typename T>
+FRINGE_CLONES void GrayOrderRow(int w, const T* __restrict complementary,
+                                const float* __restrict thr, const int32_t* __restrict bin,
+                                const int32_t* __restrict code, const float* __restrict f, float p0,
+                                float* __restrict v) {
+  if (complementary == nullptr) {
+    for (int c = 0; c < w; ++c) v[c] = (static_cast<float>(code[c]) + f[c]) * p0;
+    return;
+  }
+  for (int c = 0; c < w; ++c) {
+    const int last = bin[c] ^ (static_cast<float>(complementary[c]) > thr[c] ? 1 : 0);
+    const int k2 = (((code[c] << 1) | last) + 1) >> 1;
+    const int k = f[c] < 0.25f ? k2 : (f[c] > 0.75f ? k2 - 1 : code[c]);
+    v[c] = (static_cast<float>(k) + f[c]) * p0;
+  }
+}
+
+FRINGE_CLONES void SqrtRow(int w, const float* __restrict x, float* __restrict y) {
   for (int c = 0; c < w; ++c) y[c] = std::sqrt(x[c]);
 }
 
@@ -126,7 +214,8 @@ FRINGE_CLONES void JumpScreenRow(int w, const float* __restrict a, const float* 
 }
 
 // Number of pixels per reason code (vectorised compare-and-sum per code).
-void CountReasons(int w, const uint8_t* __restrict reason, std::array<int64_t, 6>* counts) {
+FRINGE_CLONES void CountReasons(int w, const uint8_t* __restrict reason,
+                                std::array<int64_t, 6>* counts) {
   int64_t invalid = 0;
   for (int k = 1; k < 6; ++k) {
     int n = 0;
@@ -151,11 +240,10 @@ void SetCounts(const std::array<int64_t, kNumReasons>& counts, DecodeSummary* su
 
 // Reason codes: 0 valid, 1 saturated, 2 under-exposed, 3 low modulation, 4 shadow, 5 ambiguous
 // order (first failing test wins).
-template <typename T>
-void ReasonRow(int w, const T* __restrict maxi, const float* __restrict a0,
-               const float* __restrict bsq, const float* __restrict resid, float saturation,
-               float min_background, float b_min_sq, float min_ratio_sq, float max_residual,
-               uint8_t* __restrict reason) {
+FRINGE_CLONES void ReasonRow(int w, const float* __restrict maxi, const float* __restrict a0,
+                             const float* __restrict bsq, const float* __restrict resid,
+                             float saturation, float min_background, float b_min_sq,
+                             float min_ratio_sq, float max_residual, uint8_t* __restrict reason) {
   for (int c = 0; c < w; ++c) {
     int r = resid[c] > max_residual ? 5 : 0;
     r = bsq[c] < min_ratio_sq * a0[c] * a0[c] ? 4 : r;
@@ -163,19 +251,77 @@ void ReasonRow(int w, const T* __restrict maxi, const float* __restrict a0,
     // defocus, and its N steps estimate B best).
     r = bsq[c] < b_min_sq ? 3 : r;
     r = a0[c] < min_background ? 2 : r;
-    r = static_cast<float>(maxi[c]) >= saturation ? 1 : r;
+    r = maxi[c] >= saturation ? 1 : r;
     reason[c] = static_cast<uint8_t>(r);
   }
 }
 
-void OutputRow(int w, const uint8_t* __restrict reason, const float* __restrict v,
-               float* __restrict abs, uint8_t* __restrict mask) {
+FRINGE_CLONES void OutputRow(int w, const uint8_t* __restrict reason, const float* __restrict v,
+                             float* __restrict abs, uint8_t* __restrict mask) {
   const float nan = std::numeric_limits<float>::quiet_NaN();
   for (int c = 0; c < w; ++c) mask[c] = static_cast<uint8_t>(reason[c] == 0 ? 255 : 0);
   for (int c = 0; c < w; ++c) {
     const float x = v[c] - 0.5f;
     abs[c] = reason[c] == 0 ? x : nan;
   }
+}
+
+// Noise samples of one row of EstimateNoise: sample i takes the four pixels (row q, column
+// 2 i + q dx), q = 0..3, rows[q * n + k] being image k's row for q; delta is their third
+// difference per image, -v0 + 3 v1 - 3 v2 + v3 (exact integers), and rss[i] = |U^T delta|^2 its
+// squared residual (basis: U, n x dims row-major) over its expectation per unit noise
+// variance, 20 dims. ok[i] = 0 when any of the 4 n values is clipped (outside [1, hi]).
+template <typename T>
+FRINGE_CLONES void NoiseSampleRow(int count, int dx, int n, int dims, const void* const* rows,
+                                  const double* basis, int hi, int32_t* __restrict delta,
+                                  uint8_t* __restrict ok, double* __restrict proj,
+                                  double* __restrict rss) {
+  std::fill(ok, ok + count, uint8_t{1});
+  std::fill(proj, proj + static_cast<size_t>(dims) * count, 0.0);
+  for (int k = 0; k < n; ++k) {
+    const T* p0 = static_cast<const T*>(rows[k]);
+    const T* p1 = static_cast<const T*>(rows[n + k]) + dx;
+    const T* p2 = static_cast<const T*>(rows[2 * n + k]) + 2 * dx;
+    const T* p3 = static_cast<const T*>(rows[3 * n + k]) + 3 * dx;
+    for (int i = 0; i < count; ++i) {
+      const int a = p0[2 * i], b = p1[2 * i], c = p2[2 * i], d = p3[2 * i];
+      const int lo = std::min(std::min(a, b), std::min(c, d));
+      const int up = std::max(std::max(a, b), std::max(c, d));
+      ok[i] &= static_cast<uint8_t>((lo >= 1) & (up <= hi));
+      delta[i] = -a + 3 * b - 3 * c + d;
+    }
+    for (int j = 0; j < dims; ++j) {
+      const double u = basis[static_cast<size_t>(k) * dims + j];
+      double* t = proj + static_cast<size_t>(j) * count;
+      for (int i = 0; i < count; ++i) t[i] += u * static_cast<double>(delta[i]);
+    }
+  }
+  std::fill(rss, rss + count, 0.0);
+  for (int j = 0; j < dims; ++j) {
+    const double* t = proj + static_cast<size_t>(j) * count;
+    for (int i = 0; i < count; ++i) rss[i] += t[i] * t[i];
+  }
+  const double scale = 20.0 * dims;  // E|R delta|^2 = 20 sigma^2 dims
+  for (int i = 0; i < count; ++i) rss[i] /= scale;
+}
+
+// Block means of the valid samples of a row, kBlock consecutive valid samples each (a last
+// partial block is dropped), appended to `means`. Sums are taken in sample order.
+template <int kBlock>
+FRINGE_CLONES void BlockMeans(int count, const double* __restrict value, const uint8_t* ok,
+                              double* __restrict packed, double* __restrict sums,
+                              std::vector<float>* means) {
+  int m = 0;
+  for (int i = 0; i < count; ++i) {  // branch-free compaction of the valid samples
+    packed[m] = value[i];
+    m += ok[i];
+  }
+  const int blocks = m / kBlock;
+  for (int b = 0; b < blocks; ++b) sums[b] = 0.0;
+  for (int j = 0; j < kBlock; ++j) {
+    for (int b = 0; b < blocks; ++b) sums[b] += packed[b * kBlock + j];
+  }
+  for (int b = 0; b < blocks; ++b) means->push_back(static_cast<float>(sums[b] / kBlock));
 }
 
 // Least-squares coefficients: A = sum ca_k I_k, B cos(phi) = sum cc_k I_k,
@@ -343,28 +489,25 @@ struct Kernel {
   void operator()(const tbb::blocked_range<int>& range) const {
     const int w = images[0].cols;
     const int num_sets = static_cast<int>(scheme.phase_sets.size());
-    // Row buffers, allocated once per task.
-    std::vector<float> frac(static_cast<size_t>(num_sets) * w),
-        bsq(static_cast<size_t>(num_sets) * w);
-    std::vector<float> a0(w), v(w), resid(w), level(w * static_cast<size_t>(num_sets));
-    std::vector<float> psi_scratch(w), a_scratch(w);
-    std::vector<T> maxi(w);
-    std::vector<uint8_t> reason(w);
+    const size_t wn = static_cast<size_t>(w) * num_sets;
+    // Row buffers, allocated once per task: per set its phase fraction and B^2; the heterodyne
+    // levels above level 0 (level l holds num_sets - l beat phases).
+    std::vector<float> frac(wn), bsq(wn), tri(wn * num_sets / 2 + w);
+    std::vector<float> v(w), resid(w), thr(w), num(w), den(w), psi_scratch(w), a_scratch(w);
+    std::vector<float> maxi(w);
     std::vector<int32_t> code1(w), bin(w);
     std::vector<const T*> rows(images.size());
     for (int r = range.begin(); r < range.end(); ++r) {
       for (size_t i = 0; i < images.size(); ++i) rows[i] = images[i].ptr<T>(r);
-      float* out_abs = out->absolute_phase.ptr<float>(r);
       float* out_wrapped = out->wrapped_phase.ptr<float>(r);
-      float* out_mod = out->modulation.ptr<float>(r);
-      float* out_bg = out->background.ptr<float>(r);
-      uint8_t* out_mask = out->mask.ptr<uint8_t>(r);
+      float* out_bg = out->background.ptr<float>(r);  // A of set 0, the tests' a0
+      uint8_t* out_reason = out->reason.ptr<uint8_t>(r);
 
-      // Saturation: the largest value over the phase-shift images. A saturated Gray-code or
-      // white frame still gives an unambiguous bright decision, so it does not reject a pixel.
-      std::copy(rows[0], rows[0] + w, maxi.begin());
-      for (int i = 1; i < scheme.NumPhaseImages(); ++i) MaxRow<T>(w, rows[i], maxi.data());
-      // Least squares per set: phase (as a fraction of the period), B^2; A of set 0.
+      // Least squares per set: phase (as a fraction of the period), B^2; A of set 0. Saturation:
+      // the largest value over the phase-shift images, taken in the same pass (a saturated
+      // Gray-code or white frame still gives an unambiguous bright decision, so it does not
+      // reject a pixel).
+      std::fill(maxi.begin(), maxi.end(), 0.0f);
       for (int s = 0; s < num_sets; ++s) {
         const int first = scheme.PhaseImageIndex(s);
         const int n = scheme.phase_sets[s].steps;
@@ -373,10 +516,11 @@ struct Kernel {
         float* f = &frac[static_cast<size_t>(s) * w];
         float* b2 = &bsq[static_cast<size_t>(s) * w];
         float* psi = s == 0 ? out_wrapped : psi_scratch.data();
-        float* av = s == 0 ? a0.data() : a_scratch.data();
+        float* av = s == 0 ? out_bg : a_scratch.data();
         const T* const* set_rows = &rows[first];
         auto* fn = n == 3 ? &SetRow<T, 3> : n == 4 ? &SetRow<T, 4> : &SetRow<T, 0>;
-        fn(w, set_rows, n, cf.ca.data(), cf.cc.data(), cf.cs.data(), offset, psi, f, b2, av);
+        fn(w, set_rows, n, cf.ca.data(), cf.cc.data(), cf.cs.data(), offset, psi, f, b2, av,
+           maxi.data());
         if (gamma[s]) {
           for (int c = 0; c < w; ++c) {
             const float corrected = gamma[s]->Correct(psi[c]);
@@ -387,43 +531,27 @@ struct Kernel {
           }
         }
       }
-      std::copy(a0.begin(), a0.end(), out_bg);
-      SqrtRow(w, bsq.data(), out_mod);
+      SqrtRow(w, bsq.data(), out->modulation.ptr<float>(r));
 
       std::fill(resid.begin(), resid.end(), 0.0f);
       const float p0 = static_cast<float>(scheme.phase_sets[0].period_px);
       if (scheme.gray_bits > 0) {
         // Threshold: mid-level of white and dark frames when present, else the background A.
         const int wi = scheme.WhiteImageIndex(), di = scheme.DarkImageIndex();
-        float* thr = level.data();
         if (wi >= 0 && di >= 0) {
-          for (int c = 0; c < w; ++c) {
-            thr[c] = 0.5f * (static_cast<float>(rows[wi][c]) + static_cast<float>(rows[di][c]));
-          }
+          MidLevelRow<T>(w, rows[wi], rows[di], thr.data());
         } else {
-          std::copy(a0.begin(), a0.end(), thr);
+          std::copy(out_bg, out_bg + w, thr.begin());
         }
         std::fill(bin.begin(), bin.end(), 0);
         std::fill(code1.begin(), code1.end(), 0);
         for (int b = 0; b < scheme.gray_bits; ++b) {
-          const T* p = rows[scheme.GrayImageIndex(b)];
-          for (int c = 0; c < w; ++c) {
-            bin[c] ^= static_cast<float>(p[c]) > thr[c] ? 1 : 0;  // Gray -> binary
-            code1[c] = (code1[c] << 1) | bin[c];
-          }
+          GrayBitRow<T>(w, rows[scheme.GrayImageIndex(b)], thr.data(), bin.data(), code1.data());
         }
-        const float* f = frac.data();
-        if (scheme.gray_complementary) {
-          const T* p = rows[scheme.GrayImageIndex(scheme.gray_bits)];
-          for (int c = 0; c < w; ++c) {
-            const int last = bin[c] ^ (static_cast<float>(p[c]) > thr[c] ? 1 : 0);
-            const int k2 = (((code1[c] << 1) | last) + 1) >> 1;
-            const int k = f[c] < 0.25f ? k2 : (f[c] > 0.75f ? k2 - 1 : code1[c]);
-            v[c] = (static_cast<float>(k) + f[c]) * p0;
-          }
-        } else {
-          for (int c = 0; c < w; ++c) v[c] = (static_cast<float>(code1[c]) + f[c]) * p0;
-        }
+        const T* complementary =
+            scheme.gray_complementary ? rows[scheme.GrayImageIndex(scheme.gray_bits)] : nullptr;
+        GrayOrderRow<T>(w, complementary, thr.data(), bin.data(), code1.data(), frac.data(), p0,
+                        v.data());
       } else {
         const int num_levels = static_cast<int>(chain.size());
         // lv[l]: element 0 of level l (wrapped phase in cycles), which the top-down pass needs.
@@ -451,78 +579,45 @@ struct Kernel {
           if (hierarchical) {
             for (int l = 0; l < num_levels; ++l) lv[l] = &frac[static_cast<size_t>(l) * w];
           } else {
-            // Heterodyne: build the beat levels on the fly; `level` holds every element of the
-            // current level, `keep` element 0 of each level.
-            std::copy(frac.begin(), frac.end(), level.begin());
-            std::vector<std::vector<float>>& keep = level_keep();
-            keep.resize(num_levels);
-            for (int l = 0; l < num_levels; ++l) keep[l].resize(w);
-            std::copy(frac.begin(), frac.begin() + w, keep[0].begin());
+            // Heterodyne: level 0 is the sets' phases, level l element i the beat of level l - 1
+            // elements i and i + 1 (stored one level after the other in `tri`).
+            const float* prev = frac.data();
+            float* next = tri.data();
+            lv[0] = prev;
             for (int l = 1; l < num_levels; ++l) {
               const int count = num_sets - l;
               for (int i = 0; i < count; ++i) {
-                BeatRow(w, &level[static_cast<size_t>(i) * w],
-                        &level[static_cast<size_t>(i + 1) * w]);
+                BeatRow(w, &prev[static_cast<size_t>(i) * w], &prev[static_cast<size_t>(i + 1) * w],
+                        &next[static_cast<size_t>(i) * w]);
               }
-              std::copy(level.begin(), level.begin() + w, keep[l].begin());
+              lv[l] = next;
+              prev = next;
+              next += static_cast<size_t>(count) * w;
             }
-            for (int l = 0; l < num_levels; ++l) lv[l] = keep[l].data();
           }
           // Top: the coarsest period covers the span; take the representative nearest its
-          // centre.
-          const float pt = static_cast<float>(chain.back()[0].period);
-          const float centre = 0.5f * static_cast<float>(scheme.Span());
-          const float* top = lv[num_levels - 1];
-          for (int c = 0; c < w; ++c) {
-            const float x = top[c] * pt;
-            v[c] = x + pt * RoundF((centre - x) / pt);
-          }
+          // centre. Then each finer level's order from the coarser estimate.
+          TopRow(w, lv[num_levels - 1], static_cast<float>(chain.back()[0].period),
+                 0.5f * static_cast<float>(scheme.Span()), v.data());
           for (int l = num_levels - 2; l >= 0; --l) {
-            const float pf = static_cast<float>(chain[l][0].period);
-            const float inv = 1.0f / pf;
-            const float* ff = lv[l];
-            for (int c = 0; c < w; ++c) {
-              const float t = v[c] * inv - ff[c];
-              const float k = RoundF(t);
-              resid[c] = std::max(resid[c], std::fabs(t - k));
-              v[c] = (ff[c] + k) * pf;
-            }
+            DownRow(w, lv[l], static_cast<float>(chain[l][0].period), v.data(), resid.data());
           }
         }
         if (opt.whole_stack && num_sets > 1) {
-          // Once the orders are known every set measures the same projector coordinate: take
-          // each set's order from the finest estimate and combine them weighted by their
-          // inverse variance, B_s^2 / (P_s^2 var_s) with var_s the set's phase variance per unit
-          // noise (sqrt(N/2) better per set for equal shifts).
-          for (int c = 0; c < w; ++c) {
-            float num = 0.0f, den = 0.0f;
-            for (int s = 0; s < num_sets; ++s) {
-              const float ps = periods[s];
-              const float f = frac[static_cast<size_t>(s) * w + c];
-              const float us = (f + RoundF(v[c] / ps - f)) * ps;
-              const float ws = bsq[static_cast<size_t>(s) * w + c] * stack_weight[s];
-              num += ws * (us - v[c]);
-              den += ws;
-            }
-            v[c] += den > 0.0f ? num / den : 0.0f;
-          }
+          WholeStackRow(w, num_sets, frac.data(), bsq.data(), periods.data(), stack_weight.data(),
+                        num.data(), den.data(), v.data());
         }
       }
 
       // Mask and outputs.
+      ReasonRow(w, maxi.data(), out_bg, bsq.data(), resid.data(), saturation, min_background,
+                b_min_sq, min_ratio_sq, max_residual, out_reason);
+      OutputRow(w, out_reason, v.data(), out->absolute_phase.ptr<float>(r),
+                out->mask.ptr<uint8_t>(r));
       std::array<int64_t, 6> counts{};
-      ReasonRow<T>(w, maxi.data(), a0.data(), bsq.data(), resid.data(), saturation, min_background,
-                   b_min_sq, min_ratio_sq, max_residual, reason.data());
-      OutputRow(w, reason.data(), v.data(), out_abs, out_mask);
-      std::copy(reason.begin(), reason.end(), out->reason.ptr<uint8_t>(r));
-      CountReasons(w, reason.data(), &counts);
+      CountReasons(w, out_reason, &counts);
       (*row_counts)[r] = counts;
     }
-  }
-
-  static std::vector<std::vector<float>>& level_keep() {
-    thread_local std::vector<std::vector<float>> keep;
-    return keep;
   }
 };
 
@@ -692,7 +787,10 @@ double ModulationThreshold(const PatternScheme& scheme, double sigma_dn, double 
 NoiseEstimate EstimateNoise(const PatternScheme& scheme, const std::vector<cv::Mat>& images,
                             double full_scale_dn) {
   constexpr int kNoiseBlock = 16;
-  constexpr int kMaxNoiseSteps = kMaxSteps;  // residual vectors live on the stack
+  // At most this many sample rows, evenly spread: thousands of block means per direction fix the
+  // median to a fraction of a percent, and the estimate then reads a fixed part of the images
+  // instead of a quarter of every pixel (it runs before the decoder's pass over the stack).
+  constexpr int kMaxNoiseRows = 128;
   NoiseEstimate est;
   int set = -1;
   for (size_t s = 0; s < scheme.phase_sets.size(); ++s) {
@@ -708,17 +806,28 @@ NoiseEstimate EstimateNoise(const PatternScheme& scheme, const std::vector<cv::M
   }
   const auto shifts = scheme.phase_sets[set].Shifts();
   const int n = static_cast<int>(shifts.size());
-  const cv::Mat c = DemodulationMatrix(shifts);  // 3 x n
-  // Residual operator R = I - M C: r = R * intensities.
+  const int dims = n - 3;  // dimension of the residual space
+  // The residual of a pixel is R v, R = I - M C the projection onto the orthogonal complement of
+  // the model's columns (1, cos shift_k, -sin shift_k); U (n x dims, orthonormal columns, from
+  // the SVD of M) spans it, so R = U U^T and |R x|^2 = |U^T x|^2.
   cv::Mat m(n, 3, CV_64F);
   for (int k = 0; k < n; ++k) {
     m.at<double>(k, 0) = 1.0;
     m.at<double>(k, 1) = std::cos(shifts[k]);
     m.at<double>(k, 2) = -std::sin(shifts[k]);
   }
-  const cv::Mat r = cv::Mat::eye(n, n, CV_64F) - m * c;
+  cv::Mat sv, left, vt;
+  cv::SVD::compute(m, sv, left, vt, cv::SVD::FULL_UV);
+  std::vector<double> basis(static_cast<size_t>(n) * dims);  // U row-major, U(k, j)
+  for (int k = 0; k < n; ++k) {
+    for (int j = 0; j < dims; ++j)
+      basis[static_cast<size_t>(k) * dims + j] = left.at<double>(k, 3 + j);
+  }
   const int first = scheme.PhaseImageIndex(set);
   const cv::Mat& im0 = images.at(first);
+  const bool is16 = im0.depth() == CV_16U;
+  // Unclipped values are in [1, hi]: v > 0 and v < full_scale_dn.
+  const int hi = static_cast<int>(std::ceil(std::min(full_scale_dn, 65536.0))) - 1;
   // The residual also holds what the sinusoid model misses, above all projector-gamma harmonics
   // (a 4-step residual is the second harmonic: +-9 DN on the simulator's uncompensated patterns
   // against 1.5 DN of noise). Those follow the phase, which varies slowly from pixel to pixel,
@@ -726,53 +835,46 @@ NoiseEstimate EstimateNoise(const PatternScheme& scheme, const std::vector<cv::M
   // neighbours, -e(0) + 3 e(1) - 3 e(2) + e(3) (covariance 20 sigma^2 R, R the rank N - 3
   // projection), keeps the noise and cancels a smooth structure to third order (a harmonic
   // leaves amplitude * (k dphi)^3: 0.07 DN at 0.1 rad per pixel). It is taken along the rows and
-  // along the columns, and the smaller estimate wins: structure only adds variance.
-  auto residual = [&](int y, int x, double* e) {
-    double v[kMaxNoiseSteps];
-    for (int k = 0; k < n; ++k) {
-      const cv::Mat& im = images[first + k];
-      v[k] = im.depth() == CV_16U ? im.at<uint16_t>(y, x) : im.at<uint8_t>(y, x);
-      if (v[k] <= 0 || v[k] >= full_scale_dn) return false;
-    }
-    for (int j = 0; j < n; ++j) {
-      e[j] = 0;
-      for (int k = 0; k < n; ++k) e[j] += r.at<double>(j, k) * v[k];
-    }
-    return true;
-  };
-  struct Direction {
-    int dy, dx;
-  };
-  const Direction directions[2] = {{0, 1}, {1, 0}};
+  // along the columns, and the smaller estimate wins: structure only adds variance. The residual
+  // being linear, that difference is R applied to the third difference of the intensities
+  // (exact integers), so a sample costs N (N - 3) products (NoiseSampleRow).
+  const int stride = 2 * ((im0.rows + 2 * kMaxNoiseRows - 1) / (2 * kMaxNoiseRows));
   std::vector<float> medians;
   int64_t samples = 0;
-  for (const Direction& dir : directions) {
-    std::vector<std::vector<float>> per_row((im0.rows + 1) / 2);
-    tbb::parallel_for(0, static_cast<int>(per_row.size()), [&](int i) {
-      const int y = 2 * i;
-      double e[4][kMaxNoiseSteps];
-      double block_sum = 0;
-      int block_count = 0;
-      for (int col = 0; col < im0.cols; col += 2) {
-        if (y + 3 * dir.dy >= im0.rows || col + 3 * dir.dx >= im0.cols) break;
-        bool ok = true;
-        for (int q = 0; q < 4 && ok; ++q) ok = residual(y + q * dir.dy, col + q * dir.dx, e[q]);
-        if (!ok) continue;
-        double rss = 0;
-        for (int j = 0; j < n; ++j) {
-          const double d = -e[0][j] + 3 * e[1][j] - 3 * e[2][j] + e[3][j];
-          rss += d * d;
-        }
-        // Means over blocks of kNoiseBlock pixels: 8-bit residuals take few distinct values,
-        // and the median of block means is continuous and still robust to the odd defect.
-        block_sum += rss / (20.0 * (n - 3));
-        if (++block_count == kNoiseBlock) {
-          per_row[i].push_back(static_cast<float>(block_sum / kNoiseBlock));
-          block_sum = 0;
-          block_count = 0;
-        }
-      }
-    });
+  for (const int dir : {0, 1}) {  // 0: along rows, 1: along columns
+    const int dy = dir, dx = 1 - dir;
+    // Samples at every 2nd column of every `stride`-th row (every 2nd on small images) whose four
+    // pixels lie in the image.
+    const int count = dir == 0 ? (im0.cols >= 4 ? (im0.cols - 4) / 2 + 1 : 0) : (im0.cols + 1) / 2;
+    std::vector<std::vector<float>> per_row((im0.rows + stride - 1) / stride);
+    tbb::parallel_for(
+        tbb::blocked_range<int>(0, static_cast<int>(per_row.size()), 16),
+        [&](const tbb::blocked_range<int>& range) {
+          std::vector<int32_t> delta(count);
+          std::vector<double> proj(static_cast<size_t>(dims) * count), rss(count), packed(count),
+              sums(count / kNoiseBlock + 1);
+          std::vector<uint8_t> ok(count);
+          std::vector<const void*> rows(static_cast<size_t>(4) * n);
+          for (int i = range.begin(); i < range.end(); ++i) {
+            const int y = i * stride;
+            if (y + 3 * dy >= im0.rows || count == 0) continue;
+            for (int q = 0; q < 4; ++q) {
+              for (int k = 0; k < n; ++k)
+                rows[static_cast<size_t>(q) * n + k] = images[first + k].ptr(y + q * dy);
+            }
+            if (is16) {
+              NoiseSampleRow<uint16_t>(count, dx, n, dims, rows.data(), basis.data(), hi,
+                                       delta.data(), ok.data(), proj.data(), rss.data());
+            } else {
+              NoiseSampleRow<uint8_t>(count, dx, n, dims, rows.data(), basis.data(), hi,
+                                      delta.data(), ok.data(), proj.data(), rss.data());
+            }
+            // Means over blocks of kNoiseBlock samples: 8-bit residuals take few distinct values,
+            // and the median of block means is continuous and still robust to the odd defect.
+            BlockMeans<kNoiseBlock>(count, rss.data(), ok.data(), packed.data(), sums.data(),
+                                    &per_row[i]);
+          }
+        });
     std::vector<float> all;
     for (const auto& v : per_row) all.insert(all.end(), v.begin(), v.end());
     if (all.size() < 20) continue;
@@ -787,7 +889,7 @@ NoiseEstimate EstimateNoise(const PatternScheme& scheme, const std::vector<cv::M
     return est;
   }
   const float median = *std::min_element(medians.begin(), medians.end());
-  const int dof = kNoiseBlock * (n - 3);
+  const int dof = kNoiseBlock * dims;
   const double chi_median = std::pow(1.0 - 2.0 / (9.0 * dof), 3.0);
   est.sigma_dn = std::sqrt(median / chi_median);
   est.source = NoiseSource::kEstimated;

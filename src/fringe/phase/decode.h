@@ -119,9 +119,10 @@ struct NoiseEstimate {
 // patterns they exceed the noise several times), which varies smoothly with the phase; so the
 // estimate uses the third difference of four neighbouring pixels' residual vectors, along rows
 // and along columns, and keeps the smaller: |-e(0) + 3 e(1) - 3 e(2) + e(3)|^2 / (20 (N - 3))
-// has mean sigma^2 for independent noise. The median over unclipped pixels (every 2nd row and
-// column), divided by the median of chi^2 / dof, is robust to edges and defects. Without a set of N
-// >= 4 the result is kAssumedNoiseSigmaDn with source kAssumed. full_scale_dn: pixels reaching it
+// has mean sigma^2 for independent noise. The median over unclipped pixels (every 2nd column of
+// every 2nd row, or of 128 evenly spread rows on taller images), divided by the median of
+// chi^2 / dof, is robust to edges and defects. Without a set of N >= 4 the result is
+// kAssumedNoiseSigmaDn with source kAssumed. full_scale_dn: pixels reaching it
 // (or 0) in the set are skipped.
 NoiseEstimate EstimateNoise(const PatternScheme& scheme, const std::vector<cv::Mat>& images,
                             double full_scale_dn);

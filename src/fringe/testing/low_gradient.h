@@ -1,4 +1,4 @@
-// Test-only helper shared by phase_matching_test.cc and bench/bench_captures.cc (issue 10): the
+// Test-only helper shared by phase_matching_test.cc and bench/bench_captures.cc: the
 // simulated view in which the cameras sample the projector at only 0.2-0.35 projector pixels
 // per camera pixel, so that the phase advances by about its noise between neighbouring pixels
 // (the situation of real captures with fine cameras or coarse projectors, where a matcher that

@@ -88,9 +88,9 @@ std::array<double, 2> DisplayRange(const cv::Mat& values, double p = 0.01);
 // the measurement fills the colour map, the worst few percent saturate), or a tolerance the user
 // gives (`--tolerance MM`, as inspection software colours its +-tolerance band). Every picture
 // and the 3D view of one report use the same range, and the colour bar says which (Legend).
-// The 95th, not the 99th: on the demo's mesh |deviation| has its median at 0.007 mm, its 90th
-// percentile at 0.048, 95th at 0.100 and 99th at 0.316 mm (the rounded edges, a few percent of
-// the vertices); +-0.316 mm showed the whole part in one green, as the former +-3 RMS did.
+// The 95th percentile by default: a scan's worst few percent (the rounded edges of a mesh: on the
+// demo's mesh |deviation| has its median at 0.007 mm, 95th percentile 0.100, 99th 0.316 mm)
+// would otherwise stretch the range until the whole measured surface is one colour.
 struct DeviationRange {
   double half_range_mm = 1;
   bool from_tolerance = false;  // else from the data

@@ -8,10 +8,10 @@
 #include <limits>
 
 #include "fringe/eval/deviation.h"
-#include "fringe/fusion/test_views.h"
 #include "fringe/sim/poses.h"
 #include "fringe/sim/renderer.h"
 #include "fringe/sim/scene.h"
+#include "fringe/testing/fusion_views.h"
 #include "fringe/util/error.h"
 
 namespace fringe::fusion {

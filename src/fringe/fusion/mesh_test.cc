@@ -7,10 +7,10 @@
 
 #include "fringe/eval/deviation.h"
 #include "fringe/fusion/fuse.h"
-#include "fringe/fusion/test_views.h"
 #include "fringe/io/mesh_io.h"
 #include "fringe/sim/poses.h"
 #include "fringe/sim/scene.h"
+#include "fringe/testing/fusion_views.h"
 #include "fringe/util/error.h"
 #include "fringe_test.h"
 

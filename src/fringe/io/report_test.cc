@@ -7,7 +7,7 @@
 #include <limits>
 #include <opencv2/imgcodecs.hpp>
 
-#include "fringe/io/report_test_util.h"
+#include "fringe/testing/report.h"
 #include "fringe/util/files.h"
 #include "fringe_test.h"
 

@@ -212,6 +212,9 @@ struct FusionResult {
   // points in view and grid order.
   PointCloud fused;
   std::vector<uint16_t> support;  // per fused point: the number of views in its cluster (1 = one)
+  // Per fused point: the index (in the views given) of the view it came from: a centre's seed
+  // view (the locally best view of its cluster), a passed-through point's own view.
+  std::vector<uint16_t> view;
   // Per view, per grid slot: 1 where the point was in an overlap (for evaluation).
   std::vector<std::vector<uint8_t>> overlap;
   FusionSummary summary;

@@ -127,6 +127,12 @@ struct MeshResult {
 // Bad options throw fringe::Error; bad data come back as a status.
 MeshResult MeshPoisson(const PointCloud& cloud, const MeshOptions& options = {});
 
+// `mesh` decimated by quadric error (Garland & Heckbert, as MeshOptions::max_triangles) to at
+// most max_triangles triangles (>= 4, else fringe::Error), unreferenced vertices removed, vertex
+// normals recomputed when it had them; `mesh` itself when it has no more triangles. For a
+// lighter copy to show (the report's 3D view), not for measuring.
+TriangleMesh DecimateMesh(const TriangleMesh& mesh, int64_t max_triangles);
+
 // Writes the mesh by extension through io::WriteMesh: .ply (binary little-endian, with vertex
 // normals) or .stl (binary). Atomic (temporary name, then rename). Throws fringe::Error for another
 // extension or a failed write.

@@ -113,6 +113,9 @@ struct ScanOptions {
   // Compare with the scan folder's truth/ when it has one (simulated scans).
   bool evaluate_truth = true;
   bool write_report = true;  // OUT/report.html
+  // The report's deviation colours span +-tolerance_mm (an inspection's tolerance band), mm;
+  // 0: +-the 95th percentile of |deviation| (io::DeviationRange). >= 0.
+  double tolerance_mm = 0;
 
   void Check() const;
 };

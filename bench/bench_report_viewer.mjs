@@ -60,7 +60,7 @@ for (let run = 0; run < runs; ++run) {
       v.orbit(0.35, 0.08);
     });
     await page.evaluate(() => document.querySelector('.fringe-scene').scrollIntoView({ block: 'start' }));
-    const box = await page.locator('.fringe-scene canvas').boundingBox();
+    const box = await page.locator('.fringe-scene .fv-port canvas').boundingBox();
     await page.mouse.click(box.x + box.width * 0.5, box.y + box.height * 0.45);
     await page.waitForTimeout(500);
     await page.locator('.fringe-scene').screenshot({ path: screenshot, type: 'jpeg', quality: 85 });

@@ -324,7 +324,15 @@ TEST_F(ScanTest, WholeChainMatchesTheTruth) {
     EXPECT_NE(html.find(caption), std::string::npos) << caption;
   }
   EXPECT_EQ(static_cast<int>(images.size()), sources);
-  EXPECT_EQ(html.find("://"), std::string::npos);  // no external URL (base64 has no colon)
+  // No external URL: no source or link but the embedded ones (the viewer script names the XHTML
+  // namespace, "http://www.w3.org/1999/xhtml", which is no request).
+  for (const char* external : {"src=\"http", "src=\"//", "href=\"http", "href=\"//"}) {
+    EXPECT_EQ(html.find(external), std::string::npos) << external;
+  }
+  // The 3D view: its container, scene and the viewer script.
+  EXPECT_NE(html.find("<div class=\"fringe-scene\""), std::string::npos);
+  EXPECT_NE(html.find("id=\"fringe-scene-0-arrays\""), std::string::npos);
+  EXPECT_NE(html.find("fringeViewer"), std::string::npos);
 }
 
 // The right camera rotated by 0.02 degrees about its x axis (pitch: a vertical disparity the

@@ -3,6 +3,8 @@
 #include <ceres/cubic_interpolation.h>
 #include <ceres/sphere_manifold.h>
 
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 #include <cmath>
 #include <iomanip>
@@ -18,6 +20,7 @@ using util::StrCat;
 using Interpolator = ceres::BiCubicInterpolator<ceres::Grid2D<float, 1>>;
 
 constexpr double kDeg = 180 / M_PI;
+constexpr double kSqrt2 = 1.4142135623730951;
 
 std::string Fixed(double v, int digits) {
   std::ostringstream os;
@@ -135,10 +138,121 @@ double MarkerEpipolarRms(const StereoRig& rig, const std::vector<RefineMarker>& 
   return std::sqrt(sum2 / static_cast<double>(markers.size()));
 }
 
+// Standard deviations of the rig blocks (ambient coordinates; 0 for constant blocks and
+// coordinates a manifold holds) with the points (3 each, every residual block touches exactly
+// one) eliminated by their Schur complement: S = J_c'J_c - sum_i B_i' A_i^-1 B_i over the
+// robustified Jacobian, covariance sigma^2 S^-1 with sigma^2 = 2 cost / (residuals - free
+// parameters), the fit's own residual variance (the noise options set the weights between
+// kinds, the data their scale). A direction of S the data do not determine (eigenvalue below
+// 1e-10 of the largest) gives an infinite sigma to every parameter it moves, rather than being
+// dropped as a pseudo-inverse would. Dense in the rig's few parameters, linear in the points: a
+// scan's tens of thousands of points stay cheap. Returns false when nothing is redundant.
+bool RigStandardDeviations(ceres::Problem* problem, const std::vector<const double*>& rig_blocks,
+                           const std::vector<double*>& point_blocks,
+                           std::vector<std::vector<double>>* sd) {
+  sd->assign(rig_blocks.size(), {});
+  for (size_t i = 0; i < rig_blocks.size(); ++i) {
+    (*sd)[i].assign(static_cast<size_t>(problem->ParameterBlockSize(rig_blocks[i])), 0.0);
+  }
+  std::vector<double*> free_rig;
+  std::vector<int> rig_offset;  // tangent offset of each free rig block
+  int nc = 0;
+  for (const double* b : rig_blocks) {
+    double* m = const_cast<double*>(b);
+    rig_offset.push_back(nc);
+    if (problem->IsParameterBlockConstant(m)) continue;
+    free_rig.push_back(m);
+    nc += problem->ParameterBlockTangentSize(m);
+  }
+  ceres::Problem::EvaluateOptions eo;
+  eo.parameter_blocks = free_rig;
+  for (double* p : point_blocks) eo.parameter_blocks.push_back(p);
+  eo.apply_loss_function = true;
+  double cost = 0;
+  ceres::CRSMatrix jac;
+  if (!problem->Evaluate(eo, &cost, nullptr, nullptr, &jac)) return false;
+  const int m = jac.num_rows;
+  const int n = nc + 3 * static_cast<int>(point_blocks.size());
+  if (m <= n || nc == 0) return false;
+  const double sigma2 = 2 * cost / (m - n);
+  Eigen::MatrixXd ncc = Eigen::MatrixXd::Zero(nc, nc);
+  std::vector<Eigen::Matrix3d> a(point_blocks.size(), Eigen::Matrix3d::Zero());
+  std::vector<Eigen::MatrixXd> b(point_blocks.size(), Eigen::MatrixXd::Zero(3, nc));
+  Eigen::VectorXd jc(nc);
+  for (int r = 0; r < m; ++r) {
+    jc.setZero();
+    Eigen::Vector3d jp = Eigen::Vector3d::Zero();
+    int point = -1;
+    for (int k = jac.rows[static_cast<size_t>(r)]; k < jac.rows[static_cast<size_t>(r) + 1]; ++k) {
+      const int c = jac.cols[static_cast<size_t>(k)];
+      const double v = jac.values[static_cast<size_t>(k)];
+      if (c < nc) {
+        jc[c] = v;
+      } else {
+        point = (c - nc) / 3;
+        jp[(c - nc) % 3] = v;
+      }
+    }
+    ncc.noalias() += jc * jc.transpose();
+    if (point >= 0) {
+      a[static_cast<size_t>(point)].noalias() += jp * jp.transpose();
+      b[static_cast<size_t>(point)].noalias() += jp * jc.transpose();
+    }
+  }
+  for (size_t i = 0; i < point_blocks.size(); ++i) {
+    const Eigen::LDLT<Eigen::Matrix3d> ldlt(a[i]);
+    if (ldlt.info() != Eigen::Success || !(a[i].norm() > 0)) continue;  // a point nothing sees
+    ncc.noalias() -= b[i].transpose() * ldlt.solve(b[i]);
+  }
+  // Scale the columns so that the eigenvalue test compares like with like (degrees, mm, px).
+  Eigen::VectorXd scale = ncc.diagonal().cwiseMax(0).cwiseSqrt();
+  for (int k = 0; k < nc; ++k) scale[k] = scale[k] > 0 ? 1 / scale[k] : 0;
+  const Eigen::MatrixXd scaled = scale.asDiagonal() * ncc * scale.asDiagonal();
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(scaled);
+  if (eig.info() != Eigen::Success) return false;
+  const Eigen::VectorXd& lambda = eig.eigenvalues();
+  const double lambda_max = lambda.maxCoeff();
+  Eigen::MatrixXd inverse = Eigen::MatrixXd::Zero(nc, nc);
+  Eigen::VectorXd undetermined = Eigen::VectorXd::Zero(nc);  // weight in null directions
+  for (int k = 0; k < nc; ++k) {
+    const Eigen::VectorXd v = eig.eigenvectors().col(k);
+    if (lambda[k] > 1e-10 * lambda_max) {
+      inverse.noalias() += v * v.transpose() / lambda[k];
+    } else {
+      undetermined += v.cwiseAbs2();
+    }
+  }
+  const Eigen::MatrixXd cov = sigma2 * scale.asDiagonal() * inverse * scale.asDiagonal();
+  // Per block: ambient covariance through the manifold's plus Jacobian.
+  for (size_t i = 0; i < rig_blocks.size(); ++i) {
+    double* blk = const_cast<double*>(rig_blocks[i]);
+    if (problem->IsParameterBlockConstant(blk)) continue;
+    const int size = problem->ParameterBlockSize(blk);
+    const int tangent = problem->ParameterBlockTangentSize(blk);
+    const int off = rig_offset[i];
+    Eigen::MatrixXd plus = Eigen::MatrixXd::Identity(size, tangent);
+    if (const ceres::Manifold* man = problem->GetManifold(blk)) {
+      Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> pj(size, tangent);
+      man->PlusJacobian(blk, pj.data());
+      plus = pj;
+    }
+    const Eigen::MatrixXd c = plus * cov.block(off, off, tangent, tangent) * plus.transpose();
+    const Eigen::VectorXd null_weight = plus.cwiseAbs() * undetermined.segment(off, tangent);
+    for (int k = 0; k < size; ++k) {
+      (*sd)[i][static_cast<size_t>(k)] = null_weight[k] > 1e-6
+                                             ? std::numeric_limits<double>::infinity()
+                                             : std::sqrt(std::max(0.0, c(k, k)));
+    }
+  }
+  return true;
+}
+
 }  // namespace
 
 const char* ToString(RefineScale s) {
   switch (s) {
+    case RefineScale::kAuto:
+      return "auto";
     case RefineScale::kBaseline:
       return "baseline";
     case RefineScale::kProjector:
@@ -208,6 +322,7 @@ nlohmann::json RigRefinementSummary::ToJson() const {
   }
   return {{"status", ToString(status)},
           {"message", message},
+          {"scale", ToString(scale)},
           {"refined", refined},
           {"parameters", params},
           {"views", views},
@@ -233,9 +348,14 @@ RigRefinement RefineRig(const StereoRig& rig, const RigRefinementData& data,
   if (options.scale == RefineScale::kProjector && !rig.projector) {
     throw Error("refine: the scale is to be held by the projector, but the rig has none");
   }
+  RefineScale scale = options.scale;
+  if (scale == RefineScale::kAuto) {
+    scale = rig.projector ? RefineScale::kProjector : RefineScale::kBaseline;
+  }
   RigRefinement out;
   out.rig = rig;
   RigRefinementSummary& s = out.summary;
+  s.scale = scale;
   s.points = static_cast<int>(data.points.size());
   s.markers = static_cast<int>(data.markers.size());
   {
@@ -301,7 +421,7 @@ RigRefinement RefineRig(const StereoRig& rig, const RigRefinementData& data,
     if (v < phase.size() && phase[v]) {
       right_phase_ids.push_back(problem.AddResidualBlock(
           new ceres::AutoDiffCostFunction<RightPhaseCost, 1, kNumIntrinsics, 3, 3, 3>(
-              new RightPhaseCost{phase[v].get(), p.phase, options.phase_sigma_px}),
+              new RightPhaseCost{phase[v].get(), p.phase, kSqrt2 * options.phase_sigma_px}),
           NewLossFunction(RobustLoss::kHuber, phase_loss), right.data(), right_w.data(),
           right_t.data(), points[i].data()));
     }
@@ -341,7 +461,7 @@ RigRefinement RefineRig(const StereoRig& rig, const RigRefinementData& data,
     s.refined.push_back("focal lengths, principal points, k1 k2 of both cameras");
   if (has_right) {
     s.refined.push_back("right_from_left rotation");
-    if (options.scale == RefineScale::kBaseline) {
+    if (scale == RefineScale::kBaseline) {
       problem.SetManifold(right_t.data(), new ceres::SphereManifold<3>());
       s.refined.push_back(
           "right_from_left translation direction (its length, the baseline, "
@@ -351,13 +471,14 @@ RigRefinement RefineRig(const StereoRig& rig, const RigRefinementData& data,
     }
   }
   if (use_projector) {
-    if (options.scale == RefineScale::kProjector) {
-      problem.SetParameterBlockConstant(proj_w.data());
+    // Its orientation holds the depth gauge (header).
+    problem.SetParameterBlockConstant(proj_w.data());
+    if (scale == RefineScale::kProjector) {
       problem.SetParameterBlockConstant(proj_t.data());
     } else {
       // Its shift along its own columns (projector y) is invisible to vertical fringes.
       problem.SetManifold(proj_t.data(), new ceres::SubsetManifold(3, {1}));
-      s.refined.push_back("projector_from_left rotation and translation (x, z)");
+      s.refined.push_back("projector_from_left translation (x, z)");
     }
   }
 
@@ -394,8 +515,11 @@ RigRefinement RefineRig(const StereoRig& rig, const RigRefinementData& data,
   for (const double* b : blocks) {
     if (problem.HasParameterBlock(const_cast<double*>(b))) present.push_back(b);
   }
+  std::vector<double*> point_blocks;
+  for (Eigen::Vector3d& p : points) point_blocks.push_back(p.data());
+  for (Eigen::Vector3d& p : markers) point_blocks.push_back(p.data());
   std::vector<std::vector<double>> sd;
-  const bool have_sd = StandardDeviations(&problem, present, &sd);
+  const bool have_sd = RigStandardDeviations(&problem, present, point_blocks, &sd);
   const auto sigma_of = [&](const double* block, int k) {
     for (size_t i = 0; i < present.size(); ++i) {
       if (present[i] == block) return sd[i][static_cast<size_t>(k)];
@@ -419,11 +543,7 @@ RigRefinement RefineRig(const StereoRig& rig, const RigRefinementData& data,
           sigma_of(right_t.data(), k), options.max_translation_sigma_mm);
     }
   }
-  if (use_projector && options.scale == RefineScale::kBaseline) {
-    for (int k = 0; k < 3; ++k) {
-      add(StrCat("projector_from_left rotation ", axis[k]), "deg", proj_w0[k] * kDeg,
-          proj_w[k] * kDeg, sigma_of(proj_w.data(), k) * kDeg, options.max_rotation_sigma_deg);
-    }
+  if (use_projector && scale == RefineScale::kBaseline) {
     for (int k : {0, 2}) {
       add(StrCat("projector_from_left translation ", axis[k]), "mm", proj_t0[k], proj_t[k],
           sigma_of(proj_t.data(), k), options.max_translation_sigma_mm);

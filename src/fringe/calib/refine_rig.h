@@ -9,7 +9,8 @@
 //   - a point's left pixel (2): where it was measured, exact up to pixel_sigma_px;
 //   - its phase in the right camera (1): the right camera's absolute phase map, bicubically
 //     interpolated at the point's projection, minus the left phase (stereo with vertical
-//     fringes: the matcher's own constraint, now with the rig free);
+//     fringes: the matcher's own constraint, now with the rig free); both phases are noisy, so
+//     its noise is sqrt(2) phase_sigma_px;
 //   - its projector column (1, calibrated projector): the projection's column minus the phase;
 //   - a marker's centres in both images (2 + 2): the only evidence of a vertical disparity when
 //     the fringes are vertical.
@@ -17,11 +18,21 @@
 // and a calibrated projector carry the information; without either nothing is refined
 // (status kNoEvidence).
 //
-// Gauge and scale: the left camera frame is the sensor frame (fixed). The metric scale is held by
-// one length: the baseline |right_from_left.t| (kBaseline; its direction stays free) or the
-// projector's distance |projector_from_left.t| (kProjector; the baseline is then refined). A
-// projector seen through vertical fringes only does not see its own shift along its columns:
-// that translation component stays at its calibrated value.
+// Gauge and scale: the left camera frame is the sensor frame (fixed). With one fringe direction
+// the three devices see horizontal disparities; a yaw of the right camera (about the axis
+// perpendicular to the baseline) shifts the right disparity almost uniformly, which is what a
+// change of depth does, and a matching yaw of the projector keeps the points on their columns:
+// together they bend depth (1/z' = 1/z - c, a sphere flattened or stretched along the viewing
+// direction) and every observation stays consistent to first order. The data cannot tell; one
+// device's orientation must hold it. So the projector's orientation is never refined: it holds
+// this gauge (it is the third device of the trifocal consistency), and the metric scale is held
+// by one length: the projector's distance |projector_from_left.t| (kProjector: the projector's
+// pose is held, the baseline refined; the default when the projector is calibrated) or the
+// baseline |right_from_left.t| (kBaseline: its direction stays free; the projector's translation
+// is refined except its shift along its own columns, which vertical fringes do not see). Without
+// a calibrated projector only the markers constrain the rig, and they leave the right camera's
+// yaw to the same trade-off: such a refinement is refused as not determined unless the markers'
+// spread in depth decides it.
 //
 // A result is accepted only when the data determine it: every refined parameter's standard
 // deviation (ceres::Covariance, calib/bundle.h) must be below the options' limits, else the
@@ -66,14 +77,15 @@ struct RigRefinementData {
 };
 
 enum class RefineScale {
-  kBaseline = 0,   // |right_from_left.t| held
-  kProjector = 1,  // |projector_from_left.t| held (needs a calibrated projector)
+  kAuto = 0,       // kProjector when the rig has a calibrated projector, else kBaseline
+  kBaseline = 1,   // |right_from_left.t| held
+  kProjector = 2,  // the projector's pose held (needs a calibrated projector)
 };
 const char* ToString(RefineScale s);
 
 struct RigRefinementOptions {
   bool intrinsics = false;  // also fx fy cx cy k1 k2 of both cameras
-  RefineScale scale = RefineScale::kBaseline;
+  RefineScale scale = RefineScale::kAuto;
   double pixel_sigma_px = 0.02;   // a phase point's left pixel, > 0
   double phase_sigma_px = 0.05;   // decoded phase, projector pixels, > 0
   double marker_sigma_px = 0.05;  // marker centres, pixels, > 0
@@ -105,7 +117,8 @@ struct RefinedParameter {
 struct RigRefinementSummary {
   RefineStatus status = RefineStatus::kNoEvidence;
   std::string message;
-  std::vector<std::string> refined;  // the blocks refined, in words
+  RefineScale scale = RefineScale::kAuto;  // what held the scale (kAuto resolved)
+  std::vector<std::string> refined;         // the blocks refined, in words
   std::vector<RefinedParameter> parameters;
   int points = 0, markers = 0, views = 0;
   // Residual RMS by kind, before and after (NaN without that kind): markers' epipolar distance

@@ -13,7 +13,7 @@ namespace fringe::cli {
 void AddRefineCommand(CLI::App& app) {
   struct Args {
     std::string project, out, calib, cv_intrinsics, cv_extrinsics;
-    std::string scale = "baseline";
+    std::string scale = "auto";
     bool json = false;
     pipeline::RefineOptions options;
   };
@@ -36,9 +36,10 @@ void AddRefineCommand(CLI::App& app) {
   sub->add_flag("--intrinsics", a->options.rig.intrinsics,
                 "Also refine fx fy cx cy k1 k2 of both cameras");
   sub->add_option("--scale", a->scale,
-                  "What holds the metric scale: baseline (its length stays; the projector is "
-                  "refined) or projector (its pose stays; the baseline is refined)")
-      ->check(CLI::IsMember({"baseline", "projector"}))
+                  "What holds the metric scale: projector (its pose stays; the baseline is "
+                  "refined), baseline (its length stays; the projector's translation is refined) "
+                  "or auto (projector when the rig has a calibrated projector)")
+      ->check(CLI::IsMember({"auto", "baseline", "projector"}))
       ->capture_default_str();
   sub->add_option("--points-per-view", a->options.points_per_view,
                   "Phase points sampled per view (0: markers only)")
@@ -48,8 +49,9 @@ void AddRefineCommand(CLI::App& app) {
     a->options.calib = a->calib;
     a->options.opencv_intrinsics = a->cv_intrinsics;
     a->options.opencv_extrinsics = a->cv_extrinsics;
-    a->options.rig.scale =
-        a->scale == "projector" ? calib::RefineScale::kProjector : calib::RefineScale::kBaseline;
+    a->options.rig.scale = a->scale == "projector"  ? calib::RefineScale::kProjector
+                           : a->scale == "baseline" ? calib::RefineScale::kBaseline
+                                                    : calib::RefineScale::kAuto;
     const pipeline::RefineResult r = pipeline::RefineScanRig(a->project, a->out, a->options);
     if (a->json) {
       std::cout << r.summary.ToJson().dump(2) << "\n";

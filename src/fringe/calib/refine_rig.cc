@@ -574,7 +574,9 @@ RigRefinement RefineRig(const StereoRig& rig, const RigRefinementData& data,
     s.status = RefineStatus::kNotDetermined;
     s.message = "the data do not determine ";
     for (size_t i = 0; i < undetermined.size(); ++i) s.message += (i ? ", " : "") + undetermined[i];
-    if (undetermined.empty()) s.message += "the rig (the solver did not converge)";
+    if (undetermined.empty()) {
+      s.message += "the rig (the solver did not converge: " + s.solve.BriefReport() + ")";
+    }
     s.message += "; the rig is unchanged";
     restore();
     return out;

@@ -364,8 +364,8 @@ TEST_F(ScanTest, DriftedRightCameraIsFlaggedByMarkersAndProjector) {
 // `fringe refine` on the same scan with the right camera turned by 0.03 degrees about each axis:
 // the bundle over the views' phase points (right phase, projector columns) and markers brings
 // it back to the truth, writes the refined rig with its summary, and a scan with it no longer
-// drifts. On this half-size rig (markers ~0.11 px noise, 3 views) the refined orientation is
-// within a few thousandths of a degree.
+// drifts. On this half-size rig (markers ~0.11 px noise, 3 views, ~5600 phase points, the
+// projector holding the scale) the refined orientation is within 0.0016 degrees of the truth.
 TEST_F(ScanTest, RefineRecoversADriftedRigFromTheScan) {
   constexpr double kMaxRefinedRotErrDeg = 0.005;
   const fs::path scan = CopyOfScan("refine");

@@ -446,9 +446,12 @@ RigRefinement RefineRig(const StereoRig& rig, const RigRefinementData& data,
         right_t.data(), markers[i].data());
   }
   const bool has_right = problem.HasParameterBlock(right_w.data());
-  // What is free: intrinsics (fx fy cx cy k1 k2) on request; the right pose; the projector's
+  // What is free: intrinsics (fx fy k1 k2) on request; the right pose; the projector's
   // pose unless it holds the scale. The scale: a translation's length held.
-  const FreeIntrinsics free_intrinsics = {true, true, true, true, true, true, false, false, false};
+  // The principal points stay: a shift of cx moves every point of a camera sideways, which is
+  // what a yaw does (cy: a pitch), so with the rotations free they are not determined.
+  const FreeIntrinsics free_intrinsics = {true, true,  false, false, true,
+                                          true, false, false, false};
   for (double* k : {left.data(), right.data()}) {
     if (!problem.HasParameterBlock(k)) continue;
     if (options.intrinsics) {
@@ -457,8 +460,7 @@ RigRefinement RefineRig(const StereoRig& rig, const RigRefinementData& data,
       problem.SetParameterBlockConstant(k);
     }
   }
-  if (options.intrinsics)
-    s.refined.push_back("focal lengths, principal points, k1 k2 of both cameras");
+  if (options.intrinsics) s.refined.push_back("focal lengths and k1 k2 of both cameras");
   if (has_right) {
     s.refined.push_back("right_from_left rotation");
     if (scale == RefineScale::kBaseline) {
@@ -554,7 +556,7 @@ RigRefinement RefineRig(const StereoRig& rig, const RigRefinementData& data,
     for (const auto& [cam, block, block0] : {std::tuple{"left", left.data(), left0.data()},
                                              std::tuple{"right", right.data(), right0.data()}}) {
       if (!problem.HasParameterBlock(block)) continue;
-      for (int k = 0; k < 6; ++k) {
+      for (int k : {0, 1, 4, 5}) {
         const double limit = k < 4 ? options.max_focal_sigma_fraction * block0[0]
                                    : std::numeric_limits<double>::infinity();
         add(StrCat(cam, " ", names[k]), k < 4 ? "px" : "", block0[k], block[k], sigma_of(block, k),

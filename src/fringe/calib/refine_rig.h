@@ -1,7 +1,7 @@
 // Refinement of a stereo rig from a scan's own correspondences (issue 26, item 4): a Ceres
 // bundle over the views' points and markers, refining the right camera's pose (and, when the
-// projector is calibrated, the projector's) and optionally the cameras' focal lengths,
-// principal points and k1 k2. The views' data come from pipeline/refine.h; this file is the
+// projector is calibrated, the projector's) and optionally the cameras' focal lengths
+// and k1 k2. The views' data come from pipeline/refine.h; this file is the
 // problem alone (no decoding, no files).
 //
 // Unknowns: every phase point and every marker in its view's left camera frame (3 each, Schur
@@ -84,7 +84,7 @@ enum class RefineScale {
 const char* ToString(RefineScale s);
 
 struct RigRefinementOptions {
-  bool intrinsics = false;  // also fx fy cx cy k1 k2 of both cameras
+  bool intrinsics = false;  // also fx fy k1 k2 of both cameras
   RefineScale scale = RefineScale::kAuto;
   double pixel_sigma_px = 0.02;   // a phase point's left pixel, > 0
   double phase_sigma_px = 0.05;   // decoded phase, projector pixels, > 0

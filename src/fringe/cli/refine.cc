@@ -22,8 +22,9 @@ void AddRefineCommand(CLI::App& app) {
       "refine",
       "Refine the rig from a stereo scan's own data: a bundle over the views' phase points (right "
       "camera phase, calibrated projector columns) and markers seen by both cameras, refining "
-      "the right camera's (and projector's) pose and with --intrinsics the cameras' focal "
-      "lengths, principal points and k1 k2; writes RIG only when the data determine the result");
+      "the right camera's pose (the projector's translation with --scale baseline) and with "
+      "--intrinsics the cameras' focal lengths and k1 k2; writes RIG only when the data "
+      "determine the result");
   sub->add_option("project", a->project, "Scan folder (stereo views, rig.json or --calib)")
       ->required();
   sub->add_option("--out", a->out, "Refined rig JSON (its summary inside as \"refinement\")")
@@ -34,7 +35,7 @@ void AddRefineCommand(CLI::App& app) {
   sub->add_option("--opencv-extrinsics", a->cv_extrinsics,
                   "With --opencv-intrinsics: OpenCV stereo extrinsics (R T, millimetres)");
   sub->add_flag("--intrinsics", a->options.rig.intrinsics,
-                "Also refine fx fy cx cy k1 k2 of both cameras");
+                "Also refine fx fy k1 k2 of both cameras");
   sub->add_option("--scale", a->scale,
                   "What holds the metric scale: projector (its pose stays; the baseline is "
                   "refined), baseline (its length stays; the projector's translation is refined) "

@@ -91,7 +91,7 @@ void AddScanCommand(CLI::App& app) {
                 "fringe refine; used only when the data determine it)");
   sub->add_flag(
       "--refine-intrinsics", [a](int64_t) { a->options.refine_options.rig.intrinsics = true; },
-      "With --refine: also the cameras' focal lengths, principal points and k1 k2");
+      "With --refine: also the cameras' focal lengths and k1 k2");
   sub->add_flag("--json", a->json, "Print the summary as one JSON object");
   sub->add_flag("--resume", a->options.resume,
                 "After an interrupted run of the same scan into the same --out (killed, a crash, "

@@ -34,7 +34,7 @@
 #include "fringe/phase/gamma.h"
 #include "fringe/phase/pattern_scheme.h"
 #include "fringe/phase/synthetic.h"
-#include "fringe/util/test_data.h"
+#include "fringe/testing/data.h"
 #ifdef FRINGE_BENCH_HAS_SIM
 #include "fringe/geometry/stereo_rig.h"
 #include "fringe/sim/demo_part.h"

@@ -90,6 +90,12 @@ void AddScanCommand(CLI::App& app) {
   sub->add_flag("--write-manifest", a->write_manifest,
                 "A folder of views without scan.json (another tool's capture): write the "
                 "scan.json inferred from it into PROJECT before scanning (never overwrites one)");
+  sub->add_flag("--refine", a->options.refine,
+                "Stereo: refine the rig from this scan's own data before reconstructing (as "
+                "fringe refine; used only when the data determine it)");
+  sub->add_flag(
+      "--refine-intrinsics", [a](int64_t) { a->options.refine_options.rig.intrinsics = true; },
+      "With --refine: also the cameras' focal lengths and k1 k2");
   sub->add_flag("--json", a->json, "Print the summary as one JSON object");
   sub->add_flag("--resume", a->options.resume,
                 "After an interrupted run of the same scan into the same --out (killed, a crash, "

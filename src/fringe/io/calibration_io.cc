@@ -176,10 +176,11 @@ StereoRig RigFromJson(const json& j, const std::string& context) {
                        "calibration with --calib RIG.json, or an OpenCV file with --opencv "
                        "(docs/formats.md)"));
   }
-  // "calibration" carries the residuals and standard deviations fringe calibrate writes.
+  // "calibration" carries the residuals and standard deviations fringe calibrate writes,
+  // "refinement" the summary of fringe refine (pipeline/refine.h).
   CheckKnownKeys(j,
                  {"format", "version", "units", "cameras", "camera", "right_from_left",
-                  "projector_from_left", "calibration"},
+                  "projector_from_left", "calibration", "refinement"},
                  context);
   OptionalInteger(j, "version", 1, 1, 1, context);
   if (OptionalString(j, "units", "mm", context) != "mm") {

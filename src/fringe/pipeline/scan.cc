@@ -1244,6 +1244,7 @@ void ScanOptions::Check() const {
   reconstruction.Check();
   projector_columns.Check();
   drift.Check();
+  if (refine) refine_options.Check();
   registration.Check();
   fusion.Check();
   mesh.Check();
@@ -1347,6 +1348,8 @@ json ScanSummary::ToJson() const {
   j["mesh"] = meshing;
   j["mode"] = stereo ? "stereo" : "camera-projector";
   j["projector_columns"] = projector_columns;
+  j["refinement"] = refinement;
+  j["rig_refined"] = rig_refined;
   j["drift"] = {{"views_checked", drift_views_checked},
                 {"evidence", drift_evidence},
                 {"max_epipolar_systematic_px", drift_options.max_epipolar_systematic_px},
@@ -1422,9 +1425,26 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
     util::Timer timer;
     util::CpuTimer cpu;
     // The image size from the manifest (every stack is checked against it when read).
-    const Calibration cal = ResolveCalibration(
-        folder, scheme, options, folder.manifest().image_width, folder.manifest().image_height);
+    Calibration cal = ResolveCalibration(folder, scheme, options, folder.manifest().image_width,
+                                         folder.manifest().image_height);
     CheckRigFitsScan(folder, schemes, cal);
+    if (options.refine) {
+      if (!folder.stereo()) {
+        throw Error(StrCat("scan: --refine: ", folder.layout().Manifest().string(),
+                           " says 'cameras': 1; refinement needs two cameras"));
+      }
+      RefineResult r = RefineRigFromScan(folder, cal.rig, options.refine_options);
+      r.summary.calibration_source = cal.source;
+      s.refinement = r.summary.ToJson();
+      s.rig_refined = r.summary.ok();
+      if (r.summary.ok()) {
+        util::LogInfo("scan: " + r.summary.BriefReport());
+        cal.rig = r.rig;
+        cal.source += " (refined from this scan)";
+      } else {
+        util::LogWarning("scan: the rig was not refined: " + r.summary.refinement.message);
+      }
+    }
     s.stereo = folder.stereo();
     s.calibration_source = cal.source;
     if (cal.folder) {
@@ -1434,7 +1454,13 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
       s.calibration_rms_left_px = cal.projector_folder->LeftCamera().summary.final_rms_px;
       s.calibration_rms_projector_px = cal.projector_folder->camera_projector.projector_rms_px;
     }
-    WriteOutput("calibrate", out, [&] { WriteRigOf(cal, dir / "rig.json"); });
+    WriteOutput("calibrate", out, [&] {
+      if (s.rig_refined) {
+        io::WriteRig(dir / "rig.json", cal.rig, {{"refinement", s.refinement}});
+      } else {
+        WriteRigOf(cal, dir / "rig.json");
+      }
+    });
     s.calibrate_s = timer.ElapsedSeconds();
     s.calibrate_cpu_s = cpu.ElapsedSeconds();
 

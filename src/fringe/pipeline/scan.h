@@ -49,6 +49,7 @@
 #include "fringe/fusion/mesh.h"
 #include "fringe/geometry/stereo_rig.h"
 #include "fringe/pipeline/drift.h"
+#include "fringe/pipeline/refine.h"
 #include "fringe/registration/markers.h"
 #include "fringe/registration/register_views.h"
 #include "fringe/stereo/projector_columns.h"
@@ -93,6 +94,12 @@ struct ScanOptions {
   // "projector_columns".
   bool fit_projector_columns = true;
   stereo::ProjectorColumnFitOptions projector_columns;
+  // `fringe scan --refine`: before the views, the rig is refined from the scan's own data
+  // (pipeline/refine.h; stereo only) and used when the data determine it; otherwise the scan
+  // goes on with the rig as given and the summary says why. Its calib / opencv paths are not
+  // used (the scan's own are).
+  bool refine = false;
+  RefineOptions refine_options;
   // Drift detection on every view (pipeline/drift.h); false skips it (no verdict).
   bool check_drift = true;
   DriftOptions drift;
@@ -167,6 +174,10 @@ struct ScanSummary {
   int drift_views_checked = 0;
   std::vector<std::string> drift_evidence;
   DriftOptions drift_options;
+  // ScanOptions::refine: the refinement's summary (RefineSummary::ToJson), null when not asked;
+  // rig_refined: the scan used the refined rig.
+  nlohmann::json refinement;
+  bool rig_refined = false;
   std::vector<ScanViewSummary> views;
   int views_ok = 0;
   int views_resumed = 0;  // views taken from an interrupted run (ScanOptions::resume)

@@ -248,6 +248,7 @@ ViewReconstruction ViewReconstructor::Reconstruct(const ViewStacks& stacks) cons
     decoded.right[0].background.convertTo(out.texture_right, CV_32F, decoded.texture_scale);
   }
   out.phase_left = decoded.left[0].absolute_phase;
+  if (two_cameras) out.phase_right = decoded.right[0].absolute_phase;
   const CameraModel& cam = corr.Left();
   out.cloud = OrganizedPointCloud(cam.width, cam.height, false, true, true);
   out.reprojection_error_px =

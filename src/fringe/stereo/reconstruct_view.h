@@ -86,6 +86,10 @@ struct ViewReconstruction {
   // pixels, NaN where not decoded): what the projector-column check of a projector-less rig
   // compares the points with (projector_columns.h). Shares the decoder's buffer.
   cv::Mat phase_left;
+  // The right camera's absolute phase of the first scheme (stereo and trinocular; empty for one
+  // camera), on the right grid: what the rig's refinement from a scan compares the points with
+  // (pipeline/refine.h). Shares the decoder's buffer.
+  cv::Mat phase_right;
   ReconstructionSummary summary;
 };
 

@@ -1,0 +1,159 @@
+// Refinement of a stereo rig from a scan's own correspondences (issue 26, item 4): a Ceres
+// bundle over the views' points and markers, refining the right camera's pose (and, when the
+// projector is calibrated, the projector's) and optionally the cameras' focal lengths
+// and k1 k2. The views' data come from pipeline/refine.h; this file is the
+// problem alone (no decoding, no files).
+//
+// Unknowns: every phase point and every marker in its view's left camera frame (3 each, Schur
+// eliminated), the rig blocks. Residuals, each divided by its noise (RigRefinementOptions):
+//   - a point's left pixel (2): where it was measured, exact up to pixel_sigma_px;
+//   - its phase in the right camera (1): the right camera's absolute phase map, bicubically
+//     interpolated at the point's projection, minus the left phase (stereo with vertical
+//     fringes: the matcher's own constraint, now with the rig free); both phases are noisy, so
+//     its noise is sqrt(2) phase_sigma_px;
+//   - its projector column (1, calibrated projector): the projection's column minus the phase;
+//   - a marker's centres in both images (2 + 2): the only evidence of a vertical disparity when
+//     the fringes are vertical.
+// A phase point alone is not redundant in plain stereo (3 unknowns, 3 residuals): the markers
+// and a calibrated projector carry the information; without either nothing is refined
+// (status kNoEvidence).
+//
+// Gauge and scale: the left camera frame is the sensor frame (fixed). With one fringe direction
+// the three devices see horizontal disparities; a yaw of the right camera (about the axis
+// perpendicular to the baseline) shifts the right disparity almost uniformly, which is what a
+// change of depth does, and a matching yaw of the projector keeps the points on their columns:
+// together they bend depth (1/z' = 1/z - c, a sphere flattened or stretched along the viewing
+// direction) and every observation stays consistent to first order. The data cannot tell; one
+// device's orientation must hold it. So the projector's orientation is never refined: it holds
+// this gauge (it is the third device of the trifocal consistency), and the metric scale is held
+// by one length: the projector's distance |projector_from_left.t| (kProjector: the projector's
+// pose is held, the baseline refined; the default when the projector is calibrated) or the
+// baseline |right_from_left.t| (kBaseline: its direction stays free; the projector's translation
+// is refined except its shift along its own columns, which vertical fringes do not see). Without
+// a calibrated projector only the markers constrain the rig, and they leave the right camera's
+// yaw to the same trade-off: such a refinement is refused as not determined unless the markers'
+// spread in depth decides it.
+//
+// A result is accepted only when the data determine it: every refined parameter's standard
+// deviation (ceres::Covariance, calib/bundle.h) must be below the options' limits, else the
+// status is kNotDetermined naming the parameter, and the rig is returned unchanged.
+//
+// Thread safety: reentrant. Deterministic (Ceres single-threaded, bundle.h).
+#pragma once
+
+#include <Eigen/Core>
+#include <limits>
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+#include <string>
+#include <vector>
+
+#include "fringe/calib/bundle.h"
+#include "fringe/geometry/stereo_rig.h"
+
+namespace fringe::calib {
+
+// One measured left pixel of a view.
+struct RefinePhasePoint {
+  int view = 0;
+  Eigen::Vector2d left_px = Eigen::Vector2d::Zero();
+  double phase = 0;  // the left camera's absolute phase there, projector columns
+  Eigen::Vector3d p_in_left = Eigen::Vector3d::Zero();  // triangulated by the initial rig
+};
+
+// One marker seen by both cameras.
+struct RefineMarker {
+  int view = 0;
+  Eigen::Vector2d left_px = Eigen::Vector2d::Zero(), right_px = Eigen::Vector2d::Zero();
+  Eigen::Vector3d p_in_left = Eigen::Vector3d::Zero();  // triangulated by the initial rig
+};
+
+struct RigRefinementData {
+  std::vector<RefinePhasePoint> points;
+  std::vector<RefineMarker> markers;
+  // Per view, the right camera's absolute phase (CV_32F, projector columns, NaN = invalid) on its
+  // grid: the right-phase residuals. Views without one (or empty) have none.
+  std::vector<cv::Mat> right_phase;
+};
+
+enum class RefineScale {
+  kAuto = 0,       // kProjector when the rig has a calibrated projector, else kBaseline
+  kBaseline = 1,   // |right_from_left.t| held
+  kProjector = 2,  // the projector's pose held (needs a calibrated projector)
+};
+const char* ToString(RefineScale s);
+
+struct RigRefinementOptions {
+  bool intrinsics = false;  // also fx fy k1 k2 of both cameras
+  RefineScale scale = RefineScale::kAuto;
+  double pixel_sigma_px = 0.02;   // a phase point's left pixel, > 0
+  double phase_sigma_px = 0.05;   // decoded phase, projector pixels, > 0
+  double marker_sigma_px = 0.05;  // marker centres, pixels, > 0
+  // Huber loss on every residual at this many sigmas (false matches, occlusion edges), > 0.
+  double loss_sigmas = 3.0;
+  // Largest standard deviations of an accepted result (larger: not determined by the data).
+  double max_rotation_sigma_deg = 0.01;     // > 0
+  double max_translation_sigma_mm = 0.2;    // > 0
+  double max_focal_sigma_fraction = 0.005;  // of the focal length, > 0
+  // The cost creeps down for many iterations once the rig is found (thousands of points each
+  // settling on its interpolated phase); a relative change of 1e-6 per iteration moves the rig by
+  // far less than its sigma (the half-size test scan converges in ~40 iterations).
+  SolveOptions solve = [] {
+    SolveOptions o;
+    o.function_tolerance = 1e-6;
+    o.parameter_tolerance = 1e-10;
+    return o;
+  }();
+  void Check() const;
+};
+
+enum class RefineStatus {
+  kOk = 0,
+  kNoEvidence,     // nothing redundant constrains the rig (no markers, no calibrated projector)
+  kNotDetermined,  // the data leave a refined parameter undetermined (one flat view, ...)
+  kFailed,         // the solver failed
+};
+const char* ToString(RefineStatus s);
+
+// One refined parameter: value before and after, its standard deviation after.
+struct RefinedParameter {
+  std::string name;  // "right_from_left rotation x", "right fx", ...
+  std::string unit;  // "deg", "mm", "px", ""
+  double before = 0, after = 0, sigma = 0;
+};
+
+struct RigRefinementSummary {
+  RefineStatus status = RefineStatus::kNoEvidence;
+  std::string message;
+  RefineScale scale = RefineScale::kAuto;  // what held the scale (kAuto resolved)
+  std::vector<std::string> refined;        // the blocks refined, in words
+  std::vector<RefinedParameter> parameters;
+  int points = 0, markers = 0, views = 0;
+  // Residual RMS by kind, before and after (NaN without that kind): markers' epipolar distance
+  // under the rig (px), right-phase and projector-column residuals of the points (projector px).
+  double marker_epipolar_rms_before_px = std::numeric_limits<double>::quiet_NaN();
+  double marker_epipolar_rms_after_px = std::numeric_limits<double>::quiet_NaN();
+  double right_phase_rms_before_px = std::numeric_limits<double>::quiet_NaN();
+  double right_phase_rms_after_px = std::numeric_limits<double>::quiet_NaN();
+  double projector_rms_before_px = std::numeric_limits<double>::quiet_NaN();
+  double projector_rms_after_px = std::numeric_limits<double>::quiet_NaN();
+  // Rotation of the right camera (and projector) between the input and the refined rig, deg.
+  double right_rotation_change_deg = 0, projector_rotation_change_deg = 0;
+  double baseline_before_mm = 0, baseline_after_mm = 0;
+  SolveReport solve;
+  bool ok() const { return status == RefineStatus::kOk; }
+  std::string BriefReport() const;
+  nlohmann::json ToJson() const;
+};
+
+struct RigRefinement {
+  StereoRig rig;  // refined when ok(), else the input rig unchanged
+  RigRefinementSummary summary;
+};
+
+// Throws fringe::Error for bad options, a bad rig, kProjector without a projector, or data
+// naming a view without its phase map.
+RigRefinement RefineRig(const StereoRig& rig, const RigRefinementData& data,
+                        const RigRefinementOptions& options = {});
+
+}  // namespace fringe::calib

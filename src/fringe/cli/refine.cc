@@ -1,0 +1,72 @@
+// fringe refine: the rig refined from a scan's own data (pipeline/refine.h).
+#include <CLI/CLI.hpp>
+#include <iostream>
+#include <map>
+#include <memory>
+
+#include "fringe/cli/cli.h"
+#include "fringe/pipeline/refine.h"
+#include "fringe/util/error.h"
+
+namespace fringe::cli {
+
+void AddRefineCommand(CLI::App& app) {
+  struct Args {
+    std::string project, out, calib, cv_intrinsics, cv_extrinsics;
+    std::string scale = "auto";
+    bool json = false;
+    pipeline::RefineOptions options;
+  };
+  auto a = std::make_shared<Args>();
+  CLI::App* sub = app.add_subcommand(
+      "refine",
+      "Refine the rig from a stereo scan's own data: a bundle over the views' phase points (right "
+      "camera phase, calibrated projector columns) and markers seen by both cameras, refining "
+      "the right camera's pose (the projector's translation with --scale baseline) and with "
+      "--intrinsics the cameras' focal lengths and k1 k2; writes RIG only when the data "
+      "determine the result");
+  sub->add_option("project", a->project, "Scan folder (stereo views, rig.json or --calib)")
+      ->required();
+  sub->add_option("--out", a->out, "Refined rig JSON (its summary inside as \"refinement\")")
+      ->required();
+  sub->add_option("--calib", a->calib, "Rig JSON to refine instead of the scan folder's rig.json");
+  sub->add_option("--opencv-intrinsics", a->cv_intrinsics,
+                  "Instead of --calib: OpenCV stereo intrinsics (M1 D1 M2 D2, YAML/XML)");
+  sub->add_option("--opencv-extrinsics", a->cv_extrinsics,
+                  "With --opencv-intrinsics: OpenCV stereo extrinsics (R T, millimetres)");
+  sub->add_flag("--intrinsics", a->options.rig.intrinsics,
+                "Also refine fx fy k1 k2 of both cameras");
+  sub->add_option("--scale", a->scale,
+                  "What holds the metric scale: projector (its pose stays; the baseline is "
+                  "refined), baseline (its length stays; the projector's translation is refined) "
+                  "or auto (projector when the rig has a calibrated projector)")
+      ->check(CLI::IsMember({"auto", "baseline", "projector"}))
+      ->capture_default_str();
+  sub->add_option("--points-per-view", a->options.points_per_view,
+                  "Phase points sampled per view (0: markers only)")
+      ->capture_default_str();
+  sub->add_flag("--json", a->json, "Print the summary as one JSON object");
+  sub->callback([a] {
+    a->options.calib = a->calib;
+    a->options.opencv_intrinsics = a->cv_intrinsics;
+    a->options.opencv_extrinsics = a->cv_extrinsics;
+    a->options.rig.scale = a->scale == "projector"  ? calib::RefineScale::kProjector
+                           : a->scale == "baseline" ? calib::RefineScale::kBaseline
+                                                    : calib::RefineScale::kAuto;
+    const pipeline::RefineResult r = pipeline::RefineScanRig(a->project, a->out, a->options);
+    if (a->json) {
+      std::cout << r.summary.ToJson().dump(2) << "\n";
+    } else {
+      std::cout << r.summary.BriefReport() << "\n";
+    }
+    // Not refined: an error naming why, nothing written.
+    if (!r.summary.ok()) {
+      throw Error("refine: " + a->project + ": " + r.summary.refinement.message +
+                  "; nothing was written to " + a->out);
+    }
+    if (!a->json) std::cout << "written to " << a->out << "\n";
+  });
+}
+FRINGE_REGISTER_COMMAND(92, AddRefineCommand);
+
+}  // namespace fringe::cli

@@ -1,0 +1,188 @@
+#include "fringe/pipeline/refine.h"
+
+#include <cmath>
+#include <iomanip>
+#include <sstream>
+
+#include "fringe/io/calibration_io.h"
+#include "fringe/io/opencv_calibration.h"
+#include "fringe/phase/pattern_scheme.h"
+#include "fringe/util/error.h"
+#include "fringe/util/files.h"
+#include "fringe/util/log.h"
+#include "fringe/util/timer.h"
+
+namespace fringe::pipeline {
+namespace {
+
+namespace fs = std::filesystem;
+using util::StrCat;
+
+// The right phase must be valid around the point's projection (the bicubic interpolation reads
+// 4 x 4 samples, and the projection moves by the rig's correction): a window of +-kMargin px.
+constexpr int kMargin = 3;
+
+bool PhaseValidAround(const cv::Mat& phase, const Eigen::Vector2d& px) {
+  const int c = static_cast<int>(std::lround(px.x())), r = static_cast<int>(std::lround(px.y()));
+  if (c - kMargin < 0 || r - kMargin < 0 || c + kMargin >= phase.cols ||
+      r + kMargin >= phase.rows) {
+    return false;
+  }
+  for (int y = r - kMargin; y <= r + kMargin; ++y) {
+    const float* row = phase.ptr<float>(y);
+    for (int x = c - kMargin; x <= c + kMargin; ++x) {
+      if (!std::isfinite(row[x])) return false;
+    }
+  }
+  return true;
+}
+
+}  // namespace
+
+void RefineOptions::Check() const {
+  util::CheckOption(points_per_view >= 0, "RefineOptions", "points_per_view", points_per_view,
+                    "must be >= 0");
+  util::CheckOption(opencv_intrinsics.empty() == opencv_extrinsics.empty(), "RefineOptions",
+                    "opencv_intrinsics", opencv_intrinsics.string(),
+                    "OpenCV intrinsics and extrinsics go together");
+  util::CheckOption(calib.empty() || opencv_intrinsics.empty(), "RefineOptions", "calib",
+                    calib.string(), "give a rig JSON or OpenCV files, not both");
+  rig.Check();
+  reconstruction.Check();
+  markers.Check();
+}
+
+std::string RefineSummary::BriefReport() const {
+  return StrCat(refinement.BriefReport(), " [rig from ", calibration_source, "]");
+}
+
+nlohmann::json RefineSummary::ToJson() const {
+  nlohmann::json j = refinement.ToJson();
+  j["calibration"] = calibration_source;
+  j["gather_s"] = gather_s;
+  j["solve_s"] = solve_s;
+  return j;
+}
+
+StereoRig ReadScanRig(const scan::ScanFolder& folder, const fs::path& calib,
+                      const fs::path& opencv_intrinsics, const fs::path& opencv_extrinsics,
+                      std::string* source) {
+  const scan::ScanManifest& m = folder.manifest();
+  if (!opencv_intrinsics.empty()) {
+    *source = opencv_intrinsics.string() + " + " + opencv_extrinsics.string();
+    return io::ImportOpenCvStereo(opencv_intrinsics, opencv_extrinsics, m.image_width,
+                                  m.image_height);
+  }
+  if (!calib.empty()) {
+    *source = calib.string();
+    return io::ReadRig(calib);
+  }
+  const fs::path rig_json = folder.root() / "rig.json";
+  if (fs::exists(rig_json)) {
+    *source = rig_json.string();
+    return io::ReadRig(rig_json);
+  }
+  throw Error(StrCat("refine: ", folder.root().string(),
+                     ": no rig to refine: give --calib or --opencv, or put rig.json in the scan "
+                     "folder"));
+}
+
+void AddViewToRefinement(const StereoRig& rig, int view, const stereo::ViewReconstruction& rec,
+                         const RefineOptions& options, calib::RigRefinementData* data) {
+  const size_t v = static_cast<size_t>(view);
+  if (data->right_phase.size() <= v) data->right_phase.resize(v + 1);
+  const registration::ViewMarkers markers = registration::DetectViewMarkers(
+      rig, rec.texture_left, rec.texture_right, rec.cloud, options.markers);
+  for (const registration::ViewMarker& m : markers.markers) {
+    data->markers.push_back({view, m.left_px, m.right_px, m.centre_in_sensor});
+  }
+  if (options.points_per_view == 0 || rec.phase_right.empty()) return;
+  const OrganizedPointCloud& cloud = rec.cloud;
+  const size_t valid = cloud.NumValid();
+  if (valid == 0) return;
+  // Evenly over the measured pixels: every k-th, k from the count.
+  const size_t stride = std::max<size_t>(1, valid / static_cast<size_t>(options.points_per_view));
+  data->right_phase[v] = rec.phase_right.isContinuous() ? rec.phase_right : rec.phase_right.clone();
+  size_t k = 0;
+  for (int r = 0; r < cloud.height; ++r) {
+    for (int c = 0; c < cloud.width; ++c) {
+      const size_t i = cloud.index(c, r);
+      if (!cloud.valid[i] || (k++ % stride) != 0) continue;
+      const float phi = rec.phase_left.at<float>(r, c);
+      const Eigen::Vector3d& p = cloud.cloud.points[i];
+      const Eigen::Vector3d p_right = rig.right_from_left * p;
+      if (!std::isfinite(phi) || !(p_right.z() > 0)) continue;
+      if (!PhaseValidAround(data->right_phase[v], rig.right.Project(p_right))) continue;
+      data->points.push_back({view, Eigen::Vector2d(c, r), phi, p});
+    }
+  }
+}
+
+RefineResult RefineRigFromScan(const scan::ScanFolder& folder, const StereoRig& rig,
+                               const RefineOptions& options) {
+  options.Check();
+  if (!folder.stereo()) {
+    throw Error(
+        StrCat("refine: ", folder.layout().Manifest().string(),
+               " says 'cameras': 1: refinement needs two cameras (in a camera + projector view the "
+               "projector is what triangulates a point; nothing redundant is left with one fringe "
+               "direction)"));
+  }
+  const scan::ScanManifest& manifest = folder.manifest();
+  for (const auto& [cam, name] : {std::pair{&rig.left, "left"}, std::pair{&rig.right, "right"}}) {
+    if (cam->width != manifest.image_width || cam->height != manifest.image_height) {
+      throw Error(StrCat("refine: the rig's ", name, " camera is calibrated at ", cam->width, " x ",
+                         cam->height, " px, but ", folder.layout().Manifest().string(),
+                         " says the images are ", manifest.image_width, " x ",
+                         manifest.image_height));
+    }
+  }
+  const phase::PatternScheme scheme = folder.ReadScheme();
+  const stereo::ViewReconstructor reconstructor(rig, scheme, options.reconstruction);
+  RefineResult result;
+  util::Timer timer;
+  calib::RigRefinementData data;
+  const std::vector<std::string>& names = folder.views();
+  data.right_phase.resize(names.size());
+  util::Progress progress("refine: read views", static_cast<int>(names.size()));
+  for (size_t v = 0; v < names.size(); ++v) {
+    const auto left = folder.ReadExposureStacks(names[v], scan::Camera::kLeft, scheme);
+    const auto right = folder.ReadExposureStacks(names[v], scan::Camera::kRight, scheme);
+    stereo::ViewReconstruction rec = reconstructor.Reconstruct(left, right);
+    progress.Advance();
+    if (!rec.summary.ok()) {
+      util::LogWarning(StrCat("refine: view ", names[v], " left out: ", rec.summary.message));
+      continue;
+    }
+    AddViewToRefinement(rig, static_cast<int>(v), rec, options, &data);
+  }
+  result.summary.gather_s = timer.ElapsedSeconds();
+  timer.Restart();
+  calib::RigRefinement refined = calib::RefineRig(rig, data, options.rig);
+  result.summary.solve_s = timer.ElapsedSeconds();
+  result.rig = refined.rig;
+  result.summary.refinement = std::move(refined.summary);
+  return result;
+}
+
+RefineResult RefineScanRig(const fs::path& project, const fs::path& out_rig,
+                           const RefineOptions& options) {
+  options.Check();
+  util::RequireDirectory(project, "scan folder");
+  const scan::ScanFolder folder = scan::ScanFolder::Open(project);
+  if (!folder.has_views()) throw Error(StrCat("refine: ", project.string(), ": no views"));
+  std::vector<fs::path> inputs = {project};
+  for (const fs::path& p : {options.calib, options.opencv_intrinsics, options.opencv_extrinsics}) {
+    if (!p.empty()) inputs.push_back(p);
+  }
+  util::CheckOutputFile(out_rig, inputs);
+  std::string source;
+  const StereoRig rig = ReadScanRig(folder, options.calib, options.opencv_intrinsics,
+                                    options.opencv_extrinsics, &source);
+  RefineResult r = RefineRigFromScan(folder, rig, options);
+  r.summary.calibration_source = source;
+  if (r.summary.ok()) io::WriteRig(out_rig, r.rig, {{"refinement", r.summary.ToJson()}});
+  return r;
+}
+
+}  // namespace fringe::pipeline

@@ -1,0 +1,84 @@
+// `fringe refine PROJECT --out RIG` and `fringe scan --refine` (issue 26, item 4): the rig refined
+// from a scan's own data. Every view of the scan folder is decoded and reconstructed with the
+// given rig; its points (sampled on the left grid, each with its left phase and the right
+// camera's phase map) and its markers seen by both cameras (matched with a wider epipolar
+// tolerance than a scan uses, so that a drifted rig still pairs them) go into one Ceres bundle
+// (calib/refine_rig.h). The result is written only when the data determine it.
+//
+// Stereo scan folders (rig.json in the folder, or --calib / --opencv). A camera + projector scan
+// folder is refused with a clear error: its projector is the triangulating device (one fringe
+// direction leaves nothing redundant) and its refinement from two directions is not written.
+//
+// Thread safety: reentrant.
+#pragma once
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "fringe/calib/refine_rig.h"
+#include "fringe/geometry/stereo_rig.h"
+#include "fringe/registration/markers.h"
+#include "fringe/scan/scan_folder.h"
+#include "fringe/stereo/reconstruct_view.h"
+
+namespace fringe::pipeline {
+
+struct RefineOptions {
+  // The rig to refine instead of PROJECT/rig.json: a rig JSON, or OpenCV stereo intrinsics +
+  // extrinsics (both). Empty: not given.
+  std::filesystem::path calib;
+  std::filesystem::path opencv_intrinsics, opencv_extrinsics;
+  calib::RigRefinementOptions rig;
+  // Phase points per view, sampled evenly over its measured left pixels, >= 0 (0: markers only).
+  int points_per_view = 2000;
+  stereo::ReconstructionOptions reconstruction;
+  // Marker pairing: the scan's 2 px epipolar tolerance would drop the markers of a rig drifted
+  // by more than ~0.05 degrees, exactly the ones refinement needs; the depth test against the
+  // surface still picks the right pair.
+  registration::MarkerDetectionOptions markers = [] {
+    registration::MarkerDetectionOptions o;
+    o.max_epipolar_px = 8;
+    return o;
+  }();
+  void Check() const;
+};
+
+struct RefineSummary {
+  std::string calibration_source;
+  calib::RigRefinementSummary refinement;
+  double gather_s = 0, solve_s = 0;
+  bool ok() const { return refinement.ok(); }
+  std::string BriefReport() const;
+  nlohmann::json ToJson() const;
+};
+
+struct RefineResult {
+  StereoRig rig;  // refined when ok(), else the input rig
+  RefineSummary summary;
+};
+
+// The rig of a scan folder as `fringe scan` resolves it without calibrating: the options' files,
+// else PROJECT/rig.json; *source names it. Throws fringe::Error when there is none.
+StereoRig ReadScanRig(const scan::ScanFolder& folder, const std::filesystem::path& calib,
+                      const std::filesystem::path& opencv_intrinsics,
+                      const std::filesystem::path& opencv_extrinsics, std::string* source);
+
+// Adds one view's markers and sampled phase points to `data` (view index `view`): `rec` is the
+// view reconstructed with `rig` (its right phase map is kept in data.right_phase[view]). What
+// RefineRigFromScan does per view; benchmarks call it on views reconstructed in memory.
+void AddViewToRefinement(const StereoRig& rig, int view, const stereo::ViewReconstruction& rec,
+                         const RefineOptions& options, calib::RigRefinementData* data);
+
+// Refines `rig` from the views of `folder` (stereo). Throws fringe::Error for bad options or
+// input (unreadable images, a camera + projector folder); data failures come back in the summary.
+RefineResult RefineRigFromScan(const scan::ScanFolder& folder, const StereoRig& rig,
+                               const RefineOptions& options = {});
+
+// `fringe refine`: the rig resolved as above, refined, and written to `out_rig` (atomically, the
+// refinement's summary inside as "refinement") when ok; otherwise nothing is written. `out_rig`
+// must not be an input.
+RefineResult RefineScanRig(const std::filesystem::path& project,
+                           const std::filesystem::path& out_rig, const RefineOptions& options = {});
+
+}  // namespace fringe::pipeline

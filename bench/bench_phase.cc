@@ -40,6 +40,7 @@
 #include "fringe/sim/demo_part.h"
 #include "fringe/sim/poses.h"
 #include "fringe/sim/renderer.h"
+#include "fringe/util/memory.h"
 #endif
 #include "bench_timing.h"
 #include "phase_accuracy.h"
@@ -622,6 +623,7 @@ void PrintTable(const json& out) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  fringe::util::UseTransparentHugePages(argv);  // as the fringe program does
   bool as_json = false;
   int repeats = 15;
   std::filesystem::path data;

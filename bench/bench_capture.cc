@@ -23,8 +23,8 @@
 
 #include "bench_timing.h"
 #include "fringe/capture/capture.h"
-#include "fringe/capture/test_rig.h"
 #include "fringe/phase/scheme_presets.h"
+#include "fringe/testing/capture_rig.h"
 #include "fringe/util/files.h"
 
 namespace fs = std::filesystem;

@@ -2,7 +2,7 @@
 // but do not print.
 //
 //   Low phase gradient: the simulated view whose cameras sample the projector at 0.2-0.35
-//   projector px per camera pixel (stereo/test_low_gradient.h; gray+4, B = 80 DN, sigma 1.5 DN),
+//   projector px per camera pixel (testing/low_gradient.h; gray+4, B = 80 DN, sigma 1.5 DN),
 //   at the tests' quarter-size rig (320x256 cameras) and at full camera size (1280x1024 cameras,
 //   512x320 projector): coverage of the eligible pixels (valid left pixels whose true surface
 //   point the right camera sees as a valid pixel) and the fraction of valid left pixels the
@@ -38,8 +38,8 @@
 #include "fringe/sim/renderer.h"
 #include "fringe/stereo/phase_matching.h"
 #include "fringe/stereo/reconstruct_view.h"
-#include "fringe/stereo/test_low_gradient.h"
-#include "fringe/util/test_data.h"
+#include "fringe/testing/data.h"
+#include "fringe/testing/low_gradient.h"
 #include "fringe/util/timer.h"
 
 namespace fringe {

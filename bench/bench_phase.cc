@@ -34,13 +34,13 @@
 #include "fringe/phase/gamma.h"
 #include "fringe/phase/pattern_scheme.h"
 #include "fringe/phase/synthetic.h"
-#include "fringe/util/test_data.h"
+#include "fringe/testing/data.h"
+#include "fringe/util/memory.h"
 #ifdef FRINGE_BENCH_HAS_SIM
 #include "fringe/geometry/stereo_rig.h"
 #include "fringe/sim/demo_part.h"
 #include "fringe/sim/poses.h"
 #include "fringe/sim/renderer.h"
-#include "fringe/util/memory.h"
 #endif
 #include "bench_timing.h"
 #include "phase_accuracy.h"

@@ -4,7 +4,7 @@ if(FRINGE_HAVE_OPENCV_CONTRIB)
   fringe_add_bench(bench_phase
     SOURCES ${CMAKE_CURRENT_SOURCE_DIR}/bench_phase.cc
             ${CMAKE_CURRENT_SOURCE_DIR}/phase_accuracy.cc
-    DEPS fringe_phase fringe_io fringe_util opencv_structured_light opencv_phase_unwrapping
+    DEPS fringe_phase fringe_io fringe_util fringe_testing opencv_structured_light opencv_phase_unwrapping
          TBB::tbb nlohmann_json::nlohmann_json)
 elseif(FRINGE_BUILD_BENCH)
   message(STATUS "fringe: bench_phase skipped (needs OpenCV contrib structured_light)")

@@ -33,10 +33,14 @@
 //                           [--bunny DIR] [--no-bunny] [--cache DIR] [--no-open3d]
 //                           [--icp-points N...] [--icp-degeneracy R] [--no-adjustment]
 //                           [--no-icp] [--icp-shrink-within-level 0|1]
-//                           [--icp-normal-space 0|1] [--icp-step-sigmas S]
+//                           [--icp-normal-space 0|1] [--icp-step-sigmas S] [--icp-trim F]
+//                           [--no-markers [--start-slide-mm D]]
 // --cache DIR keeps the reconstructed views (organized PLY + markers file per view, and the
 // marker-match counts) and reuses them on the next run with the same arguments: registration
 // experiments then skip the minutes of simulation. The PLY stores float coordinates (~6e-5 mm).
+// --start-slide-mm D (with --no-markers) starts every view but the first from its true pose
+// moved by D mm in a seeded direction: the final multi-view ICP of marker-free views measured
+// on its own, in seconds, without the pairwise stage.
 #include <open3d/geometry/KDTreeSearchParam.h>
 #include <open3d/geometry/PointCloud.h>
 #include <open3d/pipelines/registration/GlobalOptimization.h>
@@ -366,6 +370,9 @@ int Run(int argc, char** argv) {
   app.add_option("--icp-normal-space", options.icp.normal_space_sampling,
                  "ICP samples in normal-space order (1) or uniformly (0)")
       ->capture_default_str();
+  app.add_option("--icp-trim", options.icp.trim_fraction,
+                 "ICP keeps this fraction of each view pair's correspondences (the closest)")
+      ->capture_default_str();
   app.add_option("--icp-step-sigmas", options.icp.convergence_step_sigmas,
                  "ICP level converged when a step is below this many sigmas of the estimate")
       ->capture_default_str();
@@ -386,6 +393,10 @@ int Run(int argc, char** argv) {
   bool no_icp = false;
   app.add_flag("--no-icp", no_icp, "Skip the ICP (marker stages only; icp_* = adjusted)");
   app.add_flag("--no-open3d", no_open3d, "Skip the Open3D comparison");
+  double start_slide_mm = -1;
+  app.add_option("--start-slide-mm", start_slide_mm,
+                 "With --no-markers: every view starts from its true pose slid by this much "
+                 "(seeded direction per view), the refinement alone measured (< 0: no start)");
   app.add_option("--cache", cache_dir,
                  "Keep the reconstructed views here and reuse them (same arguments only)");
   CLI11_PARSE(app, argc, argv);
@@ -491,6 +502,16 @@ int Run(int argc, char** argv) {
       }
     }
 
+    if (no_markers && start_slide_mm >= 0) {
+      std::mt19937_64 rng(seed + 7);
+      std::normal_distribution<double> gauss;
+      for (int v = 0; v < views_n; ++v) {
+        const Vector3d dir = Vector3d(gauss(rng), gauss(rng), gauss(rng)).normalized();
+        views[v].initial_world_from_sensor =
+            Rigid3d(Eigen::Quaterniond::Identity(), start_slide_mm * (v > 0) * dir) *
+            truth[0].Inverse() * truth[v];
+      }
+    }
     options.use_markers = !no_markers;
     options.adjust_markers = !no_adjustment;
     options.refine_icp = !no_icp;

@@ -24,19 +24,35 @@ packages=(
   libsdl2-dev                           # capture: the projector window
   libx11-dev                            # capture tests: read the projector's screen back
   aravis-tools xvfb x11-utils iproute2  # capture tests: fake GigE Vision cameras, X server, ip
+  chromium                              # the reports' 3D view tested in a real browser (headless)
 )
+# Node.js (>= 20, with npm) bundles the reports' 3D view and drives the browser tests
+# (web/viewer/). The machine image's Node.js 20 is used when present; else Debian's.
+if ! command -v node >/dev/null 2>&1 || ! command -v npm >/dev/null 2>&1; then
+  packages+=(nodejs npm)
+fi
 
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
 done
-if [ ${#missing[@]} -eq 0 ]; then
-  echo "install-deps: all ${#packages[@]} packages present"
-  exit 0
-fi
-
 SUDO=""
 if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
-echo "install-deps: installing ${missing[*]}"
-$SUDO apt-get update -qq
-DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "install-deps: all ${#packages[@]} packages present"
+else
+  echo "install-deps: installing ${missing[*]}"
+  $SUDO apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
+fi
+
+# The 3D view's npm packages (three, esbuild, playwright-core), pinned by package-lock.json;
+# again only when the lock file changed since the last install (no network otherwise).
+viewer="$(cd "$(dirname "$0")/.." && pwd)/web/viewer"
+if ! cmp -s "$viewer/package-lock.json" "$viewer/node_modules/.fringe-installed-lock"; then
+  echo "install-deps: npm ci in web/viewer"
+  (cd "$viewer" && npm ci --no-audit --no-fund --loglevel=error &&
+   cp package-lock.json node_modules/.fringe-installed-lock)
+else
+  echo "install-deps: web/viewer/node_modules up to date"
+fi

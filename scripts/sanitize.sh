@@ -11,7 +11,7 @@
 #                              and scan) with their unit tests, and the replay of every parser's
 #                              fuzz corpus and past findings (fuzz/corpus, fuzz/known). Chosen to
 #                              keep the whole CI run well under 45 minutes on 2 cores
-#                              (docs/benchmarks.md, "Sanitizers").
+#                              (docs/benchmarks.md, "Hostile inputs").
 set -eu
 root=$(cd "$(dirname "$0")/.." && pwd)
 build="$root/build-asan"

@@ -7,8 +7,8 @@
 #include <functional>
 #include <string>
 
+#include "fringe/testing/data.h"
 #include "fringe/util/error.h"
-#include "fringe/util/test_data.h"
 
 namespace fringe::test {
 

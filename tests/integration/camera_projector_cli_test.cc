@@ -13,9 +13,9 @@
 #include "fringe/io/ply.h"
 #include "fringe/phase/pattern_scheme.h"
 #include "fringe/registration/markers.h"
-#include "fringe/registration/test_views.h"
 #include "fringe/sim/poses.h"
 #include "fringe/sim/renderer.h"
+#include "fringe/testing/registration_views.h"
 #include "fringe_test.h"
 
 namespace fringe {

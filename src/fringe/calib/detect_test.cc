@@ -7,7 +7,7 @@
 #include <iostream>
 #include <opencv2/imgproc.hpp>
 
-#include "fringe/calib/test_board.h"
+#include "fringe/testing/board.h"
 #include "fringe/util/error.h"
 
 namespace fringe::calib {

@@ -5,8 +5,8 @@
 #include <Eigen/Geometry>
 #include <random>
 
-#include "fringe/calib/test_board.h"
-#include "fringe/io/report_test_util.h"
+#include "fringe/testing/board.h"
+#include "fringe/testing/report.h"
 #include "fringe/util/error.h"
 #include "fringe/util/random.h"
 

@@ -1,4 +1,4 @@
-// Projector calibration: the projector as an inverse camera (issue 14).
+// Projector calibration: the projector as an inverse camera.
 //
 // Input per board pose: the camera's detection of the board (detect.h, from the plain board
 // image) and the decoded projector coordinates of the camera pixels under fringes in BOTH

@@ -11,7 +11,6 @@
 #include "fringe/capture/capture.h"
 #include "fringe/capture/projector.h"
 #include "fringe/capture/sequence.h"
-#include "fringe/capture/test_rig.h"
 #include "fringe/cli/run_cli_for_test.h"
 #include "fringe/io/calibration_io.h"
 #include "fringe/io/image_io.h"
@@ -20,6 +19,7 @@
 #include "fringe/phase/pattern_scheme.h"
 #include "fringe/phase/scheme_presets.h"
 #include "fringe/scan/scan_folder.h"
+#include "fringe/testing/capture_rig.h"
 #include "fringe/util/files.h"
 #include "fringe_test.h"
 

@@ -16,7 +16,6 @@
 
 #include "fringe/calib/projector_folder.h"
 #include "fringe/capture/capture.h"
-#include "fringe/capture/test_rig.h"
 #include "fringe/io/calibration_io.h"
 #include "fringe/io/image_io.h"
 #include "fringe/io/json.h"
@@ -25,6 +24,7 @@
 #include "fringe/scan/scan_folder.h"
 #include "fringe/sim/projector_board.h"
 #include "fringe/sim/scan.h"
+#include "fringe/testing/capture_rig.h"
 #include "fringe_test.h"
 
 namespace fringe::capture {

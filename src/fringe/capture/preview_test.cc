@@ -9,8 +9,8 @@
 #include <opencv2/imgproc.hpp>
 
 #include "fringe/capture/preview.h"
-#include "fringe/capture/test_rig.h"
 #include "fringe/cli/run_cli_for_test.h"
+#include "fringe/testing/capture_rig.h"
 #include "fringe/util/error.h"
 #include "fringe_test.h"
 

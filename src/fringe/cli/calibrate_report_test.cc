@@ -8,8 +8,8 @@
 
 #include "fringe/cli/run_cli_for_test.h"
 #include "fringe/io/json.h"
-#include "fringe/io/report_test_util.h"
 #include "fringe/sim/scan.h"
+#include "fringe/testing/report.h"
 #include "fringe/util/files.h"
 #include "fringe_test.h"
 

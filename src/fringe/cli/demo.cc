@@ -40,6 +40,10 @@ void AddDemoCommand(CLI::App& app) {
                   "(surfaces of 20,000 finest cells and more), 1 never, 2 always")
       ->check(CLI::Range(0, 2))
       ->capture_default_str();
+  sub->add_option("--tolerance", a->options.scan.tolerance_mm,
+                  "The report's deviation colours span +-this many mm (a tolerance band); "
+                  "default: +-the 95th percentile of |deviation|")
+      ->check(CLI::PositiveNumber);
   sub->add_option("--seed", a->options.seed, "Random seed")->capture_default_str();
   sub->add_option("--calibration-images", a->options.calibration_images,
                   "Board poses for calibration")

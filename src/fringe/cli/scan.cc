@@ -79,6 +79,10 @@ void AddScanCommand(CLI::App& app) {
       "Register without markers (marker-free coarse alignment + ICP)");
   sub->add_flag(
       "--no-report", [a](int64_t) { a->options.write_report = false; }, "Do not write report.html");
+  sub->add_option("--tolerance", a->options.tolerance_mm,
+                  "The report's deviation colours span +-this many mm (a tolerance band); "
+                  "default: +-the 95th percentile of |deviation|")
+      ->check(CLI::PositiveNumber);
   sub->add_flag(
       "--no-projector-columns", [a](int64_t) { a->options.fit_projector_columns = false; },
       "Stereo rig without a calibrated projector: do not fit the projector's columns to the "
@@ -93,12 +97,13 @@ void AddScanCommand(CLI::App& app) {
                 "options are unchanged; the result is the one an uninterrupted run gives");
   sub->callback([a, sub] {
     // The options as given (every flag and its value, defaults included), less those that do
-    // not change the result: the key of the views' checkpoints (ScanOptions::resume_key).
+    // not change the views' results (--tolerance colours the report only): the key of the views'
+    // checkpoints (ScanOptions::resume_key).
     std::istringstream config(sub->config_to_str(true, false));
     a->options.resume_key.clear();
     for (std::string line; std::getline(config, line);) {
       if (line.rfind("resume", 0) == 0 || line.rfind("json", 0) == 0 ||
-          line.rfind("write-manifest", 0) == 0) {
+          line.rfind("write-manifest", 0) == 0 || line.rfind("tolerance", 0) == 0) {
         continue;
       }
       a->options.resume_key += line + "\n";

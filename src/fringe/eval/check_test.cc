@@ -5,7 +5,7 @@
 #include <cmath>
 #include <random>
 
-#include "fringe/io/report_test_util.h"
+#include "fringe/testing/report.h"
 #include "fringe/util/error.h"
 #include "fringe/util/random.h"
 

@@ -1291,8 +1291,8 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
     s.last_max_shift_mm = *std::max_element(shift.begin(), shift.end());
     // Converged when (almost) every centre has settled: a few dozen centres on edges can
     // alternate between two memberships for many iterations, by micrometres, and change
-    // nothing measurable (docs/benchmarks.md, "Fusion, session 5": centres moving per
-    // iteration).
+    // nothing measurable (half-rig demo scan: from the fourth iteration on, a few dozen centres
+    // still move by >= 1 um per iteration).
     int64_t moving = 0;
     for (size_t c = 0; c < nc; ++c) moving += shift[c] >= options.convergence_mm;
     s.moving_centres = moving;
@@ -1352,6 +1352,7 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
   out.intensity.reserve(static_cast<size_t>(s.clusters));
   out.quality.reserve(static_cast<size_t>(s.clusters));
   result.support.reserve(static_cast<size_t>(s.clusters));
+  result.view.reserve(static_cast<size_t>(s.clusters));
   for (size_t c = 0; c < nc; ++c) {
     if (!cluster[c].keep) continue;
     out.points.push_back(centre[c].cast<double>());
@@ -1359,6 +1360,7 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
     out.intensity.push_back(cluster[c].intensity);
     out.quality.push_back(cluster[c].quality);
     result.support.push_back(cluster[c].distinct);
+    result.view.push_back(pts.view[seeds[c]]);
   }
   std::vector<uint32_t> passed;
   for (size_t k = 0; k < pts.size(); ++k) {
@@ -1393,6 +1395,7 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
     out.intensity.push_back(pts.intensity[k]);
     out.quality.push_back(pts.quality[k]);
     result.support.push_back(1);
+    result.view.push_back(pts.view[k]);
   }
   out.colors.resize(out.size());
   for (size_t i = 0; i < out.size(); ++i) {

@@ -37,14 +37,14 @@
 //   Curless & Levoy, SIGGRAPH 1996, and Turk & Levoy, SIGGRAPH 1994, weigh range-image borders:
 //   the pixels beside a silhouette or a decoding hole mix two surfaces' phases; measured on the
 //   simulated demo part, the points within 2 px of a border carry ~90 % of the squared error of
-//   the points outside overlaps, docs/benchmarks.md).
+//   the points outside overlaps, bench_fusion --diagnose).
 //   Single coverage: a point outside the overlaps that lies within border_trim_px of its view's
 //   border AND has a point of another view with a larger weight within its radius (whatever
 //   that point's normal: a mixed pixel's normal is as wrong as its position) is absorbed — a
 //   better measurement of the place exists, the mixed pixel must not survive as its own point.
 //   The other single-coverage points within border_trim_px of an invalid slot are trimmed: on
 //   the demo part their RMS error is 10-15 times that of the points 6 px or more inside the
-//   border (docs/benchmarks.md), the place they claim to measure is measured by their inner
+//   border (bench_fusion --diagnose), the place they claim to measure is measured by their inner
 //   neighbours, and the frame edge is no border (a view of a flat field that fills the frame
 //   loses nothing). Every other single-coverage point passes through, averaged along its normal
 //   only with its own view's compatible grid neighbours (smooth_radius_px; 0: unchanged). The
@@ -63,7 +63,7 @@
 // its OWN view's grid: every seed is projected once into every view's grid (a bucket per slot),
 // so a point reads one window instead of one per view, from its centre outwards, shrinking to
 // the k-th nearest seed found. These shortcuts are exact: the output is that of reading every
-// window whole (docs/benchmarks.md, "Fusion, session 7").
+// window whole (bench_fusion's fused_digest compares the output).
 // Clustering iterations only revisit what changed: a point's assignment when one of its
 // candidate centres moved, a centre when its membership changed or it moved; a centre whose
 // update is below convergence_mm with unchanged members settles.
@@ -94,9 +94,9 @@ struct FusionView {
 
 struct FusionOptions {
   // Overlap radius = spacing_factor * local spacing + registration_factor * registration_rms_mm.
-  // 3 (was 2): more members per cluster (about three points per view) and border points reach
-  // a better point of another view (with border_seed_factor 3); on the demo part 0.0275 ->
-  // 0.0257 mm fused RMS at ~25 % more fusion CPU (docs/benchmarks.md, "Fusion, session 6").
+  // 3 rather than 2: more members per cluster (about three points per view) and border points
+  // reach a better point of another view (with border_seed_factor 3); on the demo part 0.0257
+  // instead of 0.0275 mm fused RMS, for ~25 % more fusion CPU.
   double spacing_factor = 3.0;  // (0, 20]
   // Seed radius = seed_factor * local spacing + the registration term: the best point within
   // it becomes a centre. 1 covers the farthest place from a grid point (0.71 spacing), (0, 20].
@@ -105,8 +105,8 @@ struct FusionOptions {
   // radius max(seed_factor, border_seed_factor) * spacing + the registration term: a better
   // compatible point of another view that near keeps them from seeding a centre (they join its
   // cluster or, beyond every centre's reach, are dropped as unassigned). Border points are
-  // the fused cloud's worst (mixed pixels, grazing angles; docs/benchmarks.md, "Fusion, session
-  // 6": 0.0315 -> 0.0275 mm fused RMS on the demo part with spacing_factor 2 and 2 here), while
+  // the fused cloud's worst (mixed pixels, grazing angles: on the demo part, with spacing_factor
+  // 2 and 2 here, 0.0275 mm fused RMS against 0.0315 mm with the plain seed radius), while
   // a wider seed radius everywhere lets clusters reach across edges. Beyond spacing_factor it
   // changes nothing (the search sees no farther). (0, 20]; border_seed_px 0: off, [0, 100].
   double border_seed_factor = 3.0;
@@ -212,6 +212,9 @@ struct FusionResult {
   // points in view and grid order.
   PointCloud fused;
   std::vector<uint16_t> support;  // per fused point: the number of views in its cluster (1 = one)
+  // Per fused point: the index (in the views given) of the view it came from: a centre's seed
+  // view (the locally best view of its cluster), a passed-through point's own view.
+  std::vector<uint16_t> view;
   // Per view, per grid slot: 1 where the point was in an overlap (for evaluation).
   std::vector<std::vector<uint8_t>> overlap;
   FusionSummary summary;

@@ -8,10 +8,10 @@
 #include <limits>
 
 #include "fringe/eval/deviation.h"
-#include "fringe/fusion/test_views.h"
 #include "fringe/sim/poses.h"
 #include "fringe/sim/renderer.h"
 #include "fringe/sim/scene.h"
+#include "fringe/testing/fusion_views.h"
 #include "fringe/util/error.h"
 
 namespace fringe::fusion {
@@ -277,10 +277,14 @@ TEST(Fusion, PartialOverlapKeepsTheRestUnchanged) {
       ASSERT_LT(k, r.fused.size());
       ASSERT_EQ(r.fused.points[k], views[v].world_from_sensor * views[v].cloud.cloud.points[i]);
       ASSERT_EQ(r.support[k], 1);
+      ASSERT_EQ(r.view[k], v);  // the view it came from
       ++k;
     }
   }
   EXPECT_EQ(k, r.fused.size());
+  // A centre came from its seed's view, one of the two.
+  ASSERT_EQ(r.view.size(), r.fused.size());
+  for (size_t c = 0; c < static_cast<size_t>(r.summary.clusters); ++c) ASSERT_LT(r.view[c], 2);
   EXPECT_GT(at_border, 0);
   EXPECT_EQ(r.summary.absorbed + r.summary.trimmed, at_border);
 }
@@ -444,6 +448,7 @@ TEST(Fusion, DeterministicAndIndependentOfThreadCount) {
     EXPECT_EQ(one.fused.points, other->fused.points);
     EXPECT_EQ(one.fused.normals, other->fused.normals);
     EXPECT_EQ(one.support, other->support);
+    EXPECT_EQ(one.view, other->view);
   }
 }
 

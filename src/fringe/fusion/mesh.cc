@@ -8,6 +8,7 @@
 #include <open3d/geometry/TriangleMesh.h>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <memory>
 #include <tuple>
@@ -59,6 +60,17 @@ std::pair<int64_t, int64_t> CountOddEdges(const open3d::geometry::TriangleMesh& 
     i = j;
   }
   return {boundary, non_manifold};
+}
+
+// Quadric-error decimation to at most max_triangles (>= 1) triangles, unreferenced vertices
+// removed.
+std::shared_ptr<open3d::geometry::TriangleMesh> SimplifyQuadric(
+    const open3d::geometry::TriangleMesh& mesh, int64_t max_triangles) {
+  auto decimated =
+      mesh.SimplifyQuadricDecimation(static_cast<int>(std::min<int64_t>(max_triangles, 2000000000)),
+                                     std::numeric_limits<double>::infinity(), 1.0);
+  decimated->RemoveUnreferencedVertices();
+  return decimated;
 }
 
 MeshResult Fail(MeshResult r, MeshStatus status, std::string message) {
@@ -536,10 +548,7 @@ MeshResult MeshPoisson(const PointCloud& cloud, const MeshOptions& options) {
 
   if (options.max_triangles > 0 &&
       static_cast<int64_t>(mesh->triangles_.size()) > options.max_triangles) {
-    auto decimated = mesh->SimplifyQuadricDecimation(
-        static_cast<int>(std::min<int64_t>(options.max_triangles, 2000000000)),
-        std::numeric_limits<double>::infinity(), 1.0);
-    decimated->RemoveUnreferencedVertices();
+    auto decimated = SimplifyQuadric(*mesh, options.max_triangles);
     if (!decimated->triangles_.empty()) {
       TriangleMesh decimated_mesh;
       decimated_mesh.vertices = decimated->vertices_;
@@ -578,6 +587,24 @@ MeshResult MeshPoisson(const PointCloud& cloud, const MeshOptions& options) {
   s.check_s = timer.ElapsedSeconds();
   s.total_s = total.ElapsedSeconds();
   return result;
+}
+
+TriangleMesh DecimateMesh(const TriangleMesh& mesh, int64_t max_triangles) {
+  if (max_triangles < 4) {
+    throw Error(util::StrCat("DecimateMesh: max_triangles ", max_triangles, " must be >= 4"));
+  }
+  if (static_cast<int64_t>(mesh.NumTriangles()) <= max_triangles) return mesh;
+  open3d::geometry::TriangleMesh o3d;
+  o3d.vertices_ = mesh.vertices;
+  o3d.triangles_.reserve(mesh.NumTriangles());
+  for (const TriangleMesh::Triangle& t : mesh.triangles)
+    o3d.triangles_.emplace_back(t[0], t[1], t[2]);
+  const auto decimated = SimplifyQuadric(o3d, max_triangles);
+  TriangleMesh out;
+  out.vertices = decimated->vertices_;
+  out.triangles = Triangles(*decimated);
+  if (mesh.has_normals()) out.ComputeVertexNormals();
+  return out;
 }
 
 void WriteMeshFile(const std::filesystem::path& path, const MeshResult& mesh) {

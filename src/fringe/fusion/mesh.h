@@ -1,8 +1,8 @@
 // A triangle mesh of a fused cloud: screened Poisson surface reconstruction (Kazhdan & Hoppe,
 // "Screened Poisson surface reconstruction", ACM TOG 2013) as implemented in Open3D
 // (open3d::geometry::TriangleMesh::CreateFromPointCloudPoisson, Debian libopen3d-dev 0.16),
-// not hand-written; CGAL's Poisson (libcgal-dev) is selectable (MeshLibrary; compared on the
-// same fused cloud in docs/benchmarks.md, "Fusion, session 4").
+// not hand-written; CGAL's Poisson (libcgal-dev) is selectable (MeshLibrary) for small closed
+// objects: on the demo part's fused cloud its Delaunay refinement ran out of memory.
 //
 // By default the mesh keeps only the measured surface: Poisson closes the surface everywhere,
 // and vertices the data do not support are trimmed — those with a Poisson sampling density
@@ -29,7 +29,7 @@
 namespace fringe::fusion {
 
 // The Poisson implementation: Open3D's screened Poisson on an adaptive octree (the default:
-// faster and closer to the data on the demo part, docs/benchmarks.md) or CGAL's Poisson on a
+// faster and closer to the data on the demo part) or CGAL's Poisson on a
 // Delaunay refinement (Kazhdan 2006, unscreened; meshed as a closed manifold).
 enum class MeshLibrary { kOpen3d = 0, kCgal };
 const char* ToString(MeshLibrary l);
@@ -42,7 +42,7 @@ struct MeshOptions {
   // cost grows ~4x per level on a surface: a fixed depth is either too coarse for a fine scan
   // or too slow for a coarse one). The wanted resolution may make the cell coarser: with
   // resolution_mm > 0 the cell is max(cell_spacings * spacing, resolution_mm) (detail finer than
-  // the resolution is smoothed, docs/benchmarks.md). 0: as fine as the points allow. A depth
+  // the resolution is smoothed). 0: as fine as the points allow. A depth
   // outside [5, max_auto_depth] is clamped (the cube is then 1.1 x the largest side).
   int poisson_depth = 0;
   double cell_spacings = 2;  // (0, 100]
@@ -126,6 +126,12 @@ struct MeshResult {
 
 // Bad options throw fringe::Error; bad data come back as a status.
 MeshResult MeshPoisson(const PointCloud& cloud, const MeshOptions& options = {});
+
+// `mesh` decimated by quadric error (Garland & Heckbert, as MeshOptions::max_triangles) to at
+// most max_triangles triangles (>= 4, else fringe::Error), unreferenced vertices removed, vertex
+// normals recomputed when it had them; `mesh` itself when it has no more triangles. For a
+// lighter copy to show (the report's 3D view), not for measuring.
+TriangleMesh DecimateMesh(const TriangleMesh& mesh, int64_t max_triangles);
 
 // Writes the mesh by extension through io::WriteMesh: .ply (binary little-endian, with vertex
 // normals) or .stl (binary). Atomic (temporary name, then rename). Throws fringe::Error for another

@@ -7,10 +7,10 @@
 
 #include "fringe/eval/deviation.h"
 #include "fringe/fusion/fuse.h"
-#include "fringe/fusion/test_views.h"
 #include "fringe/io/mesh_io.h"
 #include "fringe/sim/poses.h"
 #include "fringe/sim/scene.h"
+#include "fringe/testing/fusion_views.h"
 #include "fringe/util/error.h"
 #include "fringe_test.h"
 
@@ -353,6 +353,30 @@ TEST(Mesh, DecimationReportsItsDeviationAndFilesAreWritten) {
   EXPECT_EQ(stl.triangles.size(), m.mesh.triangles.size());
   EXPECT_THROW(WriteMeshFile(dir / "m.obj", m), Error);
   EXPECT_FALSE(std::filesystem::exists(dir / "m.obj"));
+}
+
+TEST(Mesh, DecimateMeshKeepsTheShapeWithFewerTriangles) {
+  const FusionResult& fused = FusedSphere();
+  MeshOptions options;
+  options.poisson_depth = 7;
+  options.watertight = true;
+  const MeshResult m = MeshPoisson(fused.fused, options);
+  ASSERT_TRUE(m.summary.ok());
+  ASSERT_GT(m.mesh.NumTriangles(), 8000u);
+  const TriangleMesh d = DecimateMesh(m.mesh, 2000);
+  EXPECT_LE(d.NumTriangles(), 2000u);
+  EXPECT_GT(d.NumTriangles(), 1500u);
+  EXPECT_NO_THROW(d.Check("decimated"));
+  EXPECT_EQ(d.normals.size(), d.vertices.size());
+  // Still the sphere of radius 30: the decimated vertices lie on it within 0.5 mm.
+  PointCloud vertices;
+  vertices.points = d.vertices;
+  EXPECT_LT(RadialErrorRmsMax(vertices)[1], 0.5);
+  // Nothing to do: the same mesh.
+  const TriangleMesh same = DecimateMesh(d, 100000);
+  EXPECT_EQ(same.vertices, d.vertices);
+  EXPECT_EQ(same.triangles, d.triangles);
+  EXPECT_THROW(DecimateMesh(d, 3), Error);
 }
 
 TEST(Mesh, BadInputsGiveTheirStatus) {

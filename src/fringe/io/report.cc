@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <fstream>
 #include <iomanip>
 #include <opencv2/imgcodecs.hpp>
@@ -12,6 +13,11 @@
 #include "fringe/util/files.h"
 
 namespace fringe::io {
+namespace internal {
+// web/viewer/dist/viewer.js (the generated viewer_script.cc, src/fringe/io/CMakeLists.txt).
+extern const unsigned char kViewerScript[];
+extern const std::size_t kViewerScriptSize;
+}  // namespace internal
 namespace {
 
 std::string EscapeHtml(const std::string& s) {
@@ -53,7 +59,60 @@ std::string FormatTick(double v) {
   return os.str();
 }
 
+// JSON inside <script type="application/json">: no "</script" nor "<!--" may appear, so every
+// '<' (only ever inside a string) is written as its escape.
+std::string JsonForScript(const nlohmann::json& j) {
+  const std::string text = j.dump();
+  std::string out;
+  out.reserve(text.size());
+  for (char c : text) {
+    if (c == '<') {
+      out += "\\u003c";
+    } else {
+      out += c;
+    }
+  }
+  return out;
+}
+
+void WriteScene(std::ostream& os, const ReportScene& scene, int index) {
+  const std::string id = util::StrCat("fringe-scene-", index);
+  os << "<div class=\"fringe-scene\" id=\"" << id << "\"><p class=\"fv-message\">"
+     << "The interactive 3D view needs JavaScript and WebGL; the pictures below show the model."
+     << "</p></div>\n<script type=\"application/json\" id=\"" << id << "-description\">"
+     << JsonForScript(scene.description)
+     << "</script>\n<script type=\"application/octet-stream\" id=\"" << id << "-arrays\">"
+     << Base64(scene.bytes()) << "</script>\n";
+}
+
 }  // namespace
+
+template <typename T>
+void ReportScene::Add(const std::string& name, const char* type, const std::vector<T>& values) {
+  nlohmann::json& arrays = description["arrays"];
+  if (arrays.contains(name)) throw Error("report scene: array " + name + " added twice");
+  bytes_.resize((bytes_.size() + 3) / 4 * 4, 0);
+  const size_t offset = bytes_.size();
+  bytes_.resize(offset + values.size() * sizeof(T));
+  // Little-endian, as every machine fringe builds on (x86-64, arm64) stores them.
+  static_assert(sizeof(T) <= 4);
+  if (!values.empty())
+    std::memcpy(bytes_.data() + offset, values.data(), values.size() * sizeof(T));
+  arrays[name] = {{"type", type}, {"offset", offset}, {"count", values.size()}};
+}
+
+void ReportScene::AddArray(const std::string& name, const std::vector<float>& values) {
+  Add(name, "float32", values);
+}
+void ReportScene::AddArray(const std::string& name, const std::vector<uint32_t>& values) {
+  Add(name, "uint32", values);
+}
+void ReportScene::AddArray(const std::string& name, const std::vector<uint16_t>& values) {
+  Add(name, "uint16", values);
+}
+void ReportScene::AddArray(const std::string& name, const std::vector<uint8_t>& values) {
+  Add(name, "uint8", values);
+}
 
 std::string Base64(const std::vector<uint8_t>& bytes) {
   static constexpr char kAlphabet[] =
@@ -107,10 +166,65 @@ std::array<double, 2> DisplayRange(const cv::Mat& values, double p) {
   return {lo, hi};
 }
 
+DeviationRange DeviationRange::FromData(const std::vector<double>& values, double percentile) {
+  if (!(percentile > 0 && percentile <= 100)) {
+    throw Error(util::StrCat("DeviationRange: percentile ", percentile, " must be in (0, 100]"));
+  }
+  std::vector<double> a;
+  a.reserve(values.size());
+  for (double v : values) {
+    if (std::isfinite(v)) a.push_back(std::abs(v));
+  }
+  DeviationRange r;
+  r.percentile = percentile;
+  r.half_range_mm = 1e-3;
+  if (a.empty()) return r;
+  // The nearest rank (ceil(p n)), so that FromData(values, 100) is the largest.
+  const size_t rank = static_cast<size_t>(std::ceil(percentile / 100 * double(a.size())));
+  const size_t k = std::clamp<size_t>(rank, 1, a.size()) - 1;
+  std::nth_element(a.begin(), a.begin() + static_cast<std::ptrdiff_t>(k), a.end());
+  r.half_range_mm = std::max(r.half_range_mm, a[k]);
+  return r;
+}
+
+DeviationRange DeviationRange::FromTolerance(double tolerance_mm) {
+  if (!(std::isfinite(tolerance_mm) && tolerance_mm > 0)) {
+    throw Error(util::StrCat("tolerance ", tolerance_mm, " mm must be a positive number"));
+  }
+  DeviationRange r;
+  r.half_range_mm = tolerance_mm;
+  r.from_tolerance = true;
+  return r;
+}
+
+std::string DeviationRange::Legend(const std::string& what) const {
+  std::ostringstream os;
+  os << what << " (+-" << FormatTick(half_range_mm) << ": ";
+  if (from_tolerance) {
+    os << "the tolerance given)";
+  } else {
+    os << FormatTick(percentile) << "th percentile of |deviation|)";
+  }
+  return os.str();
+}
+
 cv::Mat ColourBar(int width_px, double lo, double hi, const std::string& unit) {
   CV_Assert(width_px > 24 && hi > lo);
-  // A gradient strip and five labelled ticks, white background.
-  const int width = width_px, margin = 12, strip_h = 14, bar_h = 52;
+  const double font = 0.4;
+  // The legend on one line, or on two (split before its last " (") when it is wider than the
+  // bar; a line still too wide is set smaller.
+  std::vector<std::string> lines = {unit};
+  int baseline = 0;
+  const auto text_width = [&](const std::string& t) {
+    return cv::getTextSize(t, cv::FONT_HERSHEY_SIMPLEX, font, 1, &baseline).width;
+  };
+  if (text_width(unit) > width_px - 4 && unit.rfind(" (") != std::string::npos) {
+    const size_t split = unit.rfind(" (");
+    lines = {unit.substr(0, split), unit.substr(split + 1)};
+  }
+  // A gradient strip and labelled ticks (five, three on a narrow bar), white background.
+  const int width = width_px, margin = 12, strip_h = 14, line_h = 14;
+  const int bar_h = 38 + line_h * static_cast<int>(lines.size());
   cv::Mat bar(bar_h, width, CV_8UC3, cv::Scalar(255, 255, 255));
   cv::Mat ramp(1, width - 2 * margin, CV_8U);
   for (int c = 0; c < ramp.cols; ++c) {
@@ -120,21 +234,25 @@ cv::Mat ColourBar(int width_px, double lo, double hi, const std::string& unit) {
   cv::applyColorMap(ramp, ramp_colour, cv::COLORMAP_TURBO);
   cv::resize(ramp_colour, ramp_colour, cv::Size(ramp.cols, strip_h), 0, 0, cv::INTER_NEAREST);
   ramp_colour.copyTo(bar(cv::Rect(margin, 4, ramp.cols, strip_h)));
-  const double font = 0.4;
-  for (int k = 0; k <= 4; ++k) {
-    const int x = margin + static_cast<int>(std::lround(k * (ramp.cols - 1) / 4.0));
+  const int intervals = width_px >= 400 ? 4 : 2;
+  for (int k = 0; k <= intervals; ++k) {
+    const int x = margin + static_cast<int>(std::lround(k * (ramp.cols - 1) / double(intervals)));
     cv::line(bar, {x, 4 + strip_h}, {x, 4 + strip_h + 4}, cv::Scalar(0, 0, 0));
-    const std::string label = FormatTick(lo + (hi - lo) * k / 4.0);
-    int baseline = 0;
+    const std::string label = FormatTick(lo + (hi - lo) * k / intervals);
     const cv::Size ts = cv::getTextSize(label, cv::FONT_HERSHEY_SIMPLEX, font, 1, &baseline);
     const int tx = std::clamp(x - ts.width / 2, 0, std::max(0, width - ts.width));
     cv::putText(bar, label, {tx, 4 + strip_h + 6 + ts.height}, cv::FONT_HERSHEY_SIMPLEX, font,
                 cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
   }
-  int baseline = 0;
-  const cv::Size us = cv::getTextSize(unit, cv::FONT_HERSHEY_SIMPLEX, font, 1, &baseline);
-  cv::putText(bar, unit, {std::max(0, (width - us.width) / 2), bar_h - 4}, cv::FONT_HERSHEY_SIMPLEX,
-              font, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+  for (size_t i = 0; i < lines.size(); ++i) {
+    const int w = text_width(lines[i]);
+    const double f = w > width - 4 ? std::max(0.28, font * (width - 4) / w) : font;
+    const int fw = cv::getTextSize(lines[i], cv::FONT_HERSHEY_SIMPLEX, f, 1, &baseline).width;
+    cv::putText(bar, lines[i],
+                {std::max(0, (width - fw) / 2),
+                 bar_h - 4 - line_h * static_cast<int>(lines.size() - 1 - i)},
+                cv::FONT_HERSHEY_SIMPLEX, f, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+  }
   return bar;
 }
 
@@ -247,9 +365,11 @@ std::string Report::ToHtml() const {
      << "figure{display:inline-block;margin:.4em;vertical-align:top}"
         "figcaption{font-size:.85em;max-width:640px}\n"
      << "</style></head><body>\n<h1>" << EscapeHtml(title) << "</h1>\n";
+  int scenes = 0;
   for (const ReportSection& s : sections) {
     os << "<h2>" << EscapeHtml(s.title) << "</h2>\n";
     for (const std::string& p : s.paragraphs) os << "<p>" << EscapeHtml(p) << "</p>\n";
+    if (s.scene) WriteScene(os, *s.scene, scenes++);
     for (const ReportTable& t : s.tables) {
       os << "<table>";
       if (!t.caption.empty()) os << "<caption>" << EscapeHtml(t.caption) << "</caption>";
@@ -269,6 +389,12 @@ std::string Report::ToHtml() const {
          << im.image.rows << "\"><figcaption>" << EscapeHtml(im.caption)
          << "</figcaption></figure>\n";
     }
+  }
+  if (scenes > 0) {
+    os << "<script>";
+    os.write(reinterpret_cast<const char*>(internal::kViewerScript),
+             static_cast<std::streamsize>(internal::kViewerScriptSize));
+    os << "</script>\n";
   }
   os << "</body></html>\n";
   return os.str();

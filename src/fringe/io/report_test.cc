@@ -2,10 +2,12 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <cstring>
 #include <limits>
 #include <opencv2/imgcodecs.hpp>
 
-#include "fringe/io/report_test_util.h"
+#include "fringe/testing/report.h"
 #include "fringe/util/files.h"
 #include "fringe_test.h"
 
@@ -41,6 +43,47 @@ TEST(Report, ColourMapShowsNaNAsGreyAndAddsABar) {
   const auto range = DisplayRange(values, 0.0);
   EXPECT_FLOAT_EQ(range[0], 0.f);
   EXPECT_FLOAT_EQ(range[1], 199.f);
+}
+
+TEST(DeviationRange, FromDataIsAHighPercentileOfTheMagnitudeNotTheOutliers) {
+  // A constructed deviation set: 950 values 0.0001 mm apart from -0.0475 to +0.0474 mm (the
+  // measurement's noise), 20 gross outliers of -2 mm and 30 of +3 mm (spikes at an edge, 5 %),
+  // and NaNs (no value) that must not count. The 95th percentile of |d| (nearest rank: the
+  // 950th of the 1000 magnitudes) is the largest noise magnitude, 0.0475 mm: the outliers
+  // saturate.
+  std::vector<double> d;
+  for (int i = 0; i < 950; ++i) d.push_back(-0.0475 + 0.0001 * i);
+  d.insert(d.end(), 20, -2.0);
+  d.insert(d.end(), 30, 3.0);
+  d.insert(d.end(), 7, std::numeric_limits<double>::quiet_NaN());
+  const DeviationRange r = DeviationRange::FromData(d);
+  EXPECT_FALSE(r.from_tolerance);
+  EXPECT_DOUBLE_EQ(r.percentile, 95);
+  EXPECT_NEAR(r.half_range_mm, 0.0475, 1e-12);
+  EXPECT_DOUBLE_EQ(r.lo(), -r.hi());
+  // Another percentile: the 99th lies among the outliers; the 100th is the largest.
+  EXPECT_DOUBLE_EQ(DeviationRange::FromData(d, 99).half_range_mm, 3.0);
+  EXPECT_DOUBLE_EQ(DeviationRange::FromData(d, 96).half_range_mm, 2.0);
+  EXPECT_DOUBLE_EQ(DeviationRange::FromData(d, 100).half_range_mm, 3.0);
+  EXPECT_NE(r.Legend("signed deviation, mm").find("95th percentile of |deviation|"),
+            std::string::npos);
+  // Nothing to go by: a small range, not an empty one.
+  EXPECT_GT(DeviationRange::FromData({}).half_range_mm, 0);
+  EXPECT_GT(DeviationRange::FromData({0, 0, 0}).half_range_mm, 0);
+  EXPECT_THROW(DeviationRange::FromData(d, 0), Error);
+}
+
+TEST(DeviationRange, ToleranceIsTheRangeAndTheLegendSaysSo) {
+  const DeviationRange r = DeviationRange::FromTolerance(0.1);
+  EXPECT_TRUE(r.from_tolerance);
+  EXPECT_DOUBLE_EQ(r.lo(), -0.1);
+  EXPECT_DOUBLE_EQ(r.hi(), 0.1);
+  const std::string legend = r.Legend("signed deviation from truth, mm");
+  EXPECT_NE(legend.find("+-0.1"), std::string::npos) << legend;
+  EXPECT_NE(legend.find("tolerance"), std::string::npos) << legend;
+  EXPECT_THROW(DeviationRange::FromTolerance(0), Error);
+  EXPECT_THROW(DeviationRange::FromTolerance(-1), Error);
+  EXPECT_THROW(DeviationRange::FromTolerance(std::nan("")), Error);
 }
 
 TEST(Report, HistogramBarsFollowTheCounts) {
@@ -83,6 +126,61 @@ TEST(Report, HtmlIsSelfContainedAndEveryImageDecodes) {
   EXPECT_EQ(images[0].size(), cv::Size(20, 10));
   EXPECT_EQ(images[1].type(), CV_8UC3);
   EXPECT_EQ(html.find("<img src=\"http"), std::string::npos);
+}
+
+TEST(Report, SceneIsEmbeddedAsJsonAndOneBase64BlockWithTheViewerScript) {
+  ReportScene scene;
+  scene.description["title"] = "a </script><!-- b";
+  scene.AddArray("a", std::vector<float>{1.5f, -2.f});
+  scene.AddArray("b", std::vector<uint8_t>{7});
+  scene.AddArray("c", std::vector<uint32_t>{1u << 31});  // aligned after b's one byte
+  scene.AddArray("d", std::vector<uint16_t>{});
+  EXPECT_THROW(scene.AddArray("a", std::vector<float>{}), Error);
+  const nlohmann::json& arrays = scene.description["arrays"];
+  EXPECT_EQ(arrays["a"]["offset"], 0);
+  EXPECT_EQ(arrays["a"]["type"], "float32");
+  EXPECT_EQ(arrays["b"]["offset"], 8);
+  EXPECT_EQ(arrays["c"]["offset"], 12);
+  EXPECT_EQ(arrays["c"]["count"], 1);
+  float a1;
+  std::memcpy(&a1, scene.bytes().data() + 4, 4);
+  EXPECT_EQ(a1, -2.f);
+
+  Report r;
+  r.title = "t";
+  ReportSection s;
+  s.title = "model";
+  s.paragraphs.push_back("text");
+  s.scene = scene;
+  s.images.push_back({"picture", cv::Mat(5, 6, CV_8UC3, cv::Scalar(1, 2, 3))});
+  r.sections.push_back(s);
+  const std::string html = r.ToHtml();
+  // The description parses back (its '<' escaped: the script element is not closed early).
+  const std::string open = "<script type=\"application/json\" id=\"fringe-scene-0-description\">";
+  const size_t begin = html.find(open) + open.size(), end = html.find("</script>", begin);
+  ASSERT_NE(html.find(open), std::string::npos);
+  EXPECT_EQ(nlohmann::json::parse(html.substr(begin, end - begin)), scene.description);
+  // The arrays decode to the block.
+  const std::string open_arrays =
+      "<script type=\"application/octet-stream\" id=\"fringe-scene-0-arrays\">";
+  const size_t b = html.find(open_arrays) + open_arrays.size(), e = html.find("</script>", b);
+  EXPECT_EQ(testing::DecodeBase64(html.substr(b, e - b)), scene.bytes());
+  // The container with its message for a browser without JavaScript, before the pictures; the
+  // viewer script once, at the end; no external source.
+  const size_t container = html.find("<div class=\"fringe-scene\" id=\"fringe-scene-0\">");
+  ASSERT_NE(container, std::string::npos);
+  EXPECT_LT(container, html.find("<img"));
+  EXPECT_NE(html.find("needs JavaScript and WebGL"), std::string::npos);
+  const size_t script = html.find("<script>");
+  ASSERT_NE(script, std::string::npos);
+  EXPECT_EQ(html.find("<script>", script + 1), std::string::npos);
+  EXPECT_NE(html.find("fringeViewer", script), std::string::npos);
+  for (const char* external : {"src=\"http", "src=\"//", "href=\"http", "import(", "fetch("}) {
+    EXPECT_EQ(html.find(external), std::string::npos) << external;
+  }
+  // A page without a scene has no script.
+  r.sections[0].scene.reset();
+  EXPECT_EQ(r.ToHtml().find("<script"), std::string::npos);
 }
 
 }  // namespace

@@ -1,4 +1,4 @@
-// Drift detection during every scan (issue 26, item 3): does the rig calibration still
+// Drift detection during every scan: does the rig calibration still
 // describe the sensor that took this view? Decided from the view's own data, no artefact.
 //
 // What a view can show, and what it cannot:

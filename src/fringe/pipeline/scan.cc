@@ -579,7 +579,8 @@ struct Model {
   // marker adjustment and after ICP, and the marker sightings' distances to the map.
   std::vector<double> residuals_adjusted_mm, residuals_final_mm, marker_residuals_mm;
   double residual_threshold_mm = 0;
-  std::vector<double> mesh_deviation_mm;  // per mesh vertex, signed, vs truth (empty without)
+  std::vector<double> mesh_deviation_mm;    // per mesh vertex, signed, vs truth (empty without)
+  io::DeviationRange mesh_deviation_range;  // its colours in the pictures and the 3D view
   // Per registration input, with truth: the signed deviation of the view's points placed by
   // their true pose, on its grid shrunk to the picture's width (CV_32F, NaN: no point); empty
   // without truth or for a view that was not placed.
@@ -1005,11 +1006,42 @@ ReportSection RegistrationSection(const ScanSummary& s, const Model& m) {
   return sec;
 }
 
-ReportSection ModelSection(const ScanSummary& s, const Model& m) {
+// The 3D view's input: the model as the scan wrote it (world frame) and its sensors.
+ScanSceneInput SceneInput(const Model& m, const CameraModel& camera) {
+  ScanSceneInput in;
+  in.mesh = &m.mesh.mesh;
+  in.mesh_deviation_mm = &m.mesh_deviation_mm;
+  in.deviation_range = m.mesh_deviation_range;
+  in.fused = &m.fused.fused;
+  in.fused_support = &m.fused.support;
+  in.fused_view = &m.fused.view;
+  for (size_t k = 0; k < m.inputs.size(); ++k) {
+    const registration::ViewRegistration& r = m.registration.views[k];
+    const int f = m.fusion_of[k];
+    if (f >= 0) {
+      in.fused_view_names.resize(std::max(in.fused_view_names.size(), size_t(f) + 1));
+      in.fused_view_names[size_t(f)] = r.name;
+    }
+    if (r.placed()) in.sensors.push_back({r.name, r.world_from_sensor, camera});
+  }
+  for (const registration::MapMarker& mk : m.registration.map) {
+    in.markers.push_back(
+        {mk.id, mk.centre_in_world, mk.outer_radius_mm, static_cast<int>(mk.sightings.size())});
+  }
+  in.display_from_world = m.display_from_world;
+  return in;
+}
+
+ReportSection ModelSection(const ScanSummary& s, const Model& m, const CameraModel& camera) {
   ReportSection sec;
   sec.title = "Fused cloud and mesh";
   sec.paragraphs.push_back(m.fused.summary.BriefReport());
   sec.paragraphs.push_back(m.mesh.summary.BriefReport());
+  sec.scene = ScanScene(SceneInput(m, camera));
+  sec.paragraphs.push_back(
+      "The 3D view below shows the mesh (decimated when large, for the page to stay light; "
+      "mesh.ply has all of it), a sample of the fused points (fused.ply), the markers and each "
+      "view's sensor at its registered pose; select a view in the tables to highlight it.");
   TriangleMesh display = m.mesh.mesh;
   display.Transform(m.display_from_world);
   const std::vector<std::pair<std::string, Eigen::Vector3d>> directions = {
@@ -1037,13 +1069,13 @@ ReportSection ModelSection(const ScanSummary& s, const Model& m) {
               {"max pose rotation error, deg", Fixed(s.pose_rot_err_deg, 4)},
               {"max pose centroid displacement", Fixed(s.pose_trans_err_mm, 4)}};
     sec.tables.push_back(t);
-    // Symmetric range: three RMS, at least 0.05 mm, so noise reads as noise and faults stand out.
-    const double range = std::max(0.05, 3 * s.mesh_rms_mm);
+    const io::DeviationRange& range = m.mesh_deviation_range;
     for (const auto& [label, d] : {directions[0], directions[1]}) {
       sec.images.push_back(
           {"mesh deviation from the truth " + label + " (signed, mm; grey: farther than 2 mm)",
-           renderer.RenderColoured(m.mesh_deviation_mm, -range, range,
-                                   "signed deviation from truth, mm", d.normalized(), 560, 420)});
+           renderer.RenderColoured(m.mesh_deviation_mm, range.lo(), range.hi(),
+                                   range.Legend("signed deviation from truth, mm"), d.normalized(),
+                                   560, 420)});
     }
   }
   return sec;
@@ -1105,7 +1137,7 @@ Report BuildReport(const fs::path& project, const ScanSummary& s, const Calibrat
     r.sections.push_back(std::move(sec));
   }
   // The model and its registration first: what people look at; the per-view pictures last.
-  r.sections.push_back(ModelSection(s, model));
+  r.sections.push_back(ModelSection(s, model, cal.rig.left));
   r.sections.push_back(RegistrationSection(s, model));
   {
     ReportSection sec;
@@ -1198,6 +1230,8 @@ MeshTruthFigures CompareMeshWithTruth(const TriangleMesh& mesh_in_truth,
 void ScanOptions::Check() const {
   util::CheckOption(views_in_flight >= 1 && views_in_flight <= 64, "ScanOptions", "views_in_flight",
                     views_in_flight, "must be in [1, 64]");
+  util::CheckOption(std::isfinite(tolerance_mm) && tolerance_mm >= 0, "ScanOptions", "tolerance_mm",
+                    tolerance_mm, "must be >= 0 (0: the colour range from the data)");
   util::CheckOption(opencv_intrinsics.empty() == opencv_extrinsics.empty(), "ScanOptions",
                     "opencv_intrinsics", opencv_intrinsics.string(),
                     "OpenCV intrinsics and extrinsics go together");
@@ -1676,9 +1710,19 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
       cpu.Restart();
       s.has_truth = true;
       EvaluateAgainstTruth(folder, &m, &s);
-      // Per view, its deviation map beside its other pictures: one symmetric range for all views
-      // (three times the single-view RMS, at least 0.05 mm) so that the views compare.
-      const double range_mm = std::max(0.05, 3 * s.single_view_all_rms_mm);
+      // The colour ranges: the tolerance given, else from the data; the views' maps share one
+      // range (all their values together) so that the views compare.
+      const auto deviation_range = [&](const std::vector<double>& values) {
+        return options.tolerance_mm > 0 ? io::DeviationRange::FromTolerance(options.tolerance_mm)
+                                        : io::DeviationRange::FromData(values);
+      };
+      m.mesh_deviation_range = deviation_range(m.mesh_deviation_mm);
+      std::vector<double> view_values;
+      for (const cv::Mat& map : m.view_deviation_mm) {
+        if (!map.empty())
+          view_values.insert(view_values.end(), map.begin<float>(), map.end<float>());
+      }
+      const io::DeviationRange view_range = deviation_range(view_values);
       for (size_t k = 0; k < m.view_deviation_mm.size(); ++k) {
         if (m.view_deviation_mm[k].empty()) continue;
         const size_t i = static_cast<size_t>(m.view_of[k]);
@@ -1687,8 +1731,9 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
                     ": signed deviation from the truth of the view's points placed by their TRUE "
                     "pose (the sensor alone, registration excluded), mm; RMS ",
                     Fixed(s.views[i].truth_rms_mm, 4), " mm; dark grey: no point"),
-             ColourMapWithBar(m.view_deviation_mm[k], -range_mm, range_mm,
-                              "signed deviation from truth, mm", kPictureWidthPx)});
+             ColourMapWithBar(m.view_deviation_mm[k], view_range.lo(), view_range.hi(),
+                              view_range.Legend("signed deviation from truth, mm"),
+                              kPictureWidthPx)});
       }
       s.evaluate_s = timer.ElapsedSeconds();
       s.evaluate_cpu_s = cpu.ElapsedSeconds();

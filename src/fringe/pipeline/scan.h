@@ -81,7 +81,7 @@ struct ScanOptions {
   // Camera + projector scans calibrated here from calibration/KKK/ pose folders.
   calib::ProjectorFolderOptions projector_calibration;
   // Views reconstructed at the same time, [1, 64]: each holds its two image stacks (24 images
-  // of 1.3 Mpx: ~60 MB for 8-bit) while it is decoded; 2 keeps both cores busy on this machine.
+  // of 1.3 Mpx: ~60 MB for 8-bit) while it is decoded; 2 keeps both cores of a 2-core machine busy.
   int views_in_flight = 2;
   stereo::ReconstructionOptions reconstruction;
   // Stereo with a rig that has no calibrated projector (one calibrated from board images): after
@@ -104,7 +104,7 @@ struct ScanOptions {
   // The mesh resolves 0.75 mm (fused.ply keeps every point): on the full-size demo scan Poisson
   // depth 9 with 0.75 mm cells, in two pieces side by side (MeshOptions::poisson_pieces);
   // mesh vertices to the truth 0.035 mm against 0.030 mm with 0.61 mm cells at 1.6 x the
-  // Poisson CPU time (docs/benchmarks.md). 0 meshes as fine as the points allow.
+  // Poisson CPU time. 0 meshes as fine as the points allow.
   fusion::MeshOptions mesh = [] {
     fusion::MeshOptions o;
     o.resolution_mm = 0.75;
@@ -113,6 +113,9 @@ struct ScanOptions {
   // Compare with the scan folder's truth/ when it has one (simulated scans).
   bool evaluate_truth = true;
   bool write_report = true;  // OUT/report.html
+  // The report's deviation colours span +-tolerance_mm (an inspection's tolerance band), mm;
+  // 0: +-the 95th percentile of |deviation| (io::DeviationRange). >= 0.
+  double tolerance_mm = 0;
 
   void Check() const;
 };
@@ -198,11 +201,11 @@ struct ScanSummary {
   int64_t mesh_vertices = 0, mesh_triangles = 0;
   bool mesh_watertight = false;
   nlohmann::json fusion, meshing;  // their summaries
-  // Against the truth (has_truth; NaN otherwise). Pose errors as issue 11 defines them: the
+  // Against the truth (has_truth; NaN otherwise). Pose errors with the
   // gauge G (one rigid transform minimising, over all views, the squared displacement of each
   // view's points between G * estimated world_from_sensor and the true pose) removed, rotation
   // error = angle of R_true^T R_est, translation error = displacement of the view's centroid;
-  // max over views. As issue 12 defines them and bench_fusion measures them: single_view_rms_mm:
+  // max over views. As bench_fusion defines and measures them: single_view_rms_mm:
   // the views' points that lie in the overlap regions fusion merged, placed as fusion got them
   // (estimated pose mapped by G), RMS signed distance to the truth mesh; fused_rms_mm: ALL fused
   // points mapped by G (registration and fusion included). single_view_sensor_rms_mm: the same

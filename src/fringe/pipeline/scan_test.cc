@@ -25,12 +25,12 @@
 #include "fringe/io/calibration_io.h"
 #include "fringe/io/mesh_io.h"
 #include "fringe/io/ply.h"
-#include "fringe/io/report_test_util.h"
 #include "fringe/registration/markers.h"
 #include "fringe/registration/registration_io.h"
 #include "fringe/scan/scan_folder.h"
 #include "fringe/scan/truth.h"
 #include "fringe/sim/scan.h"
+#include "fringe/testing/report.h"
 #include "fringe/util/error.h"
 #include "fringe/util/files.h"
 #include "fringe_test.h"
@@ -128,7 +128,7 @@ TEST(ScanOptions, DefaultsPassCheck) {
 // scanner fits the projector's columns to the scan's own points and drops the points off them,
 // the check the matcher makes with a calibrated projector. The fit must agree with the true
 // projector, and dropping the false matches must not make the fused cloud worse (on the
-// full-size scan it halves its RMS: docs/benchmarks.md, session 6).
+// full-size scan it halves its RMS).
 TEST_F(ScanTest, ProjectorlessRigFitsTheProjectorColumnsFromTheScan) {
   constexpr double kMaxColumnRmsPx = 0.1;   // phase noise of the half-size rig's views
   constexpr double kMaxColumnErrPx = 0.05;  // fitted vs true projector column at the points

@@ -4,8 +4,8 @@
 
 #include <cmath>
 
-#include "fringe/registration/test_views.h"
 #include "fringe/sim/demo_part.h"
+#include "fringe/testing/registration_views.h"
 
 namespace fringe::registration {
 namespace {

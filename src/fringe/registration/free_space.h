@@ -1,5 +1,5 @@
 // Free-space (visibility) check of a relative pose between two views that carry their organized
-// grids (marker-free registration, issue 29).
+// grids (marker-free registration).
 //
 // A view's grid says, for each of its pixels, how far the camera saw along that ray: space in
 // front of the measured surface is empty. A pose that puts another view's points into that empty

@@ -26,7 +26,7 @@
 // its own deviation whatever the coarse level's last digits were (RegisterViews: from the
 // marker starts of the 8-view scan the first step of every level is ~2 of its sigmas and,
 // the trimming re-selecting the kept pairs, each step ~0.45 of the one before, so the coarse
-// levels ran 2-3 iterations more for nothing; docs/benchmarks.md, reg7).
+// levels ran 2-3 iterations more for nothing).
 //
 // Thread safety: free functions without shared state.
 #pragma once

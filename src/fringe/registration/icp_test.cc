@@ -5,8 +5,8 @@
 #include <cmath>
 #include <random>
 
-#include "fringe/registration/test_views.h"
 #include "fringe/sim/demo_part.h"
+#include "fringe/testing/registration_views.h"
 #include "fringe/util/error.h"
 
 namespace fringe::registration {

@@ -8,7 +8,7 @@
 #include <filesystem>
 #include <fstream>
 
-#include "fringe/registration/test_views.h"
+#include "fringe/testing/registration_views.h"
 #include "fringe/util/error.h"
 
 namespace fringe::registration {

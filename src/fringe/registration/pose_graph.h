@@ -1,4 +1,4 @@
-// Placement of views from verified pairwise alignments (marker-free registration, issue 29).
+// Placement of views from verified pairwise alignments (marker-free registration).
 //
 // Each edge is one pair's verified relative pose a_from_b with a weight (how much of the pair
 // agrees). A single pairwise check can still be wrong on a repetitive scene; a wrong edge,

@@ -8,7 +8,7 @@
 //     marker map by distance invariance (marker_matching.h), in any order: each round places the
 //     pending view with the most verified correspondences, until no pending view matches. A
 //     view with an initial pose (e.g. fringe register --initial) is placed by it.
-//  3. Views still pending are placed marker-free (issue 29): every pair of usable views with at
+//  3. Views still pending are placed marker-free: every pair of usable views with at
 //     least one pending view gets coarse candidates (coarse.h: Open3D FPFH + sequential RANSAC,
 //     features computed once per view), each refined by pairwise ICP and verified on its own
 //     (register_views.cc, CheckPair: overlap and normal agreement within the views' noise,
@@ -91,7 +91,7 @@ struct RegistrationOptions {
   // same reason: normal-space samples make those directions look constrained (bench_registration
   // from the marker poses: 0.013 mm centroid error with them, 0.0027 mm without).
   // The coarse levels stop at the next level's resolution (icp_schedule.h): their last
-  // iterations changed nothing the fine level kept (docs/benchmarks.md, reg7).
+  // iterations changed nothing the fine level kept.
   IcpOptions icp = [] {
     IcpOptions o;
     o.degeneracy_ratio = 1e-3;

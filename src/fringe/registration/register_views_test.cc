@@ -8,7 +8,7 @@
 
 #include "fringe/io/ply.h"
 #include "fringe/registration/registration_io.h"
-#include "fringe/registration/test_views.h"
+#include "fringe/testing/registration_views.h"
 #include "fringe_test.h"
 
 namespace fringe::registration {

@@ -1,4 +1,4 @@
-// Calibration boards lit by the projector's fringe patterns (issue 14): what a camera sees of a
+// Calibration boards lit by the projector's fringe patterns: what a camera sees of a
 // board while the projector casts each image of a pattern scheme, for projector calibration
 // (calib/projector.h) scored against the true projector.
 //

@@ -7,7 +7,7 @@
 
 #include "fringe/sim/poses.h"
 #include "fringe/sim/scene.h"
-#include "fringe/sim/test_util.h"
+#include "fringe/testing/sim.h"
 #include "fringe/util/error.h"
 
 namespace fringe::sim {

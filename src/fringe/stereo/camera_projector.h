@@ -1,5 +1,4 @@
-// Camera + projector: the projector as an inverse camera, triangulated against one camera
-// (issue 14).
+// Camera + projector: the projector as an inverse camera, triangulated against one camera.
 //
 // Correspondence: a camera pixel's decoded absolute phase is its projector coordinate along the
 // fringe direction (phase/pattern_scheme.h): the column u for vertical fringes, the row v for

@@ -7,8 +7,8 @@
 #include <cmath>
 #include <cstring>
 
-#include "fringe/stereo/test_low_gradient.h"
-#include "fringe/stereo/test_scene.h"
+#include "fringe/testing/low_gradient.h"
+#include "fringe/testing/stereo_scene.h"
 #include "fringe/util/error.h"
 
 namespace fringe::stereo {

@@ -1,4 +1,4 @@
-#include "fringe/capture/test_rig.h"
+#include "fringe/testing/capture_rig.h"
 
 #include <X11/Xlib.h>
 #include <X11/Xutil.h>

@@ -1,4 +1,4 @@
-#include "fringe/util/test_data.h"
+#include "fringe/testing/data.h"
 
 #include <cstdlib>
 

@@ -1,4 +1,4 @@
-#include "fringe/calib/test_board.h"
+#include "fringe/testing/board.h"
 
 #include <cmath>
 #include <opencv2/imgproc.hpp>

@@ -1,10 +1,11 @@
-// Test-only helper shared by phase_matching_test.cc and bench/bench_captures.cc (issue 10): the
+// Test-only helper shared by phase_matching_test.cc and bench/bench_captures.cc: the
 // simulated view in which the cameras sample the projector at only 0.2-0.35 projector pixels
 // per camera pixel, so that the phase advances by about its noise between neighbouring pixels
 // (the situation of real captures with fine cameras or coarse projectors, where a matcher that
-// takes a run's direction from one step loses streaks of rows). Exact ray tracing (test_scene.h)
-// gives the true projector column and surface point of every pixel; the fringe stack is rendered
-// with phase::RenderSyntheticStack (camera noise sigma_dn) and decoded. Frames: left camera, mm.
+// takes a run's direction from one step loses streaks of rows). Exact ray tracing
+// (testing/stereo_scene.h) gives the true projector column and surface point of every pixel; the
+// fringe stack is rendered with phase::RenderSyntheticStack (camera noise sigma_dn) and decoded.
+// Frames: left camera, mm.
 #pragma once
 
 #include <Eigen/Core>
@@ -19,7 +20,7 @@
 #include "fringe/phase/pattern_scheme.h"
 #include "fringe/phase/synthetic.h"
 #include "fringe/stereo/phase_matching.h"
-#include "fringe/stereo/test_scene.h"
+#include "fringe/testing/stereo_scene.h"
 
 namespace fringe::stereo::testing {
 

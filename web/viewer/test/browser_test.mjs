@@ -1,0 +1,239 @@
+// The report's 3D view in a real browser: Debian's chromium, headless, driven by playwright-core
+// (no browser download), software WebGL (SwiftShader). One case per run, as ctest registers them
+// (web/viewer/CMakeLists.txt):
+//
+//   node browser_test.mjs CASE REPORT_DIR
+//
+// REPORT_DIR holds a scan's output (report.html, mesh.ply), made by make_report.sh from a small
+// simulated scan. Exit 0 passed, 1 failed, 77 skipped (node_modules or chromium absent, unless
+// FRINGE_REQUIRE_SHARED_DATA=1, where that fails).
+import { existsSync, readFileSync } from 'node:fs';
+import { join } from 'node:path';
+
+const [testCase, dir] = process.argv.slice(2);
+const chromiumPath = process.env.FRINGE_CHROMIUM || '/usr/bin/chromium';
+
+function skip(why) {
+  if (process.env.FRINGE_REQUIRE_SHARED_DATA === '1') {
+    console.error(`FAIL: ${why}; FRINGE_REQUIRE_SHARED_DATA=1 needs it`);
+    process.exit(1);
+  }
+  console.log(`SKIP: ${why}`);
+  process.exit(77);
+}
+
+let chromium;
+try {
+  ({ chromium } = await import('playwright-core'));
+} catch (e) {
+  skip(`web/viewer/node_modules is absent (npm ci in web/viewer, or scripts/install-deps.sh)`);
+}
+if (!existsSync(chromiumPath)) skip(`${chromiumPath} is absent (apt-get install chromium)`);
+
+const failures = [];
+function check(ok, what) {
+  console.log(`${ok ? 'ok  ' : 'FAIL'} ${what}`);
+  if (!ok) failures.push(what);
+}
+
+// The scene of the page, decoded here without the viewer: description and arrays.
+function sceneOf(html) {
+  const description = JSON.parse(
+      html.match(/<script type="application\/json" id="fringe-scene-0-description">(.*?)<\/script>/s)[1]);
+  const b64 = html.match(/<script type="application\/octet-stream" id="fringe-scene-0-arrays">(.*?)<\/script>/s)[1];
+  const bytes = Buffer.from(b64, 'base64');
+  const types = { float32: Float32Array, uint32: Uint32Array, uint16: Uint16Array, uint8: Uint8Array };
+  const arrays = {};
+  for (const [name, a] of Object.entries(description.arrays)) {
+    const copy = new Uint8Array(bytes.subarray(a.offset, a.offset + a.count * types[a.type].BYTES_PER_ELEMENT));
+    arrays[name] = new types[a.type](copy.buffer);
+  }
+  return { description, arrays };
+}
+
+// The vertices of a binary little-endian PLY with float x y z first (fringe's mesh.ply).
+function plyVertices(path) {
+  const data = readFileSync(path);
+  const end = data.indexOf('end_header\n') + 'end_header\n'.length;
+  const header = data.subarray(0, end).toString('latin1');
+  const count = Number(header.match(/element vertex (\d+)/)[1]);
+  const props = header.split('element vertex')[1].split('element')[0].match(/property (\w+) /g);
+  if (!header.includes('binary_little_endian') || !props.every((p) => p === 'property float ')) {
+    throw new Error(`${path}: not fringe's float vertex layout`);
+  }
+  const stride = props.length * 4;
+  const out = new Float64Array(3 * count);
+  for (let i = 0; i < count; ++i) {
+    for (let k = 0; k < 3; ++k) out[3 * i + k] = data.readFloatLE(end + i * stride + 4 * k);
+  }
+  return out;
+}
+
+const reportPath = join(dir, 'report.html');
+if (!existsSync(reportPath)) {
+  console.error(`FAIL: ${reportPath} is missing (the fixture web/SmallScanReport writes it)`);
+  process.exit(1);
+}
+const url = `file://${reportPath}`;
+const webgl = testCase !== 'no-webgl';
+const browser = await chromium.launch({
+  executablePath: chromiumPath,
+  // Software WebGL: ANGLE on SwiftShader (the fastest software path of headless chromium).
+  args: webgl ? ['--use-angle=swiftshader'] : ['--disable-webgl', '--disable-3d-apis'],
+});
+const page = await browser.newPage({ viewport: { width: 1280, height: 900 } });
+const consoleErrors = [];
+const requests = [];
+page.on('console', (m) => { if (m.type() === 'error') consoleErrors.push(m.text()); });
+page.on('pageerror', (e) => consoleErrors.push(e.message));
+page.on('request', (r) => { if (r.url() !== url && !r.url().startsWith('data:')) requests.push(r.url()); });
+// Nothing may leave the page: anything but the page itself is refused (and counted above).
+await page.route((u) => u.href !== url && !u.href.startsWith('data:'), (route) => route.abort());
+
+try {
+  await page.goto(url);
+  await page.waitForFunction(
+      () => window.fringeViewers !== undefined &&
+            (window.fringeViewer === null || window.fringeViewer.firstFrameMs !== null),
+      null, { timeout: 15000 });
+
+  // The 3D view in the viewport (the mouse acts on what is on screen).
+  const canvas = page.locator('.fringe-scene canvas').first();
+  if (webgl) {
+    await page.evaluate(() => document.querySelector('.fringe-scene')?.scrollIntoView({ block: 'start' }));
+  }
+  const canvasShot = async () => {
+    await page.evaluate(() => new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r))));
+    return (await canvas.screenshot({ type: 'png' })).toString('base64');
+  };
+  // Figures of screenshots, computed in the page (it decodes PNG; node has no decoder):
+  // `covered`, the fraction of the first's pixels that differ from the background (the colour
+  // near its corner), and `changed`, the fraction of pixels that differ between the two (any channel by
+  // more than 12 of 255).
+  const compare = async (a, b = a) => page.evaluate(async ([pa, pb]) => {
+    const decode = async (b64) => {
+      const img = new Image();
+      img.src = `data:image/png;base64,${b64}`;
+      await img.decode();
+      const c = document.createElement('canvas');
+      c.width = img.width;
+      c.height = img.height;
+      const ctx = c.getContext('2d');
+      ctx.drawImage(img, 0, 0);
+      return ctx.getImageData(0, 0, c.width, c.height);
+    };
+    const image = await decode(pa), x = image.data, y = (await decode(pb)).data;
+    const bg = (5 * image.width + 5) * 4;  // inside the canvas' edge
+    let covered = 0, changed = 0;
+    for (let i = 0; i < x.length; i += 4) {
+      if (Math.abs(x[i] - x[bg]) + Math.abs(x[i + 1] - x[bg + 1]) + Math.abs(x[i + 2] - x[bg + 2]) > 30) ++covered;
+      if (Math.abs(x[i] - y[i]) > 12 || Math.abs(x[i + 1] - y[i + 1]) > 12 ||
+          Math.abs(x[i + 2] - y[i + 2]) > 12) ++changed;
+    }
+    return { covered: covered / (x.length / 4), changed: changed / (x.length / 4) };
+  }, [a, b]);
+
+  if (testCase === 'offline') {
+    // Loads with no console error and no request beyond the file itself.
+    const state = await page.evaluate(() => ({
+      viewer: !!window.fringeViewer, frames: window.fringeViewer?.frames,
+      first: window.fringeViewer?.firstFrameMs, canvas: !!document.querySelector('.fringe-scene canvas'),
+    }));
+    check(state.viewer && state.canvas, 'the 3D view starts (a WebGL canvas in the page)');
+    check(state.frames >= 1, `it drew (${state.frames} frames, first at ${Math.round(state.first)} ms)`);
+    check(consoleErrors.length === 0, `no console error (${consoleErrors.join(' | ') || 'none'})`);
+    check(requests.length === 0, `no network request (${requests.join(', ') || 'none'})`);
+    const html = readFileSync(reportPath, 'latin1');
+    check(!/(src|href)="(https?:)?\/\//.test(html), 'no external src or href in the page');
+  } else if (testCase === 'render') {
+    // The canvas shows the model; turning it (a real drag) changes the picture.
+    const box = await canvas.boundingBox();
+    const before = await canvasShot();
+    const cover = (await compare(before)).covered;
+    check(cover > 0.05 && cover < 0.9,
+          `the model covers a plausible part of the view (${(100 * cover).toFixed(1)} %)`);
+    await page.mouse.move(box.x + box.width / 2, box.y + box.height / 2);
+    await page.mouse.down();
+    await page.mouse.move(box.x + box.width / 2 + 200, box.y + box.height / 2 + 40, { steps: 8 });
+    await page.mouse.up();
+    const after = await canvasShot();
+    const c = (await compare(before, after)).changed;
+    check(c > 0.03, `orbiting (a drag) changes the picture (${(100 * c).toFixed(1)} % of pixels)`);
+    await page.click('.fringe-scene .fv-reset');
+    const reset = await canvasShot();
+    check((await compare(before, reset)).changed < 0.01, 'reset view gives the first picture back');
+    check(consoleErrors.length === 0, `no console error (${consoleErrors.join(' | ') || 'none'})`);
+  } else if (testCase === 'picker') {
+    // A click on the model picks a mesh vertex; its coordinates are those of that vertex in
+    // mesh.ply (the small scan's mesh is not decimated: same vertices, same order).
+    const html = readFileSync(reportPath, 'latin1');
+    const { description, arrays } = sceneOf(html);
+    check(description.mesh.triangles === description.mesh.full_triangles,
+          `the page holds the whole mesh (${description.mesh.triangles} triangles)`);
+    const ply = plyVertices(join(dir, 'mesh.ply'));
+    const box = await canvas.boundingBox();
+    const at = { x: box.x + box.width / 2, y: box.y + box.height / 2 };
+    await page.mouse.click(at.x, at.y);
+    const pick = await page.evaluate(() => window.fringeViewer.lastPick);
+    check(pick && pick.kind === 'mesh vertex', `the click picked a mesh vertex (${pick?.index})`);
+    const i = pick.index;
+    const known = [ply[3 * i], ply[3 * i + 1], ply[3 * i + 2]];
+    const err = Math.max(...known.map((v, k) => Math.abs(v - pick.world[k])));
+    check(err < 0.01, `picked coordinates within 0.01 mm of mesh.ply's vertex ${i} (${err.toExponential(2)} mm)`);
+    const embedded = [0, 1, 2].map((k) => arrays[description.mesh.positions][3 * i + k] + description.origin[k]);
+    check(Math.max(...embedded.map((v, k) => Math.abs(v - pick.world[k]))) < 1e-6,
+          'and those of the page\'s data');
+    const screen = await page.evaluate((w) => window.fringeViewer.project(w), known);
+    const px = Math.hypot(screen.x - at.x, screen.y - at.y);
+    check(px < 8, `that vertex is where the click was (${px.toFixed(2)} px away)`);
+    const dev = arrays['mesh.deviation'][i];
+    check(pick.deviation !== undefined && Math.abs((pick.deviation ?? NaN) - dev) < 1e-6,
+          `the pick gives the vertex's deviation (${pick.deviation} mm)`);
+    check(description.views.map((v) => v.name).includes(pick.view), `and its view (${pick.view})`);
+    const info = await page.locator('.fringe-scene .fv-info').textContent();
+    check(info.includes(pick.world[0].toFixed(3)) && info.includes('signed deviation'),
+          `the page shows it: "${info.split('\n')[0]}"`);
+    check(consoleErrors.length === 0, `no console error (${consoleErrors.join(' | ') || 'none'})`);
+  } else if (testCase === 'colours') {
+    // Colouring by height, then by deviation: the colours change. Selecting a view in a table
+    // highlights it (the other views' parts fade).
+    await page.selectOption('.fringe-scene select.fv-colouring', 'height');
+    const height = await canvasShot();
+    await page.selectOption('.fringe-scene select.fv-colouring', 'deviation');
+    const deviation = await canvasShot();
+    const cmp = await compare(deviation, height);
+    const c = cmp.changed / cmp.covered;
+    check(c > 0.3, `colouring by deviation changes the model's colours (${(100 * c).toFixed(0)} % of its pixels)`);
+    const legend = await page.locator('.fringe-scene .fv-legend canvas').count();
+    check(legend === 1, 'a colour bar in mm is shown');
+    const row = page.locator('tr.fringe-view-row').first();
+    const name = (await row.locator('td').first().textContent()).trim();
+    await row.click();
+    const highlighted = await page.evaluate(() => window.fringeViewer.highlighted);
+    check(highlighted === name, `a click on the tables' row of view ${name} highlights it (${highlighted})`);
+    const lit = await canvasShot();
+    const h = (await compare(deviation, lit)).changed;
+    check(h > 0.02, `and the 3D view shows it (${(100 * h).toFixed(1)} % of pixels changed)`);
+    check(consoleErrors.length === 0, `no console error (${consoleErrors.join(' | ') || 'none'})`);
+  } else if (testCase === 'no-webgl') {
+    // Without WebGL: the pictures are there and the page says why the 3D view is not.
+    const state = await page.evaluate(() => ({
+      message: document.querySelector('.fringe-scene .fv-no-webgl')?.textContent || '',
+      canvas: document.querySelectorAll('.fringe-scene canvas').length,
+      images: Array.from(document.images).filter((i) => i.complete && i.naturalWidth > 0).length,
+      all: document.images.length,
+    }));
+    check(state.message.includes('WebGL'), `the page says why: "${state.message.slice(0, 90)}..."`);
+    check(state.canvas === 0, 'no 3D canvas');
+    check(state.images >= 5 && state.images === state.all, `its ${state.images} pictures show`);
+    check(requests.length === 0, `no network request (${requests.join(', ') || 'none'})`);
+  } else {
+    check(false, `unknown case ${testCase}`);
+  }
+} catch (e) {
+  check(false, `${e.message}`);
+} finally {
+  await browser.close();
+}
+console.log(failures.length ? `${failures.length} check(s) failed` : 'all checks passed');
+process.exit(failures.length ? 1 : 0);

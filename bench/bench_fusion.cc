@@ -328,6 +328,7 @@ void Diagnose(const std::vector<fusion::FusionView>& views, const fusion::Fusion
 }  // namespace fringe
 
 int main(int argc, char** argv) {
+  fringe::util::UseTransparentHugePages(argv);  // as the fringe program does
   using namespace fringe;
   CLI::App app("bench_fusion: multi-view fusion of the simulated demo part vs alternatives");
   bool json = false, peers = true, mesh = true;

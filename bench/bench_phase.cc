@@ -35,6 +35,7 @@
 #include "fringe/phase/pattern_scheme.h"
 #include "fringe/phase/synthetic.h"
 #include "fringe/testing/data.h"
+#include "fringe/util/memory.h"
 #ifdef FRINGE_BENCH_HAS_SIM
 #include "fringe/geometry/stereo_rig.h"
 #include "fringe/sim/demo_part.h"
@@ -622,6 +623,7 @@ void PrintTable(const json& out) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  fringe::util::UseTransparentHugePages(argv);  // as the fringe program does
   bool as_json = false;
   int repeats = 15;
   std::filesystem::path data;

@@ -102,6 +102,7 @@ void MeshSweep(const fs::path& out, const fs::path& scan_dir,
 }  // namespace
 
 int main(int argc, char** argv) {
+  fringe::util::UseTransparentHugePages(argv);  // as the fringe program does
   CLI::App app{"bench_pipeline: the whole scanner on the simulated demo scan"};
   bool as_json = false, keep = false;
   int views = 8;

@@ -17,8 +17,11 @@
 //   against the simulator's true normals, and time.
 //   Time per view: 2 x 1280x1024, 12 images each, in memory -> organized cloud with normals.
 //
-// Usage: bench_reconstruction [--json] [--quick] [--finest-set-only]   (--quick: fewer positions,
-// no calibration; --finest-set-only: absolute phase from the finest set alone, as before issue 10)
+// Usage: bench_reconstruction [--json] [--quick] [--view-only] [--repeats N] [--finest-set-only]
+// (--quick: fewer positions, no calibration; --view-only: the demo part's view alone (time,
+// deviation, normals, demo_cloud_digest), no VDI artefacts; --repeats: reconstructions of the
+// demo view timed, median (3); --finest-set-only: absolute phase from the finest set alone, as
+// before issue 10)
 //
 // One Measure* function per artefact kind (and the demo part, the normals), each returning its
 // figures; main collects them into one JSON object (AddFigures) and prints it or the table.
@@ -36,6 +39,7 @@
 #include <string>
 #include <vector>
 
+#include "bench_timing.h"
 #include "fringe/calib/calibrate.h"
 #include "fringe/calib/detect.h"
 #include "fringe/eval/deviation.h"
@@ -51,6 +55,7 @@
 #include "fringe/stereo/reconstruct_view.h"
 #include "fringe/stereo/rectification.h"
 #include "fringe/stereo/triangulation.h"
+#include "fringe/util/memory.h"
 #include "fringe/util/random.h"
 #include "fringe/util/timer.h"
 #include "vdi_positions.h"
@@ -327,17 +332,19 @@ PlateFigures MeasurePlates(const Context& ctx, const Reconstructors& recon, int 
   return fig;
 }
 
-// The demo part in one position: time per view (median of 3), deviation from the truth mesh,
-// coverage of the lit pixels, the left camera's truth (normals).
+// The demo part in one position: time per view (median of --repeats), deviation from the truth
+// mesh, coverage of the lit pixels, the left camera's truth (normals).
 struct DemoFigures {
   stereo::ViewReconstruction rec;
   double view_time_s = 0;
+  double view_cpu_s = 0;  // process CPU time (all threads) of the view, median
   eval::DeviationStats dev;
   double coverage = 0;
   sim::CameraTruth truth;
 };
 
-DemoFigures MeasureDemoPart(const Context& ctx, const stereo::ViewReconstructor& recon) {
+DemoFigures MeasureDemoPart(const Context& ctx, const stereo::ViewReconstructor& recon,
+                            int repeats) {
   DemoFigures fig;
   const sim::Scene demo = sim::MakeDemoPart();
   Eigen::Vector3d bmin, bmax;
@@ -346,12 +353,16 @@ DemoFigures MeasureDemoPart(const Context& ctx, const stereo::ViewReconstructor&
   const Rigid3d demo_pose =
       sim::SensorPoseLookingAt(ctx.rig_true, target, Eigen::Vector3d(0.2, -0.5, 1).normalized());
   const sim::ViewImages demo_view = Render(ctx, demo, demo_pose, 400);
-  std::vector<double> times;
-  for (int rep = 0; rep < 3; ++rep) {
+  std::vector<double> times, cpu;
+  for (int rep = 0; rep < repeats; ++rep) {
+    fig.rec = {};  // the previous result's memory is freed outside the timing
     util::Timer t;
+    const double cpu0 = bench::CpuMs();
     fig.rec = recon.Reconstruct(demo_view.left.images, demo_view.right.images);
     times.push_back(t.ElapsedSeconds());
+    cpu.push_back((bench::CpuMs() - cpu0) * 1e-3);
   }
+  fig.view_cpu_s = bench::Median(cpu);
   std::sort(times.begin(), times.end());
   const PointCloud demo_cloud = fig.rec.cloud.Compact();
   TriangleMesh mesh = demo.CombinedMesh();
@@ -482,11 +493,27 @@ void AddFigures(const Context& ctx, const Figures& fig, nlohmann::json* j) {
   (*j)["normals_speedup_vs_open3d"] = fig.normals.speedup;
   (*j)["normals"] = fig.normals.json;
   (*j)["view_time_s"] = fig.demo.view_time_s;
+  (*j)["view_cpu_s"] = fig.demo.view_cpu_s;
   (*j)["view_breakdown_s"] = {{"decode", fig.demo.rec.summary.decode_s},
                               {"match", fig.demo.rec.summary.match_s},
                               {"outliers", fig.demo.rec.summary.outliers_s},
                               {"normals", fig.demo.rec.summary.normals_s}};
   (*j)["demo_points"] = fig.demo.rec.summary.points;
+  // FNV-1a over the demo view's organized cloud (validity, then every valid point's position,
+  // normal, quality, intensity and residual): two builds whose digests agree reconstructed the
+  // view to identical bits.
+  bench::Digest digest;
+  const OrganizedPointCloud& cloud = fig.demo.rec.cloud;
+  digest.Add(cloud.valid.data(), cloud.valid.size());
+  for (size_t i = 0; i < cloud.valid.size(); ++i) {
+    if (!cloud.valid[i]) continue;
+    digest.Add(cloud.cloud.points[i].data(), sizeof(double) * 3);
+    if (cloud.cloud.has_normals()) digest.Add(cloud.cloud.normals[i].data(), sizeof(double) * 3);
+    if (cloud.cloud.has_quality()) digest.Add(&cloud.cloud.quality[i], sizeof(float));
+    if (cloud.cloud.has_intensity()) digest.Add(&cloud.cloud.intensity[i], sizeof(float));
+    if (cloud.cloud.has_residual()) digest.Add(&cloud.cloud.residual_px[i], sizeof(float));
+  }
+  (*j)["demo_cloud_digest"] = digest.Hex();
 }
 
 // The human-readable table, from the JSON object.
@@ -513,10 +540,13 @@ void PrintTable(const Context& ctx, const nlohmann::json& j) {
   std::printf("normals: grid %.2f deg in %.3f s; Open3D KNN30 %.2f deg; speedup %.1fx\n",
               num("normals_err_deg"), j.at("normals").at("grid_time_s").get<double>(),
               num("open3d_normals_err_deg"), num("normals_speedup_vs_open3d"));
-  std::printf("time per view: %.3f s (decode %.3f, match %.3f, outliers %.3f, normals %.3f)\n",
-              num("view_time_s"), breakdown.at("decode").get<double>(),
-              breakdown.at("match").get<double>(), breakdown.at("outliers").get<double>(),
-              breakdown.at("normals").get<double>());
+  std::printf(
+      "time per view: %.3f s, %.3f s of CPU (decode %.3f, match %.3f, outliers %.3f, normals "
+      "%.3f)\n",
+      num("view_time_s"), num("view_cpu_s"), breakdown.at("decode").get<double>(),
+      breakdown.at("match").get<double>(), breakdown.at("outliers").get<double>(),
+      breakdown.at("normals").get<double>());
+  std::printf("demo cloud digest %s\n", j.at("demo_cloud_digest").get<std::string>().c_str());
   if (!ctx.calib_json.empty()) std::printf("calibration: %s\n", ctx.calib_json.dump().c_str());
 }
 
@@ -524,14 +554,22 @@ void PrintTable(const Context& ctx, const nlohmann::json& j) {
 }  // namespace fringe
 
 int main(int argc, char** argv) {
+  fringe::util::UseTransparentHugePages(argv);  // as the fringe program does
   using namespace fringe;
-  bool json_out = false, quick = false, finest_only = false;
+  bool json_out = false, quick = false, finest_only = false, view_only = false;
+  int repeats = 3;
   CLI::App app("bench_reconstruction: accuracy and speed of one-view reconstruction");
   app.add_flag("--json", json_out, "Print one JSON object");
   app.add_flag("--quick", quick, "Fewer positions, no calibration");
   app.add_flag("--finest-set-only", finest_only,
                "Absolute phase from the finest set alone (as before issue 10)");
+  app.add_flag("--view-only", view_only,
+               "Only the demo part's view (time, deviation, normals): no VDI artefacts, no "
+               "calibration");
+  app.add_option("--repeats", repeats, "Reconstructions of the demo view timed (median)")
+      ->check(CLI::PositiveNumber);
   CLI11_PARSE(app, argc, argv);
+  if (view_only) quick = true;
   Context ctx;
   ctx.whole_stack = !finest_only;
   ctx.patterns = phase::GeneratePatterns(ctx.scheme, ctx.render.projector.gamma);
@@ -554,10 +592,12 @@ int main(int argc, char** argv) {
   const Reconstructors recon{recon_true, recon_est ? &*recon_est : nullptr, rect};
 
   Figures fig;
-  fig.spheres = MeasureSpheres(ctx, recon, quick ? 3 : 10);
-  fig.bars = MeasureBallBars(ctx, recon, quick ? 2 : 7);
-  fig.plates = MeasurePlates(ctx, recon, quick ? 2 : 6);
-  fig.demo = MeasureDemoPart(ctx, recon_true);
+  if (!view_only) {
+    fig.spheres = MeasureSpheres(ctx, recon, quick ? 3 : 10);
+    fig.bars = MeasureBallBars(ctx, recon, quick ? 2 : 7);
+    fig.plates = MeasurePlates(ctx, recon, quick ? 2 : 6);
+  }
+  fig.demo = MeasureDemoPart(ctx, recon_true, repeats);
   fig.normals = CompareNormals(fig.demo.rec.cloud, fig.demo.truth, options.normals);
   AddFigures(ctx, fig, &j);
   if (json_out) {

@@ -1,7 +1,7 @@
 #!/bin/bash
 # Speed regressions caught before landing (issue 28): the quick forms of bench_phase,
 # bench_reconstruction, bench_fusion and bench_pipeline, each headline figure printed beside the
-# value recorded in docs/benchmarks.md ("Regression check" table) and, where the benchmark runs a
+# value recorded in bench/recorded.json (cited by docs/benchmarks.md) and, where the benchmark runs a
 # peer in the same process, the same-run ratio to that peer. Fails (exit 1) when a same-run ratio
 # falls below half its recorded value: ratios measured side by side, not absolute times, so a
 # loaded machine does not fail it. Absolute figures are printed for the reader only.
@@ -14,7 +14,7 @@ root="$(cd "$(dirname "$0")/.." && pwd)"
 build="${1:-$root/build}"
 bench="$build/bench"
 out="$build/bench-check"
-docs="$root/docs/benchmarks.md"
+recorded="$root/bench/recorded.json"
 mkdir -p "$out"
 work="$(mktemp -d)"
 trap 'rm -rf "$work"' EXIT
@@ -41,54 +41,44 @@ run() {  # name, command...
 : >"$out/seconds.txt"
 start_all=$SECONDS
 run phase "$bench/bench_phase" --json --quick --repeats 5
-run reconstruction "$bench/bench_reconstruction" --json --quick
+run reconstruction "$bench/bench_reconstruction" --json --view-only --repeats 5
 run fusion "$bench/bench_fusion" --json --scale 0.25 --views 4 --registration injected \
   --no-mesh
 run pipeline "$bench/bench_pipeline" --json --views 2 --rig-scale 0.5 --work "$work/pipeline"
 echo "total: $((SECONDS - start_all)) s" >>"$out/seconds.txt"
 
-python3 - "$docs" "$out" <<'EOF'
-import json, re, sys
+echo "load: $(cut -d' ' -f1-3 /proc/loadavg)"
+python3 - "$recorded" "$out" <<'EOF'
+import json, sys
 
-docs, out = sys.argv[1], sys.argv[2]
-# The "Regression check" table: | run | figure | recorded | peer ratio | recorded ratio |
-rows, in_section = [], False
-for line in open(docs, encoding="utf-8"):
-    if line.startswith("## "):
-        in_section = "Regression check" in line
-        continue
-    if in_section and line.startswith("| `"):
-        cells = [c.strip().strip("`") for c in line.strip().strip("|").split("|")]
-        if len(cells) >= 5:
-            rows.append(cells[:5])
+recorded, out = sys.argv[1], sys.argv[2]
+rows = [(c["run"], c["figure"], c.get("value"), c.get("load"), c.get("ratio"), c.get("ratio_value"))
+        for c in json.load(open(recorded, encoding="utf-8"))["checks"]]
 if not rows:
-    sys.exit("bench-check: no 'Regression check' table in " + docs)
+    sys.exit("bench-check: no checks in " + recorded)
 
 
-def number(text):
-    m = re.match(r"[-+0-9.eE]+", text.replace(",", ""))
-    return float(m.group(0)) if m else None
+def text(v):
+    return "-" if v is None else (f"{v:.4g}" if isinstance(v, (int, float)) else str(v))
 
 
 failed = []
-print(f"{'run':15} {'figure':28} {'now':>10} {'recorded':>10}   {'ratio to peer':32} {'now':>8} {'recorded':>9}")
-for run, key, recorded, ratio_key, ratio_recorded in rows:
+print(f"{'run':15} {'figure':28} {'now':>10} {'recorded':>18}   {'ratio to peer':28} {'now':>8} {'recorded':>9}")
+for run, key, value, load, ratio_key, ratio_recorded in rows:
     data = json.load(open(f"{out}/{run}.json"))
     now = data.get(key)
-    now_text = f"{now:.4g}" if isinstance(now, (int, float)) else str(now)
-    line = f"{run:15} {key:28} {now_text:>10} {recorded:>10}"
-    if ratio_key and ratio_key != "-":
+    rec = text(value) + (f" (load {load})" if load else "")
+    line = f"{run:15} {key:28} {text(now):>10} {rec:>18}"
+    if ratio_key:
         ratio = data.get(ratio_key)
-        floor = number(ratio_recorded)
-        ratio_text = f"{ratio:.4g}" if isinstance(ratio, (int, float)) else str(ratio)
-        if floor is None:  # no value recorded yet: printed, not checked
+        if not isinstance(ratio_recorded, (int, float)):  # no value recorded yet: printed only
             verdict = "not recorded"
         else:
-            ok = isinstance(ratio, (int, float)) and ratio >= 0.5 * floor
+            ok = isinstance(ratio, (int, float)) and ratio >= 0.5 * ratio_recorded
             verdict = "ok" if ok else "FAIL (< half)"
             if not ok:
-                failed.append(f"{run} {ratio_key} {ratio_text} < half of {ratio_recorded}")
-        line += f"   {ratio_key:32} {ratio_text:>8} {ratio_recorded:>9}  {verdict}"
+                failed.append(f"{run} {ratio_key} {text(ratio)} < half of {ratio_recorded}")
+        line += f"   {ratio_key:28} {text(ratio):>8} {text(ratio_recorded):>9}  {verdict}"
     print(line)
 print(open(f"{out}/seconds.txt").read().strip())
 if failed:

@@ -10,7 +10,7 @@
 // min_component_px are removed (isolated wrong matches).
 //
 // Frames: the cloud's camera frame (the camera at the origin looking along +z), mm.
-// Thread safety: sequential and deterministic.
+// Thread safety: parallel (TBB) inside; results do not depend on the number of threads.
 #pragma once
 
 #include <string>

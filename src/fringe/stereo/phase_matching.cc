@@ -43,13 +43,6 @@ constexpr int kGradientBlock = 16;
 constexpr int kMinGradientSteps = 4;
 constexpr float kGradientFloor = 0.25f;
 
-float MedianOf(std::vector<float>* v) {
-  if (v->empty()) return 0.0f;
-  const auto mid = v->begin() + static_cast<std::ptrdiff_t>(v->size() / 2);
-  std::nth_element(v->begin(), mid, v->end());
-  return *mid;
-}
-
 // The local phase gradient (projector pixels per rectified pixel) at every step u -> u + 1 of a
 // row: the median |step| around it. It includes the noise of the steps, which is what the
 // matcher's step and reversal thresholds must stay above. Multiplying the phase by a power of
@@ -59,26 +52,66 @@ void LocalGradient(const float* row, int cols, std::vector<float>* gradient,
                    std::vector<float>* scratch) {
   gradient->assign(std::max(cols - 1, 0), 0.0f);
   if (cols < 2) return;
-  std::vector<float>& steps = *scratch;
-  steps.clear();
-  for (int u = 0; u + 1 < cols; ++u) {
-    const float d = row[u + 1] - row[u];
-    if (std::isfinite(d)) steps.push_back(std::abs(d));
-  }
-  const float row_median = MedianOf(&steps);
-  const float floor = kGradientFloor * row_median;
-  const int num_blocks = (cols - 1 + kGradientBlock - 1) / kGradientBlock;
+  const int num_steps = cols - 1;
+  const int num_blocks = (num_steps + kGradientBlock - 1) / kGradientBlock;
+  // The finite |steps| of every block, each block sorted (block b at [b * kGradientBlock,
+  // + count[b])), then the row's steps for the row median. A window's median is the element
+  // size / 2 of the merge of its three sorted blocks: the value nth_element on the window gives,
+  // at a fraction of the cost (each block is sorted once, not once per window it is part of).
+  std::vector<float>& buf = *scratch;
+  buf.resize(static_cast<size_t>(num_blocks) * kGradientBlock + num_steps);
+  float* sorted = buf.data();
+  float* all = sorted + static_cast<size_t>(num_blocks) * kGradientBlock;
+  static thread_local std::vector<int> block_counts;
+  block_counts.resize(num_blocks);
+  int* counts = block_counts.data();
+  int num_all = 0;
   for (int b = 0; b < num_blocks; ++b) {
-    const int lo = std::max(0, (b - 1) * kGradientBlock);
-    const int hi = std::min(cols - 1, (b + 2) * kGradientBlock);
-    steps.clear();
-    for (int u = lo; u < hi; ++u) {
+    float* block = sorted + static_cast<size_t>(b) * kGradientBlock;
+    int n = 0;
+    const int end = std::min(num_steps, (b + 1) * kGradientBlock);
+    for (int u = b * kGradientBlock; u < end; ++u) {
       const float d = row[u + 1] - row[u];
-      if (std::isfinite(d)) steps.push_back(std::abs(d));
+      if (!std::isfinite(d)) continue;
+      const float a = std::abs(d);
+      all[num_all++] = a;
+      int k = n++;
+      for (; k > 0 && block[k - 1] > a; --k) block[k] = block[k - 1];  // insertion sort
+      block[k] = a;
     }
-    const float g =
-        static_cast<int>(steps.size()) >= kMinGradientSteps ? MedianOf(&steps) : row_median;
-    const int end = std::min(cols - 1, (b + 1) * kGradientBlock);
+    counts[b] = n;
+  }
+  const float row_median =
+      num_all > 0 ? (std::nth_element(all, all + num_all / 2, all + num_all), all[num_all / 2])
+                  : 0.0f;
+  const float floor = kGradientFloor * row_median;
+  for (int b = 0; b < num_blocks; ++b) {
+    // The window: blocks b - 1, b, b + 1 (those that exist).
+    const float* part[3];
+    int left[3], parts = 0, size = 0;
+    for (int k = std::max(b - 1, 0); k <= std::min(b + 1, num_blocks - 1); ++k) {
+      part[parts] = sorted + static_cast<size_t>(k) * kGradientBlock;
+      left[parts] = counts[k];
+      size += counts[k];
+      ++parts;
+    }
+    float g = row_median;
+    if (size >= kMinGradientSteps) {
+      // Walk the merge up to element size / 2.
+      for (int taken = 0;; ++taken) {
+        int best = -1;
+        for (int k = 0; k < parts; ++k) {
+          if (left[k] > 0 && (best < 0 || *part[k] < *part[best])) best = k;
+        }
+        if (taken == size / 2) {
+          g = *part[best];
+          break;
+        }
+        ++part[best];
+        --left[best];
+      }
+    }
+    const int end = std::min(num_steps, (b + 1) * kGradientBlock);
     for (int u = b * kGradientBlock; u < end; ++u) (*gradient)[u] = std::max(g, floor);
   }
 }

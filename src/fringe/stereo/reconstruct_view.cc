@@ -1,5 +1,8 @@
 #include "fringe/stereo/reconstruct_view.h"
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include <limits>
 
 #include "fringe/phase/decode.h"
@@ -23,6 +26,7 @@ class StereoCorrespondence : public Correspondence {
   StereoCorrespondence(const StereoRig& rig, const MatchingOptions& options)
       : rig_((rig.Check(), rig)), matcher_(rig, options) {}
   const char* Name() const override { return "stereo"; }
+  bool MakesCloud() const override { return true; }
   const CameraModel& Left() const override { return rig_.left; }
   bool UsesRight() const override { return true; }
   const CameraModel* Right() const override { return &rig_.right; }
@@ -250,9 +254,12 @@ ViewReconstruction ViewReconstructor::Reconstruct(const ViewStacks& stacks) cons
   out.phase_left = decoded.left[0].absolute_phase;
   if (two_cameras) out.phase_right = decoded.right[0].absolute_phase;
   const CameraModel& cam = corr.Left();
-  out.cloud = OrganizedPointCloud(cam.width, cam.height, false, true, true);
-  out.reprojection_error_px =
-      cv::Mat(cam.height, cam.width, CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
+  auto prepare_cloud = [&] {
+    out.cloud = OrganizedPointCloud(cam.width, cam.height, false, true, true);
+    out.reprojection_error_px =
+        cv::Mat(cam.height, cam.width, CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
+  };
+  if (!corr.MakesCloud()) prepare_cloud();
   // No valid pixel in a stack: nothing to correspond (named by camera, or by scheme when one
   // camera has several).
   for (int side = 0; side < (two_cameras ? 2 : 1); ++side) {
@@ -268,6 +275,7 @@ ViewReconstruction ViewReconstructor::Reconstruct(const ViewStacks& stacks) cons
                                     "the fringe decoder found no valid pixel in the camera "
                                     "images of '",
                                     schemes_[k].name, "' (", d.BriefReport(), ")");
+      if (corr.MakesCloud()) prepare_cloud();
       s.total_s = total.ElapsedSeconds();
       return out;
     }
@@ -289,18 +297,25 @@ void FinishViewReconstruction(double focal_px, const ReconstructionOptions& opti
     timer.Restart();
     s.outliers = RemoveOrganizedOutliers(&out->cloud, focal_px, options.outliers);
     s.outliers_s = timer.ElapsedSeconds();
-    for (size_t i = 0; i < out->cloud.valid.size(); ++i) {
-      if (!out->cloud.valid[i]) {
-        out->reprojection_error_px.at<float>(static_cast<int>(i / out->cloud.width),
-                                             static_cast<int>(i % out->cloud.width)) =
-            std::numeric_limits<float>::quiet_NaN();
-      }
-    }
   }
   // The residual travels with each point (PLY property residual_px) so that later stages
-  // (fusion) can weigh points without the image beside the cloud.
-  out->cloud.cloud.residual_px.assign(out->reprojection_error_px.begin<float>(),
-                                      out->reprojection_error_px.end<float>());
+  // (fusion) can weigh points without the image beside the cloud; NaN where outlier removal
+  // took the point (in the image too). Rows in parallel.
+  const OrganizedPointCloud& cloud = out->cloud;
+  std::vector<float>& residual = out->cloud.cloud.residual_px;
+  residual.resize(cloud.valid.size());
+  tbb::parallel_for(tbb::blocked_range<int>(0, cloud.height), [&](const auto& rows) {
+    for (int r = rows.begin(); r < rows.end(); ++r) {
+      float* err = out->reprojection_error_px.ptr<float>(r);
+      for (int c = 0; c < cloud.width; ++c) {
+        const size_t i = cloud.index(c, r);
+        if (options.remove_outliers && !cloud.valid[i]) {
+          err[c] = std::numeric_limits<float>::quiet_NaN();
+        }
+        residual[i] = err[c];
+      }
+    }
+  });
   if (options.compute_normals) {
     timer.Restart();
     s.normals = EstimateGridNormals(&out->cloud, options.normals);

@@ -114,10 +114,13 @@ class Correspondence {
   // Throws fringe::Error naming the scheme when the schemes do not suit it (count, directions).
   virtual void CheckSchemes(const std::vector<phase::PatternScheme>& schemes) const = 0;
   // On entry out->cloud is an empty cloud on the left grid and out->reprojection_error_px all
-  // NaN; fills the valid points (position, quality, intensity), the residual image and
-  // out->summary.matching. Every decoded stack has a valid pixel.
+  // NaN (unless MakesCloud()); fills the valid points (position, quality, intensity), the
+  // residual image and out->summary.matching. Every decoded stack has a valid pixel.
   virtual void Correspond(const std::vector<phase::PatternScheme>& schemes, const DecodedView& view,
                           ViewReconstruction* out) const = 0;
+  // True when Correspond replaces out->cloud and out->reprojection_error_px with its own, so
+  // the reconstructor does not prepare them (an organized cloud is ~70 MB of fresh memory).
+  virtual bool MakesCloud() const { return false; }
 };
 
 // Stereo: left <-> right absolute-phase matching (phase_matching.h). Throws fringe::Error for

@@ -8,11 +8,12 @@
 namespace fringe::stereo {
 namespace {
 
-// Pixel of p_in_cam and its 2x3 Jacobian with respect to p_in_cam.
+// Pixel of p_in_cam and, when jac is not null, its 2x3 Jacobian with respect to p_in_cam.
 Eigen::Vector2d ProjectWithJacobian(const CameraModel& cam, const Eigen::Vector3d& p,
                                     Eigen::Matrix<double, 2, 3>* jac) {
   const double inv_z = 1.0 / p.z();
   const Eigen::Vector2d xy(p.x() * inv_z, p.y() * inv_z);
+  if (jac == nullptr) return cam.PixelFromNormalized(cam.Distort(xy));
   Eigen::Matrix<double, 2, 3> dxy_dp;
   dxy_dp << inv_z, 0, -xy.x() * inv_z, 0, inv_z, -xy.y() * inv_z;
   Eigen::Matrix2d f = Eigen::Matrix2d::Zero();
@@ -81,10 +82,13 @@ TriangulatedPoint TriangulateFromRays(const StereoRig& rig, const Eigen::Vector3
       out.status = TriangulationStatus::kBehindCamera;
       return out;
     }
-    const Eigen::Vector2d el = ProjectWithJacobian(rig.left, p, &jl) - left_px;
-    const Eigen::Vector2d er = ProjectWithJacobian(rig.right, p_right, &jr) - right_px;
+    // The last pass only measures the residual: no Jacobians.
+    const bool last = it == options.refine_iterations;
+    const Eigen::Vector2d el = ProjectWithJacobian(rig.left, p, last ? nullptr : &jl) - left_px;
+    const Eigen::Vector2d er =
+        ProjectWithJacobian(rig.right, p_right, last ? nullptr : &jr) - right_px;
     sq_error = el.squaredNorm() + er.squaredNorm();
-    if (it == options.refine_iterations) break;
+    if (last) break;
     jr = jr * r_rl;
     const Eigen::Matrix3d h = jl.transpose() * jl + jr.transpose() * jr;
     const Eigen::Vector3d g = jl.transpose() * el + jr.transpose() * er;

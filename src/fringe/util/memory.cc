@@ -1,8 +1,20 @@
 #include "fringe/util/memory.h"
 
+#include <unistd.h>
+
+#include <cstdlib>
+#include <cstring>
 #include <fstream>
 #include <sstream>
 #include <string>
+
+#if defined(__SANITIZE_ADDRESS__)
+#define FRINGE_ADDRESS_SANITIZER 1
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define FRINGE_ADDRESS_SANITIZER 1
+#endif
+#endif
 
 namespace fringe::util {
 namespace {
@@ -27,5 +39,23 @@ double StatusFieldGiB(const char* key) {
 
 double PeakMemoryGiB() { return StatusFieldGiB("VmHWM"); }
 double CurrentMemoryGiB() { return StatusFieldGiB("VmRSS"); }
+
+void UseTransparentHugePages(char** argv) {
+#if defined(__linux__) && !defined(FRINGE_ADDRESS_SANITIZER)
+  // Set (to 0 by the user, or to 1 by this function before it re-executes): nothing to do, so
+  // the re-executed program (and any program it starts) does not re-execute again.
+  if (std::getenv("FRINGE_HUGE_PAGES") != nullptr) return;
+  if (setenv("FRINGE_HUGE_PAGES", "1", 1) != 0) return;
+  const char* tunables = std::getenv("GLIBC_TUNABLES");
+  if (tunables != nullptr && std::strstr(tunables, "glibc.malloc.hugetlb") != nullptr) return;
+  std::string value = "glibc.malloc.hugetlb=1";
+  if (tunables != nullptr && *tunables != '\0') value = std::string(tunables) + ":" + value;
+  if (setenv("GLIBC_TUNABLES", value.c_str(), 1) != 0) return;
+  execv("/proc/self/exe", argv);
+  // Only reached when the re-execution failed: go on without huge pages.
+#else
+  (void)argv;
+#endif
+}
 
 }  // namespace fringe::util

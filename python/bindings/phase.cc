@@ -8,6 +8,7 @@
 #include "convert.h"
 #include "fringe/phase/decode.h"
 #include "fringe/phase/pattern_scheme.h"
+#include "fringe/phase/scheme_presets.h"
 #include "fringe/phase/stack_io.h"
 #include "fringe/util/error.h"
 
@@ -17,10 +18,31 @@ void BindPhase(py::module_& m) {
   py::class_<phase::PatternScheme>(m, "Scheme", R"doc(
 A fringe pattern scheme: what the projector shows and in which order (docs/formats.md,
 "Pattern scheme manifest"). Make one with Scheme.preset(name) or Scheme.load(path).)doc")
-      .def_static("preset", &phase::MakeScheme, py::arg("name"), py::arg("projector_width") = 1280,
-                  py::arg("projector_height") = 800,
-                  "A preset scheme (see Scheme.presets()) for a projector of the given size.")
-      .def_static("presets", &phase::SchemePresetNames, "The preset names.")
+      .def_static(
+          "preset",
+          [](const std::string& name, std::optional<int> width, std::optional<int> height,
+             bool horizontal, std::optional<std::vector<double>> counts, std::optional<int> steps,
+             std::optional<int> markers, std::optional<std::string> image_names) {
+            phase::SchemeParameters p;
+            p.projector_width = width.value_or(0);
+            p.projector_height = height.value_or(0);
+            p.horizontal = horizontal;
+            if (counts) p.counts = *counts;
+            p.steps = steps.value_or(0);
+            p.markers = markers.value_or(-1);
+            if (image_names) p.image_names = *image_names;
+            return phase::MakePresetScheme(name, p);
+          },
+          py::arg("name"), py::arg("projector_width") = py::none(),
+          py::arg("projector_height") = py::none(), py::arg("horizontal") = false,
+          py::arg("counts") = py::none(), py::arg("steps") = py::none(),
+          py::arg("markers") = py::none(), py::arg("image_names") = py::none(),
+          "A preset scheme (see Scheme.presets(): fringe's own and other tools' codecs) for a\n"
+          "projector of the given size (default: the preset's, 1280 x 800), with the parameters\n"
+          "of `fringe patterns` (counts, steps, markers, image_names; docs/formats.md).")
+      .def_static("presets", &phase::AllPresetNames,
+                  "Every preset name: fringe's own (gray+4 stands for gray+N), then other tools' "
+                  "codecs (slstudio-*, opencv-*, slmaster-*).")
       .def_static(
           "load", [](const std::filesystem::path& p) { return phase::ReadScheme(p); },
           py::arg("path"), "Reads a scheme manifest (JSON).")

@@ -127,7 +127,16 @@ def write_ply(path: PathLike, view: ViewReconstruction, ascii: bool = False, com
 
 class Scheme:
     @staticmethod
-    def preset(name: str, projector_width: int = 1280, projector_height: int = 800) -> Scheme: ...
+    def preset(
+        name: str,
+        projector_width: Optional[int] = None,
+        projector_height: Optional[int] = None,
+        horizontal: bool = False,
+        counts: Optional[Sequence[float]] = None,
+        steps: Optional[int] = None,
+        markers: Optional[int] = None,
+        image_names: Optional[str] = None,
+    ) -> Scheme: ...
     @staticmethod
     def presets() -> List[str]: ...
     @staticmethod

@@ -55,7 +55,22 @@ def test_rig_load_error_names_the_file(tmp_path):
 
 
 def test_scheme_presets_and_manifest_round_trip(tmp_path):
-    assert "heterodyne-4x3" in fringe.Scheme.presets()
+    presets = fringe.Scheme.presets()
+    assert "heterodyne-4x3" in presets
+    # Other tools' codecs are presets too (docs/formats.md, "Other tools' codecs").
+    for name in ("slstudio-phaseshift2x3", "slstudio-phaseshift2p1", "slstudio-phaseshiftnstep",
+                 "opencv-graycode", "opencv-ftp", "opencv-faps", "slmaster-sinus-comple-gray",
+                 "slmaster-three-frequency-heterodyne"):
+        assert name in presets
+    for name in presets:
+        scheme = fringe.Scheme.preset(name, 1280, 800)
+        assert scheme.num_images > 0 and scheme.projector_width == 1280
+    ftp = fringe.Scheme.preset("opencv-ftp", 800, 600, counts=[20], markers=70)
+    assert ftp.to_dict()["phase_retrieval"] == "ftp" and ftp.to_dict()["markers"]["spacing_px"] == 70
+    assert fringe.Scheme.preset("slmaster-three-frequency-heterodyne", steps=3).num_images == 9
+    assert fringe.Scheme.preset("opencv-graycode", image_names="cam2_%d.png").image_names[0] == "cam2_1.png"
+    # The alias keeps its capture's parameters unless sizes are given.
+    assert fringe.Scheme.preset("slsdk-phasegray").projector_width == 1920
     scheme = fringe.Scheme.preset("heterodyne-4x3", 640, 400)
     assert scheme.num_images == 12 and scheme.projector_width == 640
     scheme.save(tmp_path / "s.json")

@@ -21,11 +21,12 @@ void AddPatternsCommand(CLI::App& app) {
   auto a = std::make_shared<Args>();
   CLI::App* sub = app.add_subcommand(
       "patterns", "Write the projector images of a fringe pattern scheme plus its manifest.json");
+  std::string own, tools;
+  for (const auto& n : phase::SchemePresetNames()) own += (own.empty() ? "" : ", ") + n;
+  for (const auto& n : phase::ToolPresetNames()) tools += (tools.empty() ? "" : ", ") + n;
   sub->add_option("--scheme", a->scheme,
-                  "Preset (heterodyne-4x3, thesis-4+3+3, heterodyne-3x3, gray+N, slsdk-phasegray; "
-                  "other tools' codecs: slstudio-phaseshift2x3, slstudio-phaseshift3, "
-                  "slstudio-phaseshift4, slstudio-graycode, opencv-graycode, opencv-psp, "
-                  "slmaster-sinus-comple-gray, docs/formats.md) or a manifest JSON file")
+                  "Preset (" + own + ", gray+N; other tools' codecs: " + tools +
+                      "; docs/formats.md) or a manifest JSON file")
       ->capture_default_str();
   sub->add_option("--out", a->out,
                   "Output folder (replaced atomically; an existing folder only if fringe wrote it)")

@@ -13,6 +13,7 @@
 #include <optional>
 
 #include "fringe/phase/gamma.h"
+#include "fringe/phase/spatial_decode.h"
 #include "fringe/util/error.h"
 #include "fringe/util/timer.h"
 
@@ -155,6 +156,13 @@ FRINGE_CLONES void MidLevelRow(int w, const T* __restrict white, const T* __rest
   for (int c = 0; c < w; ++c) {
     thr[c] = 0.5f * (static_cast<float>(white[c]) + static_cast<float>(dark[c]));
   }
+}
+
+// An image row as floats: the threshold of a Gray bit whose inverse image was projected (the
+// pair decides the bit, gray_inverted).
+template <typename T>
+void ToFloatRow(int w, const T* __restrict src, float* __restrict dst) {
+  for (int c = 0; c < w; ++c) dst[c] = static_cast<float>(src[c]);
 }
 
 // One Gray bit: Gray -> binary (bin), appended to the code.
@@ -332,10 +340,9 @@ struct SetCoefficients {
 };
 
 SetCoefficients LeastSquaresCoefficients(const PhaseShiftSet& set) {
-  const auto shifts = set.Shifts();
-  const int n = static_cast<int>(shifts.size());
+  const int n = set.steps;
   cv::Matx33d cov;
-  const cv::Mat c = DemodulationMatrix(shifts, &cov);  // 3 x n
+  const cv::Mat c = DemodulationMatrix(set, &cov);  // 3 x n
   SetCoefficients out;
   for (int k = 0; k < n; ++k) {
     out.ca.push_back(static_cast<float>(c.at<double>(0, k)));
@@ -398,6 +405,9 @@ double PhaseVariancePerUnit(const PatternScheme& s, int set) {
 }
 
 std::vector<UnwrapStepNoise> StepNoise(const PatternScheme& s) {
+  // Spatial unwrapping has no temporal step (its order errors are those of the flood fill and
+  // the markers, spatial_decode.h).
+  if (s.Method() == Unwrapping::kSpatial) return {};
   std::vector<double> var_cycles(s.phase_sets.size());
   for (size_t i = 0; i < s.phase_sets.size(); ++i) {
     var_cycles[i] = PhaseVariancePerUnit(s, static_cast<int>(i)) / (4.0 * M_PI * M_PI);
@@ -546,10 +556,15 @@ struct Kernel {
         std::fill(bin.begin(), bin.end(), 0);
         std::fill(code1.begin(), code1.end(), 0);
         for (int b = 0; b < scheme.gray_bits; ++b) {
+          // Inverted images: the pair decides the bit (image brighter than its inverse).
+          if (scheme.gray_inverted) ToFloatRow<T>(w, rows[scheme.GrayInverseIndex(b)], thr.data());
           GrayBitRow<T>(w, rows[scheme.GrayImageIndex(b)], thr.data(), bin.data(), code1.data());
         }
         const T* complementary =
             scheme.gray_complementary ? rows[scheme.GrayImageIndex(scheme.gray_bits)] : nullptr;
+        if (complementary != nullptr && scheme.gray_inverted) {
+          ToFloatRow<T>(w, rows[scheme.GrayInverseIndex(scheme.gray_bits)], thr.data());
+        }
         GrayOrderRow<T>(w, complementary, thr.data(), bin.data(), code1.data(), frac.data(), p0,
                         v.data());
       } else {
@@ -794,7 +809,7 @@ NoiseEstimate EstimateNoise(const PatternScheme& scheme, const std::vector<cv::M
   NoiseEstimate est;
   int set = -1;
   for (size_t s = 0; s < scheme.phase_sets.size(); ++s) {
-    if (scheme.phase_sets[s].steps >= 4) {
+    if (scheme.phase_sets[s].steps >= 4 && scheme.phase_sets[s].flat_steps.empty()) {
       set = static_cast<int>(s);
       break;
     }
@@ -1087,6 +1102,37 @@ void DecodePureGray(const PatternScheme& scheme, const std::vector<cv::Mat>& ima
   sum.time_ms = timer->ElapsedMs();
 }
 
+// Gray code with phase sets and white and dark frames: a pixel whose white-dark contrast is too
+// low for its Gray bits (half the difference below the Gray-code threshold at the camera noise,
+// GrayCodeThreshold) is rejected as low modulation, whatever set 0's modulation says. Runs after
+// the kernel on the pixels it found valid; row_counts are updated.
+template <typename T>
+void RejectByReferenceFrames(const PatternScheme& scheme, const std::vector<cv::Mat>& images,
+                             double b_min, DecodeResult* result,
+                             std::vector<std::array<int64_t, 6>>* row_counts) {
+  const cv::Mat& white = images[scheme.WhiteImageIndex()];
+  const cv::Mat& dark = images[scheme.DarkImageIndex()];
+  const float limit = static_cast<float>(2.0 * b_min);
+  tbb::parallel_for(tbb::blocked_range<int>(0, white.rows, 16), [&](const auto& range) {
+    for (int r = range.begin(); r < range.end(); ++r) {
+      const T* wr = white.ptr<T>(r);
+      const T* dr = dark.ptr<T>(r);
+      uint8_t* reason = result->reason.ptr<uint8_t>(r);
+      uint8_t* mask = result->mask.ptr<uint8_t>(r);
+      float* abs = result->absolute_phase.ptr<float>(r);
+      for (int c = 0; c < white.cols; ++c) {
+        if (reason[c] != static_cast<uint8_t>(PixelReason::kValid)) continue;
+        if (static_cast<float>(wr[c]) - static_cast<float>(dr[c]) >= limit) continue;
+        reason[c] = static_cast<uint8_t>(PixelReason::kLowModulation);
+        mask[c] = 0;
+        abs[c] = std::numeric_limits<float>::quiet_NaN();
+        --(*row_counts)[r][0];
+        ++(*row_counts)[r][static_cast<int>(PixelReason::kLowModulation)];
+      }
+    }
+  });
+}
+
 }  // namespace
 
 void Decode(const PatternScheme& scheme, const std::vector<cv::Mat>& images,
@@ -1126,6 +1172,11 @@ void Decode(const PatternScheme& scheme, const std::vector<cv::Mat>& images,
     DecodePureGray(scheme, images, options, full, &timer, result);
     return;
   }
+  if (scheme.Method() == Unwrapping::kSpatial) {
+    DecodeSpatial(scheme, images, options, full, result);
+    result->summary.time_ms = timer.ElapsedMs();
+    return;
+  }
 
   std::vector<SetCoefficients> coeffs;
   std::vector<std::unique_ptr<GammaPhaseCorrection>> gamma(scheme.phase_sets.size());
@@ -1134,6 +1185,9 @@ void Decode(const PatternScheme& scheme, const std::vector<cv::Mat>& images,
   for (size_t s = 0; s < scheme.phase_sets.size(); ++s) {
     coeffs.push_back(LeastSquaresCoefficients(scheme.phase_sets[s]));
     if (std::abs(residual_gamma - 1.0) > 1e-6) {
+      CheckOption(scheme.phase_sets[s].flat_steps.empty(), "DecodeOptions", "projector_gamma",
+                  options.projector_gamma,
+                  "cannot correct a set with flat steps (give 0, or pre-compensate the patterns)");
       gamma[s] = std::make_unique<GammaPhaseCorrection>(scheme.phase_sets[s].Shifts(),
                                                         scheme.intensity_mean,
                                                         scheme.intensity_amplitude, residual_gamma);
@@ -1203,6 +1257,15 @@ void Decode(const PatternScheme& scheme, const std::vector<cv::Mat>& images,
     run(uint16_t{});
   } else {
     run(uint8_t{});
+  }
+  if (scheme.gray_bits > 0 && scheme.white_frame && scheme.dark_frame) {
+    const double gray_min =
+        GrayCodeThreshold(scheme, noise.sigma_dn, options.order_error_probability);
+    if (is16) {
+      RejectByReferenceFrames<uint16_t>(scheme, images, gray_min, result, &row_counts);
+    } else {
+      RejectByReferenceFrames<uint8_t>(scheme, images, gray_min, result, &row_counts);
+    }
   }
 
   DecodeSummary& sum = result->summary;
@@ -1441,12 +1504,22 @@ DecodeResult DecodeExposures(const PatternScheme& scheme,
 }
 
 cv::Mat DemodulationMatrix(const std::vector<double>& shifts, cv::Matx33d* cov) {
+  PhaseShiftSet set;
+  set.steps = static_cast<int>(shifts.size());
+  set.shifts_rad = shifts;
+  return DemodulationMatrix(set, cov);
+}
+
+cv::Mat DemodulationMatrix(const PhaseShiftSet& set, cv::Matx33d* cov) {
+  const auto shifts = set.Shifts();
   const int n = static_cast<int>(shifts.size());
   cv::Mat m(n, 3, CV_64F);
   for (int k = 0; k < n; ++k) {
+    // A flat step (no fringe) measures the background alone.
+    const bool flat = set.IsFlat(k);
     m.at<double>(k, 0) = 1.0;
-    m.at<double>(k, 1) = std::cos(shifts[k]);
-    m.at<double>(k, 2) = -std::sin(shifts[k]);
+    m.at<double>(k, 1) = flat ? 0.0 : std::cos(shifts[k]);
+    m.at<double>(k, 2) = flat ? 0.0 : -std::sin(shifts[k]);
   }
   const cv::Mat q = (m.t() * m).inv(cv::DECOMP_SVD);
   if (cov) *cov = cv::Matx33d(q.ptr<double>());

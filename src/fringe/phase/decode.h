@@ -44,6 +44,8 @@ namespace fringe::phase {
 // the covariance of (A, a, b) per unit noise variance. Shared by the decoder and the gamma
 // model so both demodulate identically.
 cv::Mat DemodulationMatrix(const std::vector<double>& shifts, cv::Matx33d* cov = nullptr);
+// The same for a set, whose flat steps (PhaseShiftSet::flat_steps) have the design row [1, 0, 0].
+cv::Mat DemodulationMatrix(const PhaseShiftSet& set, cv::Matx33d* cov = nullptr);
 
 // Camera noise assumed when it can be neither given nor estimated (a scheme of 3-step sets only
 // has no least-squares residual), DN.

@@ -24,12 +24,15 @@ constexpr double kTwoPi = 2.0 * M_PI;
 // Beat period of two phase sets with periods p < q (the period of phi_p - phi_q).
 double BeatPeriod(double p, double q) { return p * q / (q - p); }
 
-// Smallest eigenvalue over largest of M^T M for the design rows [1, cos d, -sin d]: the
-// least-squares demodulation is well posed when this is not tiny.
-double ShiftConditioning(const std::vector<double>& shifts) {
+// Smallest eigenvalue over largest of M^T M for the design rows [1, cos d, -sin d] ([1, 0, 0]
+// for a flat step): the least-squares demodulation is well posed when this is not tiny.
+double ShiftConditioning(const PhaseShiftSet& set) {
   cv::Matx33d m = cv::Matx33d::zeros();
-  for (double d : shifts) {
-    const cv::Vec3d r(1.0, std::cos(d), -std::sin(d));
+  const auto shifts = set.Shifts();
+  for (size_t k = 0; k < shifts.size(); ++k) {
+    const double d = shifts[k];
+    const bool flat = set.IsFlat(static_cast<int>(k));
+    const cv::Vec3d r(1.0, flat ? 0.0 : std::cos(d), flat ? 0.0 : -std::sin(d));
     m += r * r.t();
   }
   cv::Mat evals;
@@ -55,6 +58,10 @@ std::vector<double> PhaseShiftSet::Shifts() const {
   std::vector<double> s(std::max(steps, 0));
   for (int k = 0; k < steps; ++k) s[k] = kTwoPi * k / steps;
   return s;
+}
+
+bool PhaseShiftSet::IsFlat(int step) const {
+  return std::find(flat_steps.begin(), flat_steps.end(), step) != flat_steps.end();
 }
 
 int PatternScheme::NumPhaseImages() const {
@@ -92,10 +99,12 @@ int PatternScheme::DarkImageIndex() const {
   return (reference_frames_first ? 0 : NumPhaseImages() + NumGrayImages()) + (white_frame ? 1 : 0);
 }
 
-uint8_t PatternScheme::Quantize(double linear, double gamma) const {
-  const double lin = std::clamp(linear, 0.0, 1.0);
-  const double x = 255.0 * (gamma == 1.0 ? lin : std::pow(lin, 1.0 / gamma));
-  switch (quantization) {
+namespace {
+
+// A value on the byte scale [0, 255] to a byte, as `q` says.
+uint8_t QuantizeValue(Quantization q, double x) {
+  x = std::clamp(x, 0.0, 255.0);
+  switch (q) {
     case Quantization::kFloor:
       return static_cast<uint8_t>(std::floor(x));
     case Quantization::kRoundHalfEven:
@@ -104,6 +113,13 @@ uint8_t PatternScheme::Quantize(double linear, double gamma) const {
       break;
   }
   return static_cast<uint8_t>(std::lround(x));
+}
+
+}  // namespace
+
+uint8_t PatternScheme::Quantize(double linear, double gamma) const {
+  const double lin = std::clamp(linear, 0.0, 1.0);
+  return QuantizeValue(quantization, 255.0 * (gamma == 1.0 ? lin : std::pow(lin, 1.0 / gamma)));
 }
 
 const char* QuantizationName(Quantization q) {
@@ -119,7 +135,57 @@ const char* QuantizationName(Quantization q) {
 }
 
 const char* ArithmeticName(Arithmetic a) {
-  return a == Arithmetic::kFloat32 ? "float32" : "double";
+  switch (a) {
+    case Arithmetic::kDouble:
+      return "double";
+    case Arithmetic::kFloat32:
+      return "float32";
+    case Arithmetic::kFloat32Wrapped:
+      return "float32-wrapped";
+  }
+  return "?";
+}
+
+const char* PhaseRetrievalName(PhaseRetrieval r) {
+  switch (r) {
+    case PhaseRetrieval::kLeastSquares:
+      return "least-squares";
+    case PhaseRetrieval::kFtp:
+      return "ftp";
+    case PhaseRetrieval::kFaps:
+      return "faps";
+  }
+  return "?";
+}
+
+std::vector<MarkerPosition> MarkerPositions(const PatternScheme& s) {
+  std::vector<MarkerPosition> out;
+  if (!s.markers.Present() || s.phase_sets.empty()) return out;
+  // sinusoidalpattern.cpp, SinusoidalPattern::generate with setMarkers: integer arithmetic
+  // throughout, as there.
+  const int span = s.Span();
+  const int side =
+      s.direction == FringeDirection::kVertical ? s.projector_height : s.projector_width;
+  const int period = s.markers.Period(span);
+  const int n = s.markers.Group();
+  const int m = s.markers.spacing_px;
+  if (n <= 0 || period <= 0) return out;
+  const int mn_ratio = m / n;
+  const int per_row = (side - s.markers.first_offset_px) / m;
+  const int images = std::min(3, s.phase_sets[0].steps);
+  for (int i = 0; i < images; ++i) {
+    for (int j = 0; j < n; ++j) {
+      for (int k = 0; k < per_row; ++k) {
+        MarkerPosition p;
+        p.image = s.PhaseImageIndex(0) + i;
+        p.period = i * n + j;
+        p.u = 3 * period / 4 + j * period + i * period * n - i * period / 3;
+        p.across = s.markers.first_offset_px + k * m + j * mn_ratio;
+        out.push_back(p);
+      }
+    }
+  }
+  return out;
 }
 
 std::vector<std::string> PatternScheme::ImageNames() const {
@@ -155,10 +221,8 @@ void PatternScheme::Check() const {
   CheckOption(!phase_sets.empty() || gray_inverted || (white_frame && dark_frame), o,
               "gray_inverted", gray_inverted,
               "pure Gray code needs inverted images or white and dark frames to threshold by");
-  // The phase-shift decoder thresholds Gray images against the background; pairs of images and
-  // inverses are decoded for pure Gray code.
-  CheckOption(!gray_inverted || phase_sets.empty(), o, "gray_inverted", gray_inverted,
-              "is supported for pure Gray code only");
+  CheckOption(!gray_inverted || gray_bits > 0, o, "gray_inverted", gray_inverted,
+              "needs Gray code (gray_bits > 0)");
   // The decoder's phase-set loops assume the phase images come first; only pure Gray code
   // (SLStudio's order) puts the reference frames in front.
   CheckOption(!reference_frames_first || phase_sets.empty(), o, "reference_frames_first",
@@ -177,7 +241,16 @@ void PatternScheme::Check() const {
                 "must be empty or have one shift per step");
     CheckOption(std::isfinite(s.phase_offset_rad), o, (f + ".phase_offset_rad").c_str(),
                 s.phase_offset_rad, "must be finite");
-    const double cond = ShiftConditioning(s.Shifts());
+    for (size_t k = 0; k < s.flat_steps.size(); ++k) {
+      CheckOption(s.flat_steps[k] >= 0 && s.flat_steps[k] < s.steps &&
+                      (k == 0 || s.flat_steps[k] > s.flat_steps[k - 1]),
+                  o, (f + ".flat_steps").c_str(), s.flat_steps[k],
+                  "must be increasing step indices in [0, steps)");
+    }
+    CheckOption(s.steps - static_cast<int>(s.flat_steps.size()) >= 2, o,
+                (f + ".flat_steps").c_str(), s.flat_steps.size(),
+                "leave at least two steps with the fringe");
+    const double cond = ShiftConditioning(s);
     CheckOption(cond > 1e-3, o, (f + ".shifts_rad").c_str(), cond,
                 "shifts do not determine the phase (conditioning of the least-squares system)");
   }
@@ -217,6 +290,20 @@ void PatternScheme::Check() const {
   };
   if (method != Unwrapping::kGray) {
     require(gray_bits == 0, StrCat("does not use Gray code, but gray_code.bits = ", gray_bits));
+  }
+  CheckOption(phase_retrieval == PhaseRetrieval::kLeastSquares || method == Unwrapping::kSpatial, o,
+              "phase_retrieval", PhaseRetrievalName(phase_retrieval),
+              "Fourier methods (ftp, faps) need \"unwrapping\": \"spatial\" (one set of many "
+              "periods)");
+  CheckOption(!markers.Present() || method == Unwrapping::kSpatial, o, "markers",
+              markers.spacing_px, "are for \"unwrapping\": \"spatial\"");
+  if (markers.Present()) {
+    CheckOption(markers.spacing_px >= 3 && markers.spacing_px <= util::kMaxImageSidePx, o,
+                "markers.spacing_px", markers.spacing_px, "must be in [3, 32768]");
+    CheckOption(markers.first_offset_px >= 1 && markers.first_offset_px <= util::kMaxImageSidePx, o,
+                "markers.first_offset_px", markers.first_offset_px, "must be in [1, 32768]");
+    CheckOption(markers.periods >= 3 && markers.periods <= Span(), o, "markers.periods",
+                markers.periods, "must be in [3, span] (the layout's groups need 3 periods)");
   }
   switch (method) {
     case Unwrapping::kAuto:
@@ -259,6 +346,21 @@ void PatternScheme::Check() const {
     case Unwrapping::kNumberTheoretic:
       MakeNumberTheoreticTable(*this, o);
       break;
+    case Unwrapping::kSpatial: {
+      require(phase_sets.size() == 1,
+              StrCat("unwraps one phase set across the image, the scheme has ", phase_sets.size()));
+      // Markers are needed to decode (DecodeSpatial says so); patterns without them, as the
+      // tool's default writes them, are a valid scheme.
+      require(phase_sets[0].steps >= 3 && phase_sets[0].flat_steps.empty(),
+              "needs 3 (or more) fringe images");
+      if (markers.Present()) {
+        const double p = markers.Period(Span());
+        require(p > 2 && std::abs(phase_sets[0].period_px - p) <= 1e-4 * p,
+                StrCat("phase_sets[0].period_px = ", phase_sets[0].period_px,
+                       " must be the markers' period span / markers.periods = ", p, " px"));
+      }
+      break;
+    }
   }
 }
 
@@ -315,6 +417,8 @@ const char* UnwrappingName(Unwrapping u) {
       return "hierarchical";
     case Unwrapping::kNumberTheoretic:
       return "number-theoretic";
+    case Unwrapping::kSpatial:
+      return "spatial";
   }
   return "?";
 }
@@ -491,10 +595,12 @@ json SchemeToJson(const PatternScheme& scheme) {
   j["gamma_precompensation"] = scheme.gamma_precompensation;
   json sets = json::array();
   for (const auto& s : scheme.phase_sets) {
-    sets.push_back({{"period_px", s.period_px},
-                    {"steps", s.steps},
-                    {"shifts_rad", s.Shifts()},
-                    {"phase_offset_rad", s.phase_offset_rad}});
+    json js = {{"period_px", s.period_px},
+               {"steps", s.steps},
+               {"shifts_rad", s.Shifts()},
+               {"phase_offset_rad", s.phase_offset_rad}};
+    if (!s.flat_steps.empty()) js["flat_steps"] = s.flat_steps;
+    sets.push_back(js);
   }
   j["phase_sets"] = sets;
   j["gray_code"] = {{"bits", scheme.gray_bits}, {"complementary", scheme.gray_complementary}};
@@ -510,6 +616,15 @@ json SchemeToJson(const PatternScheme& scheme) {
     j["quantization"] = QuantizationName(scheme.quantization);
   }
   if (scheme.arithmetic != Arithmetic::kDouble) j["arithmetic"] = ArithmeticName(scheme.arithmetic);
+  if (scheme.phase_retrieval != PhaseRetrieval::kLeastSquares) {
+    j["phase_retrieval"] = PhaseRetrievalName(scheme.phase_retrieval);
+  }
+  if (scheme.markers.Present()) {
+    j["markers"] = {{"layout", "opencv"},
+                    {"spacing_px", scheme.markers.spacing_px},
+                    {"periods", scheme.markers.periods},
+                    {"first_offset_px", scheme.markers.first_offset_px}};
+  }
   j["images"] = scheme.ImageNames();
   return j;
 }
@@ -532,12 +647,12 @@ PatternScheme SchemeFromJson(const json& j, const std::string& context) {
     if (!j.contains("format") && !j.contains("phase_sets")) {
       throw foreign("no \"format\": \"fringe-patterns\" and no \"phase_sets\"");
     }
-    io::CheckKnownKeys(
-        j,
-        {"format", "version", "name", "projector", "direction", "intensity",
-         "gamma_precompensation", "phase_sets", "gray_code", "unwrapping", "white_frame",
-         "dark_frame", "reference_frames", "quantization", "arithmetic", "images"},
-        context);
+    io::CheckKnownKeys(j,
+                       {"format", "version", "name", "projector", "direction", "intensity",
+                        "gamma_precompensation", "phase_sets", "gray_code", "unwrapping",
+                        "white_frame", "dark_frame", "reference_frames", "quantization",
+                        "arithmetic", "phase_retrieval", "markers", "images"},
+                       context);
     io::OptionalInteger(j, "version", 1, 1, 1, context);
     s.name = io::OptionalString(j, "name", s.name, context);
     if (!j.contains("projector")) throw Error(StrCat(context, ": missing \"projector\""));
@@ -578,7 +693,8 @@ PatternScheme SchemeFromJson(const json& j, const std::string& context) {
     for (size_t i = 0; i < j["phase_sets"].size(); ++i) {
       const json& js = j["phase_sets"][i];
       const std::string sc = StrCat(context, ".phase_sets[", i, "]");
-      io::CheckKnownKeys(js, {"period_px", "steps", "shifts_rad", "phase_offset_rad"}, sc);
+      io::CheckKnownKeys(js, {"period_px", "steps", "shifts_rad", "phase_offset_rad", "flat_steps"},
+                         sc);
       PhaseShiftSet set;
       set.period_px = io::GetNumber(js, "period_px", sc);
       set.steps = static_cast<int>(io::GetInteger(js, "steps", 3, kMaxSteps, sc));
@@ -592,6 +708,17 @@ PatternScheme SchemeFromJson(const json& j, const std::string& context) {
         }
       }
       set.phase_offset_rad = io::OptionalNumber(js, "phase_offset_rad", 0.0, sc);
+      if (js.contains("flat_steps")) {
+        const json& fl = js["flat_steps"];
+        if (!fl.is_array() || static_cast<int>(fl.size()) > set.steps) {
+          throw Error(
+              StrCat(sc, ".flat_steps: expected an array of at most ", set.steps, " step indices"));
+        }
+        for (size_t k = 0; k < fl.size(); ++k) {
+          set.flat_steps.push_back(static_cast<int>(
+              io::AsInteger(fl[k], 0, set.steps - 1, StrCat(sc, ".flat_steps[", k, "]"))));
+        }
+      }
       s.phase_sets.push_back(set);
     }
     if (j.contains("gray_code")) {
@@ -605,8 +732,9 @@ PatternScheme SchemeFromJson(const json& j, const std::string& context) {
     if (j.contains("unwrapping")) {
       const std::string u = io::OptionalString(j, "unwrapping", "auto", context);
       bool known = false;
-      for (const Unwrapping m : {Unwrapping::kAuto, Unwrapping::kHeterodyne, Unwrapping::kGray,
-                                 Unwrapping::kHierarchical, Unwrapping::kNumberTheoretic}) {
+      for (const Unwrapping m :
+           {Unwrapping::kAuto, Unwrapping::kHeterodyne, Unwrapping::kGray,
+            Unwrapping::kHierarchical, Unwrapping::kNumberTheoretic, Unwrapping::kSpatial}) {
         if (u == UnwrappingName(m)) {
           s.unwrapping = m;
           known = true;
@@ -615,7 +743,7 @@ PatternScheme SchemeFromJson(const json& j, const std::string& context) {
       if (!known) {
         throw Error(StrCat(context, ".unwrapping: ", io::Brief(j["unwrapping"]),
                            ": expected \"heterodyne\", \"gray\", \"hierarchical\", "
-                           "\"number-theoretic\" or \"auto\""));
+                           "\"number-theoretic\", \"spatial\" or \"auto\""));
       }
     }
     s.white_frame = io::OptionalBool(j, "white_frame", false, context);
@@ -636,7 +764,28 @@ PatternScheme SchemeFromJson(const json& j, const std::string& context) {
         {QuantizationName(Quantization::kRound), QuantizationName(Quantization::kRoundHalfEven),
          QuantizationName(Quantization::kFloor)}));
     s.arithmetic = static_cast<Arithmetic>(choice(
-        "arithmetic", {ArithmeticName(Arithmetic::kDouble), ArithmeticName(Arithmetic::kFloat32)}));
+        "arithmetic", {ArithmeticName(Arithmetic::kDouble), ArithmeticName(Arithmetic::kFloat32),
+                       ArithmeticName(Arithmetic::kFloat32Wrapped)}));
+    s.phase_retrieval = static_cast<PhaseRetrieval>(choice(
+        "phase_retrieval",
+        {PhaseRetrievalName(PhaseRetrieval::kLeastSquares),
+         PhaseRetrievalName(PhaseRetrieval::kFtp), PhaseRetrievalName(PhaseRetrieval::kFaps)}));
+    if (j.contains("markers")) {
+      const std::string mc = context + ".markers";
+      io::RequireObject(j["markers"], mc);
+      io::CheckKnownKeys(j["markers"], {"layout", "spacing_px", "periods", "first_offset_px"}, mc);
+      const std::string layout = io::OptionalString(j["markers"], "layout", "opencv", mc);
+      if (layout != "opencv") {
+        throw Error(
+            StrCat(mc, ".layout: ", io::Brief(j["markers"]["layout"]), ": expected \"opencv\""));
+      }
+      s.markers.spacing_px = static_cast<int>(
+          io::GetInteger(j["markers"], "spacing_px", 3, util::kMaxImageSidePx, mc));
+      s.markers.periods =
+          static_cast<int>(io::GetInteger(j["markers"], "periods", 3, util::kMaxImageSidePx, mc));
+      s.markers.first_offset_px = static_cast<int>(
+          io::OptionalInteger(j["markers"], "first_offset_px", 10, 1, util::kMaxImageSidePx, mc));
+    }
     if (j.contains("images")) {
       const json& names = j["images"];
       if (!names.is_array()) throw Error(StrCat(context, ".images: expected an array of names"));
@@ -689,6 +838,7 @@ double PatternIntensity(const PatternScheme& s, int index, double u) {
   }
   for (const auto& set : s.phase_sets) {
     if (i < set.steps) {
+      if (set.IsFlat(i)) return s.intensity_mean;
       const double shift = set.shifts_rad.empty() ? kTwoPi * i / set.steps : set.shifts_rad[i];
       return s.intensity_mean + s.intensity_amplitude * std::cos(kTwoPi * v / set.period_px +
                                                                  set.phase_offset_rad + shift);
@@ -740,6 +890,26 @@ float Float32Profile(const PatternScheme& s, int set, int step, int u) {
          static_cast<float>(s.intensity_amplitude) * std::cos(arg);
 }
 
+// Arithmetic::kFloat32Wrapped (pattern_scheme.h): SLMaster's ThreeFrequencyHeterodynePattern::
+// generate, the phase wrapped to one period in single precision before a single-precision
+// cosine (SLMaster builds with MSVC, whose cos(float) is the float overload); the sum in double.
+// The value on the byte scale, 255 mean + 255 amplitude cos (127.5 + 127.5 cos for SLMaster).
+double Float32WrappedProfile(const PatternScheme& s, int set, int step, int u) {
+  const PhaseShiftSet& ps = s.phase_sets[set];
+  const float period = static_cast<float>(ps.period_px);
+  const float t = static_cast<float>(u) / period;
+  const float d = t - std::floor(t);
+  const float wrapped = static_cast<float>((2.0f * d - 1.0f) * M_PI);
+  // The phase at the period start beyond -pi: 0 for SLMaster's own offset -pi - pi / P (kept
+  // exactly 0 when the offset was written as that sum).
+  double start = ps.phase_offset_rad + M_PI + M_PI / ps.period_px;
+  if (std::abs(start) < 1e-9) start = 0.0;
+  const float delta = static_cast<float>(ps.Shifts()[step] + start);
+  const float arg = wrapped + delta;
+  return 255.0 * s.intensity_mean +
+         255.0 * s.intensity_amplitude * static_cast<double>(std::cos(arg));
+}
+
 }  // namespace
 
 std::vector<cv::Mat> GeneratePatterns(const PatternScheme& scheme, double precompensate_gamma) {
@@ -753,12 +923,28 @@ std::vector<cv::Mat> GeneratePatterns(const PatternScheme& scheme, double precom
   std::vector<uint8_t> profile(span);
   for (int i = 0; i < scheme.NumImages(); ++i) {
     int set = 0, step = 0;
-    const bool float32 =
-        scheme.arithmetic == Arithmetic::kFloat32 && PhaseStep(scheme, i, &set, &step);
+    const bool phase = PhaseStep(scheme, i, &set, &step);
+    const bool flat = phase && scheme.phase_sets[set].IsFlat(step);
+    const Arithmetic arithmetic = phase && !flat ? scheme.arithmetic : Arithmetic::kDouble;
     for (int u = 0; u < span; ++u) {
-      const double lin = float32 ? static_cast<double>(Float32Profile(scheme, set, step, u))
-                                 : PatternIntensity(scheme, i, u);
-      profile[u] = scheme.Quantize(lin, precompensate_gamma);
+      if (arithmetic == Arithmetic::kFloat32Wrapped) {
+        // Straight from the byte scale as the tool computes it (no round trip through [0, 1],
+        // which moves values at the crests across an integer).
+        const double x = Float32WrappedProfile(scheme, set, step, u);
+        profile[u] = precompensate_gamma == 1.0 ? QuantizeValue(scheme.quantization, x)
+                                                : scheme.Quantize(x / 255.0, precompensate_gamma);
+        continue;
+      }
+      const double lin = arithmetic == Arithmetic::kFloat32
+                             ? static_cast<double>(Float32Profile(scheme, set, step, u))
+                             : PatternIntensity(scheme, i, u);
+      if (flat) {
+        // A constant frame (the tools' setTo): the nearest byte, ties to even.
+        const double x = 255.0 * std::pow(std::clamp(lin, 0.0, 1.0), 1.0 / precompensate_gamma);
+        profile[u] = static_cast<uint8_t>(std::nearbyint(x));
+      } else {
+        profile[u] = scheme.Quantize(lin, precompensate_gamma);
+      }
     }
     cv::Mat img(h, w, CV_8UC1);
     for (int r = 0; r < h; ++r) {
@@ -770,6 +956,18 @@ std::vector<cv::Mat> GeneratePatterns(const PatternScheme& scheme, double precom
       }
     }
     out.push_back(img);
+  }
+  // Markers (PatternMarkers): five-pixel pluses of full brightness on the fringe images.
+  for (const MarkerPosition& m : MarkerPositions(scheme)) {
+    cv::Mat& img = out[m.image];
+    for (const auto& [du, da] : {std::pair{0, 0}, {-1, 0}, {1, 0}, {0, -1}, {0, 1}}) {
+      const int u = m.u + du, a = m.across + da;
+      if (vertical) {
+        img.at<uint8_t>(a, u) = 255;
+      } else {
+        img.at<uint8_t>(u, a) = 255;
+      }
+    }
   }
   return out;
 }

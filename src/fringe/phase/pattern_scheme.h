@@ -35,6 +35,20 @@
 // precision as SLStudio's pstools does, so that truncation hits the same byte: with u the pixel
 // index and delta = phase_offset_rad + shift + pi / P (the phase at u = 0),
 //     arg = fl(fl(fl(2 pi) * u) / fl(P)) + fl(delta),  I = fl(mean + amplitude * cosf(arg)).
+// arithmetic = kFloat32Wrapped is SLMaster's three-frequency generator: the phase is wrapped to
+// one period in single precision before the cosine, with d = t - floor(t), t = fl(u / fl(P)),
+// and delta' = phase_offset_rad + pi + pi / P + shift (the shift alone for SLMaster's offset),
+//     arg = fl(fl((2 d - 1) * pi) + fl(delta')),  I = mean + amplitude * cosf(arg) (double sum).
+// A flat step (PhaseShiftSet::flat_steps: no fringe, the 2 + 1 algorithm's third image) shows the
+// mean level rounded to the nearest byte (ties to even) whatever the quantization: tools fill it
+// with a constant (SLStudio's setTo), not by converting a profile.
+//
+// Spatial unwrapping (Unwrapping::kSpatial, OpenCV's SinusoidalPattern): one phase set of many
+// periods; the wrapped phase (by least squares, by Fourier-transform profilometry from one image,
+// or Fourier-assisted phase shifting, PhaseRetrieval) is unwrapped across the camera image by a
+// quality-guided flood fill, and each connected region's whole number of periods is fixed by the
+// markers the patterns carry (PatternMarkers: OpenCV's crosses, one per period, in the image of
+// the set that shows that period's group).
 //
 // Thread safety: plain value types and pure functions.
 #pragma once
@@ -63,9 +77,15 @@ struct PhaseShiftSet {
   // Constant added to the phase of every step (radians), e.g. -pi when the capture software
   // defines the wrapped phase as -pi at the start of each period.
   double phase_offset_rad = 0.0;
+  // Steps whose image shows no fringe, only the mean level (sorted, unique, in [0, steps)): the
+  // third image of a 2 + 1 phase shift (Zhang & Yau 2006; SLStudio's PhaseShift2p1). The decoder
+  // takes such a step as the background A (design row [1, 0, 0]); at least two steps must carry
+  // the fringe. Their shifts are ignored.
+  std::vector<int> flat_steps;
 
   // The shifts actually used (shifts_rad or the equally spaced default).
   std::vector<double> Shifts() const;
+  bool IsFlat(int step) const;
 };
 
 // Temporal unwrapping (manifest "unwrapping"; Zuo, Huang, Zhang, Chen, Asundi, "Temporal phase
@@ -82,16 +102,48 @@ struct PhaseShiftSet {
 //                    tuple: the integer combination f_j c_0 - f_0 c_j of the wrapped phases
 //                    (cycles) picks the orders from a table of the segments of [0, L); the
 //                    table must have no two segments with one key.
+//  spatial           one set of many periods unwrapped across the image (quality-guided flood
+//                    fill, spatial_decode.h); each region's period fixed by the patterns' markers.
 //  auto (absent)     gray with Gray code, else heterodyne when it fits, else hierarchical.
-enum class Unwrapping { kAuto, kHeterodyne, kGray, kHierarchical, kNumberTheoretic };
+enum class Unwrapping { kAuto, kHeterodyne, kGray, kHierarchical, kNumberTheoretic, kSpatial };
 const char* UnwrappingName(Unwrapping u);  // "auto", "heterodyne", "gray", ...
 
 // How 255 * I becomes a byte (manifest "quantization").
 enum class Quantization { kRound, kRoundHalfEven, kFloor };
 const char* QuantizationName(Quantization q);  // "round", "round-half-even", "floor"
-// Precision of the phase-shift profile (manifest "arithmetic"): "double" or "float32".
-enum class Arithmetic { kDouble, kFloat32 };
+// Precision of the phase-shift profile (manifest "arithmetic"): "double", "float32" (SLStudio)
+// or "float32-wrapped" (SLMaster's three-frequency heterodyne).
+enum class Arithmetic { kDouble, kFloat32, kFloat32Wrapped };
 const char* ArithmeticName(Arithmetic a);
+
+// How the wrapped phase of set 0 is obtained (manifest "phase_retrieval"; spatial unwrapping
+// only, spatial_decode.h):
+//  least-squares  the N-step least squares of every pixel (phase-shifting profilometry, PSP)
+//  ftp            Fourier-transform profilometry (Takeda, Ina, Kobayashi 1982) of the first
+//                 image alone: the spectrum's carrier lobe, band-passed and transformed back
+//  faps           Fourier-assisted phase shifting (Cong et al., IEEE J-STSP 9, 2015): each
+//                 pixel's actual phase shifts from the FTP phases of the images, then the
+//                 least squares with those shifts
+enum class PhaseRetrieval { kLeastSquares, kFtp, kFaps };
+const char* PhaseRetrievalName(PhaseRetrieval r);
+
+// Markers in the phase-shift images that fix the period of a spatially unwrapped phase
+// (manifest "markers"). Layout "opencv": structured_light::SinusoidalPattern's crosses (setMarkers;
+// opencv_contrib sinusoidalpattern.cpp): with P = span / periods (integer division), n = periods
+// / 3 and m = spacing_px, image i (0..2) of set 0 carries, for j in [0, n) and k in
+// [0, (side - first_offset_px) / m), a plus of five pixels of 255 centred on projector coordinate
+// c = 3P/4 + j P + i P n - i P/3 (integer arithmetic) along the phase and
+// first_offset_px + k m + j (m / n) across it (side: the projector's other dimension). The
+// centre lies where image i is darkest; period i n + j carries it.
+struct PatternMarkers {
+  int spacing_px = 0;        // m (0: no markers)
+  int periods = 0;           // OpenCV's nbrOfPeriods (the set's period is span / periods)
+  int first_offset_px = 10;  // OpenCV's firstMarkerOffset
+  bool Present() const { return spacing_px > 0; }
+  // Integer period P and group size n of the layout for a span.
+  int Period(int span) const { return periods > 0 ? span / periods : 0; }
+  int Group() const { return periods / 3; }
+};
 
 // Bounds on what a manifest may ask for (checked before anything is allocated): more sets or
 // steps than any real scheme uses only serve to exhaust memory.
@@ -117,6 +169,8 @@ struct PatternScheme {
   bool reference_frames_first = false;  // white and dark frames before the other images
   Quantization quantization = Quantization::kRound;
   Arithmetic arithmetic = Arithmetic::kDouble;
+  PhaseRetrieval phase_retrieval = PhaseRetrieval::kLeastSquares;  // spatial unwrapping only
+  PatternMarkers markers;                                          // spatial unwrapping only
   bool white_frame = false;          // a fully lit frame after the Gray code
   bool dark_frame = false;           // a dark frame after that
   double intensity_mean = 0.5;       // pattern mean, fraction of full scale, (0, 1)
@@ -178,6 +232,17 @@ struct NumberTheoreticTable {
   // k_0 for rounded keys m[0..n-2], or -1.
   int Lookup(const int* m) const;
 };
+// The markers of a scheme (PatternMarkers), in the order they are drawn: the image (index in the
+// stack), the period that carries the marker, its centre along the phase direction (projector
+// pixel index) and across it. Empty without markers.
+struct MarkerPosition {
+  int image = 0;
+  int period = 0;
+  int u = 0;
+  int across = 0;
+};
+std::vector<MarkerPosition> MarkerPositions(const PatternScheme& scheme);
+
 // Throws fringe::Error naming "<context>.unwrapping" when the sets do not fit the method (count
 // of sets, no common length within 4096 periods of the coarsest set, L < span, two segments with
 // one key).

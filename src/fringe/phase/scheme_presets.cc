@@ -61,10 +61,15 @@ PhaseShiftSet SlstudioSet(double period, int steps) {
   return set;
 }
 
+// Codecs that SLStudio only has for projector columns (their encoders ignore CodecDir).
+bool ColumnsOnly(const std::string& preset) {
+  return preset == "slstudio-phaseshift2p1" || preset == "slstudio-phaseshift3fastwrap";
+}
+
 // The tools' presets (docs/formats.md, "Other tools' codecs"). `span` and the other sizes are
 // the projector's; every preset follows the tool's source revision named there.
 ToolScheme MakeToolScheme(const std::string& preset, int width, int height, bool horizontal,
-                          double count, int steps) {
+                          double count, int steps, int markers) {
   ToolScheme t;
   PatternScheme& s = t.scheme;
   s.name = preset;
@@ -76,6 +81,11 @@ ToolScheme MakeToolScheme(const std::string& preset, int width, int height, bool
     t.names = "frameSeq_%d.bmp";  // SLScanWorker writes the sequence as frameSeq_<i>.bmp
     s.quantization = Quantization::kFloor;
     s.arithmetic = Arithmetic::kFloat32;
+    if (horizontal && ColumnsOnly(preset)) {
+      throw Error(StrCat("scheme ", preset,
+                         ": SLStudio's codec codes projector columns only (its encoder ignores "
+                         "the direction); --horizontal does not apply"));
+    }
     if (preset == "slstudio-phaseshift2x3") {
       // 3 steps at 16 periods over the span, then 3 steps at 1 period (the phase cue).
       s.phase_sets = {SlstudioSet(span / 16.0, 3), SlstudioSet(span, 3)};
@@ -87,6 +97,24 @@ ToolScheme MakeToolScheme(const std::string& preset, int width, int height, bool
       const int n = preset == "slstudio-phaseshift4" ? 4 : 3;
       s.phase_sets = {SlstudioSet(span, n)};
       if (n == 3) s.quantization = Quantization::kRoundHalfEven;
+    } else if (preset == "slstudio-phaseshift3fastwrap") {
+      // CodecPhaseShift3FastWrap: PhaseShift4's profile with 3 steps, truncated, no dither (the
+      // tool decodes it by Zhang's intensity ratio; fringe by least squares).
+      s.phase_sets = {SlstudioSet(span, 3)};
+    } else if (preset == "slstudio-phaseshift2p1") {
+      // CodecPhaseShift2p1: computePhaseVector at phase 0 and pi/2 over one period, then a flat
+      // frame setTo(0.5 * 255) = 128 (Zhang & Yau's 2 + 1 algorithm: the flat image is the
+      // background).
+      PhaseShiftSet set = SlstudioSet(span, 3);
+      const float pi_f = static_cast<float>(M_PI);
+      set.shifts_rad = {0.0, -static_cast<double>(static_cast<float>(pi_f / 2.0)), 0.0};
+      set.flat_steps = {2};
+      s.phase_sets = {set};
+    } else if (preset == "slstudio-phaseshiftnstep") {
+      // CodecPhaseShiftNStep: 9 steps at 8 periods over the span, then a 3-step cue of one
+      // period; unwrapped with the cue (hierarchical).
+      s.phase_sets = {SlstudioSet(span / 8.0, 9), SlstudioSet(span, 3)};
+      s.unwrapping = Unwrapping::kHierarchical;
     } else if (preset == "slstudio-graycode") {
       // White, black, then the Gray code of the column (row) index, most significant bit first:
       // ceil(log2(span)) bits of which only the first 10 (6 for rows) are shown, so the code
@@ -120,18 +148,25 @@ ToolScheme MakeToolScheme(const std::string& preset, int width, int height, bool
     t.frames.push_back(2 * (cols + rows) + 1);
     t.frames.push_back(2 * (cols + rows) + 2);
     t.names = "pattern_cam1_im%d.png";
-  } else if (preset == "opencv-psp") {
-    // structured_light::SinusoidalPattern (PSP): saturate_cast<uchar>(127.5 + 127.5 sin(2 pi f u
-    // + i shift)) with period = span / nbrOfPeriods in integer pixels, f = float(1 / period) and
-    // shift = float(2 pi / 3). OpenCV unwraps spatially; fringe decodes absolutely, so the
-    // preset has one period over the span unless --counts says otherwise (then it needs a
-    // temporal partner fringe cannot take from OpenCV's sequence).
-    const int periods = count > 0 ? static_cast<int>(count) : 1;
-    if (periods != 1 || count != std::floor(count)) {
-      throw Error(StrCat("scheme ", preset, ": ", count,
-                         " periods over the span need OpenCV's spatial (histogram) unwrapping, "
-                         "which fringe does not do; fringe decodes one period over the span "
-                         "absolutely (--counts 1, the default)"));
+  } else if (preset == "opencv-psp" || preset == "opencv-ftp" || preset == "opencv-faps") {
+    // structured_light::SinusoidalPattern (PSP, FTP and FAPS show the same three images):
+    // saturate_cast<uchar>(127.5 + 127.5 sin(2 pi f u + i shift)) with period = span /
+    // nbrOfPeriods in integer pixels, f = float(1 / period) and shift = float(2 pi / 3); with
+    // setMarkers, crosses every nbrOfPixelsBetweenMarkers px (PatternMarkers). One period over
+    // the span (opencv-psp's default) is absolute on its own; more periods are unwrapped across
+    // the image and fixed by the markers (spatial_decode.h).
+    const bool fourier = preset != "opencv-psp";
+    const int periods = count > 0 ? static_cast<int>(count) : fourier ? 20 : 1;
+    if (count != std::floor(count) || periods > span / 3) {
+      throw Error(StrCat("scheme ", preset,
+                         ": --counts (nbrOfPeriods) must be a whole number "
+                         "of periods of at least 3 px over the span of ",
+                         span, " px (got ", count, ")"));
+    }
+    if (fourier && periods < 3) {
+      throw Error(StrCat("scheme ", preset,
+                         ": Fourier analysis needs a carrier: at least 3 "
+                         "periods over the span (--counts, OpenCV's default 20)"));
     }
     const int period = span / periods;
     const float f = 1.0f / static_cast<float>(period);
@@ -145,6 +180,26 @@ ToolScheme MakeToolScheme(const std::string& preset, int width, int height, bool
     for (int k = 0; k < 3; ++k) set.shifts_rad.push_back(static_cast<double>(k * shift));
     s.phase_sets = {set};
     s.quantization = Quantization::kRoundHalfEven;
+    if (periods > 1) {
+      s.unwrapping = Unwrapping::kSpatial;
+      s.phase_retrieval = preset == "opencv-ftp"    ? PhaseRetrieval::kFtp
+                          : preset == "opencv-faps" ? PhaseRetrieval::kFaps
+                                                    : PhaseRetrieval::kLeastSquares;
+      // Markers on by default (OpenCV's nbrOfPixelsBetweenMarkers, 56): without them the phase
+      // is relative. --markers 0 gives OpenCV's setMarkers = false images.
+      s.markers.spacing_px = markers >= 0 ? markers : periods >= 3 ? 56 : 0;
+      s.markers.periods = periods;
+      if (s.markers.Present() && periods < 3) {
+        throw Error(StrCat("scheme ", preset,
+                           ": OpenCV draws markers in groups of nbrOfPeriods / "
+                           "3 periods: --markers needs --counts >= 3"));
+      }
+    } else if (markers > 0) {
+      throw Error(StrCat("scheme ", preset,
+                         ": one period over the span is absolute and OpenCV "
+                         "draws no markers on it (nbrOfPeriods / 3 = 0): --markers applies to "
+                         "--counts >= 3"));
+    }
     for (int i = 0; i < 3; ++i) t.frames.push_back(i);
     t.names = "%d.png";
   } else if (preset == "slmaster-sinus-comple-gray") {
@@ -174,6 +229,33 @@ ToolScheme MakeToolScheme(const std::string& preset, int width, int height, bool
     s.gray_bits = bits;
     s.gray_complementary = true;
     s.quantization = Quantization::kFloor;
+    for (int i = 0; i < s.NumImages(); ++i) t.frames.push_back(i);
+    t.names = "%02d.png";  // SLMaster's GUI names its files itself: give --image-names
+  } else if (preset == "slmaster-three-frequency-heterodyne") {
+    // SLMaster (src/algorithm/cpuStructuredLight/threeFrequencyHeterodynePattern.cpp, 58e73231,
+    // generator unchanged in f300566f): shiftTime steps at each of nbrOfPeriods, nbrOfPeriods - 6
+    // and nbrOfPeriods - 11 periods over the span (beats of span / 6 and span / 5, beat of beats
+    // the span), uchar(127.5 + 127.5 cos(fl((2 d - 1) pi) + fl(2 pi i / N))) with d the fraction
+    // of the period in single precision (Arithmetic::kFloat32Wrapped).
+    const int periods = count > 0 ? static_cast<int>(count) : 32;
+    const int n = steps > 0 ? steps : 4;
+    if (count != std::floor(count) || periods < 12 || periods > span / 3) {
+      throw Error(StrCat("scheme ", preset,
+                         ": nbrOfPeriods (--counts) must be a whole number in [12, span / 3] "
+                         "(its third set has nbrOfPeriods - 11 periods; got ",
+                         count, ")"));
+    }
+    for (const int weeks : {periods, periods - 6, periods - 11}) {
+      PhaseShiftSet set;
+      set.period_px = static_cast<double>(span) / weeks;
+      set.steps = n;
+      set.phase_offset_rad = -M_PI - M_PI / set.period_px;
+      for (int i = 0; i < n; ++i) set.shifts_rad.push_back(2 * M_PI / n * i);  // CV_2PI / N * i
+      s.phase_sets.push_back(set);
+    }
+    s.unwrapping = Unwrapping::kHeterodyne;
+    s.quantization = Quantization::kFloor;
+    s.arithmetic = Arithmetic::kFloat32Wrapped;
     for (int i = 0; i < s.NumImages(); ++i) t.frames.push_back(i);
     t.names = "%02d.png";  // SLMaster's GUI names its files itself: give --image-names
   } else {
@@ -212,15 +294,31 @@ std::vector<std::string> FormatNames(const std::string& spec, const std::vector<
 }  // namespace
 
 std::vector<std::string> ToolPresetNames() {
-  return {"slstudio-phaseshift2x3",    "slstudio-phaseshift3", "slstudio-phaseshift4",
-          "slstudio-graycode",         "opencv-graycode",      "opencv-psp",
-          "slmaster-sinus-comple-gray"};
+  return {"slstudio-phaseshift2x3",
+          "slstudio-phaseshift3",
+          "slstudio-phaseshift4",
+          "slstudio-phaseshift3fastwrap",
+          "slstudio-phaseshift2p1",
+          "slstudio-phaseshiftnstep",
+          "slstudio-graycode",
+          "opencv-graycode",
+          "opencv-psp",
+          "opencv-ftp",
+          "opencv-faps",
+          "slmaster-sinus-comple-gray",
+          "slmaster-three-frequency-heterodyne"};
+}
+
+std::vector<std::string> AllPresetNames() {
+  std::vector<std::string> names = SchemePresetNames();
+  for (const auto& n : ToolPresetNames()) names.push_back(n);
+  return names;
 }
 
 bool SchemeParameters::AnySet() const {
   return projector_width > 0 || projector_height > 0 || horizontal || period_px > 0 ||
          !counts.empty() || steps > 0 || gray_bits >= 0 || !std::isnan(phase_offset_rad) ||
-         !image_names.empty();
+         !image_names.empty() || markers >= 0;
 }
 
 void SchemeParameters::Check() const {
@@ -240,6 +338,8 @@ void SchemeParameters::Check() const {
               "must be in [1, 16]");
   CheckOption(std::isnan(phase_offset_rad) || std::isfinite(phase_offset_rad), o, "phase-offset",
               phase_offset_rad, "must be finite");
+  CheckOption(markers == -1 || markers == 0 || (markers >= 3 && markers <= util::kMaxImageSidePx),
+              o, "markers", markers, "must be 0 (none) or a spacing in [3, 32768] px");
 }
 
 std::vector<std::string> ExpandImageNames(const std::string& spec, int n) {
@@ -269,19 +369,22 @@ PatternScheme MakePresetScheme(const std::string& preset, const SchemeParameters
   p.Check();
   if (IsToolPreset(preset)) {
     // Only what the tool itself lets its user choose.
-    const bool counts = preset == "opencv-psp" || preset.rfind("slmaster-", 0) == 0;
+    const bool sinusoidal = preset.rfind("opencv-", 0) == 0 && preset != "opencv-graycode";
+    const bool counts = sinusoidal || preset.rfind("slmaster-", 0) == 0;
     const bool steps = preset.rfind("slmaster-", 0) == 0;
     if (p.period_px > 0 || p.gray_bits >= 0 || (p.steps > 0 && !steps) ||
-        !std::isnan(p.phase_offset_rad) || p.counts.size() > (counts ? 1u : 0u)) {
+        !std::isnan(p.phase_offset_rad) || p.counts.size() > (counts ? 1u : 0u) ||
+        (p.markers >= 0 && !sinusoidal)) {
       throw Error(StrCat("scheme ", preset,
                          ": the tool's codec fixes periods, steps, bits and offsets; give only "
                          "--width/--height, --horizontal, --image-names",
                          counts ? " and --counts (nbrOfPeriods)" : "",
-                         steps ? " and --steps (shiftTime)" : ""));
+                         steps ? " and --steps (shiftTime)" : "",
+                         sinusoidal ? " and --markers (nbrOfPixelsBetweenMarkers, 0: none)" : ""));
     }
     ToolScheme t = MakeToolScheme(preset, p.projector_width > 0 ? p.projector_width : 1280,
                                   p.projector_height > 0 ? p.projector_height : 800, p.horizontal,
-                                  p.counts.empty() ? 0 : p.counts[0], p.steps);
+                                  p.counts.empty() ? 0 : p.counts[0], p.steps, p.markers);
     PatternScheme& s = t.scheme;
     // A printf pattern numbers the tool's own frames; a list names the stack's images.
     const std::string spec = p.image_names.empty() ? t.names : p.image_names;
@@ -334,7 +437,11 @@ PatternScheme MakePresetScheme(const std::string& preset, const SchemeParameters
     s.phase_sets.push_back(set);
     s.gray_bits = bits;
     s.gray_complementary = true;
-    if (slsdk && p.image_names.empty() && set.steps == 4) s.image_names = base.image_names;
+    // The capture's own names while the image count is the capture's (a new size or period can
+    // change the number of Gray bits).
+    if (slsdk && p.image_names.empty() && s.NumImages() == base.NumImages()) {
+      s.image_names = base.image_names;
+    }
   } else if (IsHeterodynePreset(preset)) {
     if (p.period_px > 0 || p.gray_bits >= 0) {
       throw Error(StrCat("scheme ", preset,

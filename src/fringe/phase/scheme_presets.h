@@ -13,13 +13,15 @@
 //                     three frequencies; --counts A,B,C sets the number of fringes over the
 //                     projector span (periods span/A, span/B, span/C; default 70,64,59 over 1.25
 //                     x span, pattern_scheme.h).
-//   slstudio-phaseshift2x3, slstudio-phaseshift3, slstudio-phaseshift4, slstudio-graycode,
-//   opencv-graycode, opencv-psp
+//   slstudio-*, opencv-*, slmaster-* (ToolPresetNames)
 //                     other tools' codecs (docs/formats.md, "Other tools' codecs"), their images
 //                     byte for byte as the tool makes them, in the tool's order and with its file
-//                     names; only --width/--height, --horizontal and --image-names apply
-//                     (opencv-psp also --counts: nbrOfPeriods). A printf --image-names numbers
-//                     the tool's own frames (pattern_cam2_im%d.png for OpenCV's second camera).
+//                     names; only --width/--height, --horizontal and --image-names apply, plus
+//                     what the tool lets its user choose: opencv-psp/ftp/faps --counts
+//                     (nbrOfPeriods) and --markers (nbrOfPixelsBetweenMarkers), slmaster-*
+//                     --counts (nbrOfPeriods) and --steps (shiftTime). A printf --image-names
+//                     numbers the tool's own frames (pattern_cam2_im%d.png for OpenCV's second
+//                     camera).
 // Thread safety: pure functions.
 #pragma once
 
@@ -41,6 +43,9 @@ struct SchemeParameters {
   int steps = 0;               // gray+N: overrides N; heterodyne: steps of every set, [3, 64]
   int gray_bits = -1;          // gray+N: Gray bits, [1, 16]
   double phase_offset_rad = std::numeric_limits<double>::quiet_NaN();  // added to every set
+  // OpenCV's SinusoidalPattern presets: marker spacing (nbrOfPixelsBetweenMarkers; 0 = none,
+  // -1 = the preset's default, 56 px when there are 3 or more periods).
+  int markers = -1;
   // Image names: a printf pattern with one integer conversion ("%d.png", "img_%02d.bmp") or a
   // comma-separated list naming every image in stack order.
   std::string image_names;
@@ -61,6 +66,9 @@ PatternScheme SchemeFromArgument(const std::string& name_or_path,
 
 // The presets of other tools' codecs.
 std::vector<std::string> ToolPresetNames();
+// Every preset name: fringe's own (SchemePresetNames; gray+4 stands for the gray+N family), then
+// the other tools' codecs.
+std::vector<std::string> AllPresetNames();
 
 // Expands SchemeParameters::image_names for n images (validated as names inside a folder).
 std::vector<std::string> ExpandImageNames(const std::string& spec, int n);

@@ -17,6 +17,7 @@
 #include "fringe/phase/scheme_presets.h"
 #include "fringe/phase/stack_io.h"
 #include "fringe/phase/synthetic.h"
+#include "fringe/phase/tool_codecs_test_util.h"
 #include "fringe/util/error.h"
 
 #ifdef FRINGE_HAVE_STRUCTURED_LIGHT
@@ -27,64 +28,7 @@ namespace fringe::phase {
 namespace {
 
 namespace fs = std::filesystem;
-
-// One tool frame: the profile along the coded direction (every row/column is the same).
-using Profile = std::vector<uint8_t>;
-
-// The preset's images keyed by the tool's frame number, read from its image names
-// ("<prefix><number><suffix>"), as profiles along the phase direction.
-std::vector<std::pair<int, Profile>> PresetFrames(const PatternScheme& s,
-                                                  const std::string& prefix) {
-  const auto images = GeneratePatterns(s);
-  const auto names = s.ImageNames();
-  std::vector<std::pair<int, Profile>> out;
-  for (size_t i = 0; i < images.size(); ++i) {
-    EXPECT_EQ(names[i].rfind(prefix, 0), 0u) << names[i];
-    const int frame = std::stoi(names[i].substr(prefix.size()));
-    Profile p(s.Span());
-    for (int u = 0; u < s.Span(); ++u) {
-      p[u] = s.direction == FringeDirection::kVertical ? images[i].at<uint8_t>(0, u)
-                                                       : images[i].at<uint8_t>(u, 0);
-    }
-    // Every row (column) repeats the profile.
-    const int last =
-        s.direction == FringeDirection::kVertical ? images[i].rows - 1 : images[i].cols - 1;
-    for (int u = 0; u < s.Span(); u += 97) {
-      const uint8_t far = s.direction == FringeDirection::kVertical
-                              ? images[i].at<uint8_t>(last, u)
-                              : images[i].at<uint8_t>(u, last);
-      EXPECT_EQ(far, p[u]);
-    }
-    out.emplace_back(frame, p);
-  }
-  return out;
-}
-
-int CountDifferences(const Profile& a, const Profile& b) {
-  int n = 0;
-  for (size_t i = 0; i < a.size(); ++i) n += a[i] != b[i];
-  return n;
-}
-
-// SLStudio pstools::computePhaseVector (revision 13f41924): float arithmetic, 0.5 (1 + cos(2 pi i
-// / pitch - phase)), converted to a byte by truncation.
-Profile SlstudioPhaseVector(int length, float phase, float pitch) {
-  const float pi = static_cast<float>(M_PI);
-  Profile p(length);
-  for (int i = 0; i < length; ++i) {
-    const float amp = 0.5 * (1 + std::cos(2 * pi * static_cast<float>(i) / pitch - phase));
-    p[i] = static_cast<uint8_t>(255.0 * amp);
-  }
-  return p;
-}
-
-SchemeParameters Size(int w, int h, bool horizontal = false) {
-  SchemeParameters p;
-  p.projector_width = w;
-  p.projector_height = h;
-  p.horizontal = horizontal;
-  return p;
-}
+using namespace tool_test;
 
 TEST(ToolCodecs, SlstudioPhaseShift2x3IsTheToolsPatterns) {
   // 1920 wide: a width where double-precision evaluation would miss SLStudio's bytes.
@@ -232,10 +176,12 @@ TEST(ToolCodecs, OpencvPspIsTheToolsPatterns) {
     }
     EXPECT_EQ(CountDifferences(profile, want), 0) << frame;
   }
-  // Twenty periods (OpenCV's default) generate, but fringe cannot unwrap them absolutely: a clear
-  // error, not a wrong decode.
+  // Twenty periods (OpenCV's default) are unwrapped spatially, with OpenCV's markers (on by
+  // default); the images are tested with the markers below (OpencvSinusoidalWithMarkers...).
   SchemeParameters p = Size(width, 600);
-  p.counts = {20};
+  p.counts.assign(1, static_cast<double>(20));
+  EXPECT_EQ(MakePresetScheme("opencv-psp", p).Method(), Unwrapping::kSpatial);
+  p.counts.assign(1, static_cast<double>(2.5));
   EXPECT_THROW(MakePresetScheme("opencv-psp", p), Error);
 #ifdef FRINGE_HAVE_STRUCTURED_LIGHT
   cv::structured_light::SinusoidalPattern::Params params;
@@ -262,7 +208,7 @@ TEST(ToolCodecs, SlmasterSinusCompleGrayIsTheToolsPatterns) {
   for (const auto& [w, periods, steps] :
        std::vector<std::tuple<int, int, int>>{{1280, 32, 4}, {1920, 16, 3}, {1024, 64, 6}}) {
     SchemeParameters p = Size(w, 720);
-    p.counts = {static_cast<double>(periods)};
+    p.counts.assign(1, static_cast<double>(periods));
     p.steps = steps;
     const PatternScheme s = MakePresetScheme("slmaster-sinus-comple-gray", p);
     const auto ours = GeneratePatterns(s);
@@ -298,84 +244,226 @@ TEST(ToolCodecs, SlmasterSinusCompleGrayIsTheToolsPatterns) {
     }
   }
   SchemeParameters p = Size(1280, 720);
-  p.counts = {40};  // not a power of two: the tool's own Gray code would not align
+  p.counts.assign(
+      1, static_cast<double>(40));  // not a power of two: the tool's own Gray code would not align
   EXPECT_THROW(MakePresetScheme("slmaster-sinus-comple-gray", p), Error);
 }
 
-// A capture of the tool's own 8-bit patterns: each camera pixel sees projector coordinate u
-// (linear across the image), the projected byte interpolated linearly between projector pixels,
-// I = A + B (2 byte / 255 - 1) + noise; written with the scheme's (the tool's) file names and
-// read back by name.
-struct Capture {
-  cv::Mat truth;  // projector coordinate per camera pixel
-  std::vector<cv::Mat> images;
-};
+TEST(ToolCodecs, SlstudioPhaseShiftNStepIsTheToolsPatterns) {
+  // CodecPhaseShiftNStep (13f41924): 9 steps at phase 2 pi / 9 i, pitch cols / 8, then 3 cue
+  // steps at phase 2 pi / 3 i, pitch cols; rows with CodecDirVertical.
+  const float pi = static_cast<float>(M_PI);
+  for (const auto& [w, h, horizontal] : std::vector<std::tuple<int, int, bool>>{
+           {1280, 800, false}, {1920, 1080, false}, {912, 1140, true}}) {
+    const PatternScheme s = MakePresetScheme("slstudio-phaseshiftnstep", Size(w, h, horizontal));
+    EXPECT_EQ(s.Method(), Unwrapping::kHierarchical);
+    const int span = horizontal ? h : w;
+    const auto frames = PresetFrames(s, "frameSeq_");
+    ASSERT_EQ(frames.size(), 12u);
+    for (const auto& [frame, profile] : frames) {
+      const unsigned n_steps = 9, n_phases = 8;
+      const float phase = frame < 9 ? 2.0 * pi / n_steps * frame : 2.0 * pi / 3.0 * (frame - 9);
+      const float pitch = frame < 9 ? static_cast<float>(span) / static_cast<float>(n_phases)
+                                    : static_cast<float>(span);
+      EXPECT_EQ(CountDifferences(profile, SlstudioPhaseVector(span, phase, pitch)), 0)
+          << w << "x" << h << " frame " << frame;
+    }
+  }
+}
 
-Capture ToolCapture(const PatternScheme& s, const fs::path& dir, double noise_dn) {
-  const cv::Size size(240, 24);
-  Capture cap;
-  cap.truth = LinearProjectorMap(s, size);
-  const auto patterns = GeneratePatterns(s);
-  std::mt19937 rng(7);
-  std::normal_distribution<double> noise(0.0, noise_dn);
-  fs::create_directories(dir);
-  const auto names = s.ImageNames();
-  for (size_t i = 0; i < patterns.size(); ++i) {
-    cv::Mat img(size, CV_8U);
-    for (int r = 0; r < size.height; ++r) {
-      for (int c = 0; c < size.width; ++c) {
-        const double u = cap.truth.at<float>(r, c);
-        const int u0 = std::min(static_cast<int>(std::floor(u)), s.Span() - 2);
-        const double t = u - u0;
-        auto byte = [&](int x) {
-          return s.direction == FringeDirection::kVertical ? patterns[i].at<uint8_t>(0, x)
-                                                           : patterns[i].at<uint8_t>(x, 0);
-        };
-        const double p = ((1 - t) * byte(u0) + t * byte(u0 + 1)) / 255.0;
-        const double v = 120.0 + 90.0 * (2 * p - 1) + noise(rng);
-        img.at<uint8_t>(r, c) = cv::saturate_cast<uint8_t>(v);
+TEST(ToolCodecs, SlstudioPhaseShift2p1And3FastWrapAreTheToolsPatterns) {
+  const float pi = static_cast<float>(M_PI);
+  // CodecPhaseShift2p1 (9e0bc5ec): phase vectors at 0 and pi/2 over one period, then a flat
+  // frame setTo(0.5 * 255.0): OpenCV rounds 127.5 to even, 128.
+  for (const int w : {1280, 1024, 1920}) {
+    const auto frames =
+        PresetFrames(MakePresetScheme("slstudio-phaseshift2p1", Size(w, 720)), "frameSeq_");
+    ASSERT_EQ(frames.size(), 3u);
+    for (const auto& [frame, profile] : frames) {
+      const Profile want = frame == 0   ? SlstudioPhaseVector(w, 0.0f, static_cast<float>(w))
+                           : frame == 1 ? SlstudioPhaseVector(w, pi / 2.0, static_cast<float>(w))
+                                        : Profile(w, cv::saturate_cast<uint8_t>(0.5 * 255.0));
+      EXPECT_EQ(CountDifferences(profile, want), 0) << w << " frame " << frame;
+    }
+  }
+  // CodecPhaseShift3FastWrap (13f41924): phase 2 pi / float(N) i, pitch cols, N = 3.
+  const auto frames =
+      PresetFrames(MakePresetScheme("slstudio-phaseshift3fastwrap", Size(1280, 800)), "frameSeq_");
+  ASSERT_EQ(frames.size(), 3u);
+  for (const auto& [frame, profile] : frames) {
+    const float phase = 2.0 * pi / static_cast<float>(3) * frame;
+    EXPECT_EQ(CountDifferences(profile, SlstudioPhaseVector(1280, phase, 1280.0f)), 0) << frame;
+  }
+  // Both encoders code columns whatever the direction.
+  EXPECT_THROW(MakePresetScheme("slstudio-phaseshift2p1", Size(1280, 800, true)), Error);
+  EXPECT_THROW(MakePresetScheme("slstudio-phaseshift3fastwrap", Size(1280, 800, true)), Error);
+}
+
+TEST(ToolCodecs, SlmasterThreeFrequencyHeterodyneIsTheToolsPatterns) {
+  // threeFrequencyHeterodynePattern.cpp (58e73231, generate unchanged in f300566f): for weeks in
+  // {N, N - 6, N - 11}: pixelsPerPeriod = float(width) / weeks, shiftVal = float(CV_2PI /
+  // shiftTime * i), denom = k / ppp - floor(k / ppp) in float, wrapped = float((2 denom - 1)
+  // CV_PI), uchar(127.5 + 127.5 cos(wrapped + shiftVal)) with the float cos of SLMaster's MSVC
+  // build; horizontal: the same over the height, transposed.
+  for (const auto& [w, h, periods, steps, horizontal] :
+       std::vector<std::tuple<int, int, int, int, bool>>{{1280, 720, 32, 4, false},
+                                                         {1920, 1080, 24, 3, false},
+                                                         {1024, 768, 40, 5, false},
+                                                         {1280, 720, 16, 4, true}}) {
+    SchemeParameters p = Size(w, h, horizontal);
+    p.counts.assign(1, static_cast<double>(periods));
+    p.steps = steps;
+    const PatternScheme s = MakePresetScheme("slmaster-three-frequency-heterodyne", p);
+    EXPECT_EQ(s.Method(), Unwrapping::kHeterodyne);
+    const int width = horizontal ? h : w;
+    const auto ours = GeneratePatterns(s);
+    ASSERT_EQ(static_cast<int>(ours.size()), 3 * steps);
+    const int weeks[3] = {periods, periods - 6, periods - 11};
+    int image = 0;
+    for (int set = 0; set < 3; ++set) {
+      const float ppp = static_cast<float>(width) / weeks[set];
+      for (int i = 0; i < steps; ++i, ++image) {
+        const float shift = CV_2PI / steps * i;
+        Profile want(width), got(width);
+        for (int k = 0; k < width; ++k) {
+          const float denom = k / ppp - std::floor(k / ppp);
+          const float wrapped = (2 * denom - 1) * CV_PI;
+          const float arg = wrapped + shift;
+          want[k] = static_cast<uint8_t>(127.5 + 127.5 * std::cos(arg));  // float overload
+          got[k] = horizontal ? ours[image].at<uint8_t>(k, 0) : ours[image].at<uint8_t>(0, k);
+        }
+        EXPECT_EQ(CountDifferences(got, want), 0)
+            << w << "x" << h << " periods " << periods << " image " << image;
       }
     }
-    io::WriteImage(dir / names[i], img);
   }
-  cap.images = ReadStack(dir, s);
-  return cap;
+  SchemeParameters p = Size(1280, 720);
+  p.counts.assign(1, static_cast<double>(11));  // the third set would have no period
+  EXPECT_THROW(MakePresetScheme("slmaster-three-frequency-heterodyne", p), Error);
 }
 
-// Valid fraction and the largest error (projector px) over valid pixels.
-std::pair<double, double> Errors(const DecodeResult& r, const cv::Mat& truth) {
-  int valid = 0;
-  double worst = 0;
-  for (int y = 0; y < truth.rows; ++y) {
-    for (int x = 0; x < truth.cols; ++x) {
-      if (!r.mask.at<uint8_t>(y, x)) continue;
-      ++valid;
-      worst = std::max<double>(worst,
-                               std::fabs(r.absolute_phase.at<float>(y, x) - truth.at<float>(y, x)));
+// OpenCV SinusoidalPattern::generate (opencv_contrib 0184e33d) with setMarkers, re-implemented:
+// the three sinusoids, then per pattern i, j < n = periods / 3, k < (side - 10) / m the cross at
+// Mat position (x, y) = (10 + k m + j (m / n), 3 period / 4 + j period + i period n - i period /
+// 3) and its four neighbours, on the (transposed for horizontal) pattern.
+std::vector<cv::Mat> OpencvSinusoidal(int width, int height, int periods, bool horizontal, int m) {
+  const float mean = 127.5, amplitude = 127.5, shift = static_cast<float>(2 * CV_PI / 3);
+  const int n = periods / 3;
+  const int period = horizontal ? height / periods : width / periods;
+  const int per_row =
+      static_cast<int>(std::floor(static_cast<float>(((horizontal ? width : height) - 10) / m)));
+  const float frequency = static_cast<float>(1) / period;
+  std::vector<cv::Mat> out;
+  for (int i = 0; i < 3; ++i) {
+    cv::Mat pattern(height, width, CV_8UC1);
+    if (horizontal) pattern = pattern.t();
+    for (int j = 0; j < pattern.cols; ++j) {
+      const uint8_t v = cv::saturate_cast<uchar>(
+          mean + amplitude * std::sin(2 * CV_PI * frequency * j + i * shift));
+      pattern.col(j).setTo(v);
+    }
+    if (m > 0) {
+      for (int j = 0; j < n; ++j) {
+        for (int k = 0; k < per_row; ++k) {
+          const int x = 10 + k * m + j * (m / n);
+          const int y = 3 * period / 4 + j * period + i * period * n - i * period / 3;
+          for (const auto& [dx, dy] : {std::pair{0, 0}, {0, -1}, {-1, 0}, {0, 1}, {1, 0}}) {
+            pattern.at<uchar>(x + dx, y + dy) = 255;
+          }
+        }
+      }
+    }
+    out.push_back(horizontal ? cv::Mat(pattern.t()) : pattern);
+  }
+  return out;
+}
+
+TEST(ToolCodecs, OpencvSinusoidalWithMarkersIsTheToolsPatterns) {
+  for (const char* preset : {"opencv-psp", "opencv-ftp", "opencv-faps"}) {
+    for (const auto& [w, h, periods, m, horizontal] :
+         std::vector<std::tuple<int, int, int, int, bool>>{
+             {800, 600, 20, 56, false}, {1280, 800, 32, 70, false}, {800, 600, 12, 56, true}}) {
+      SchemeParameters p = Size(w, h, horizontal);
+      p.counts.assign(1, static_cast<double>(periods));
+      p.markers = m;
+      const PatternScheme s = MakePresetScheme(preset, p);
+      EXPECT_EQ(s.Method(), Unwrapping::kSpatial);
+      const auto ours = GeneratePatterns(s);
+      const auto want = OpencvSinusoidal(w, h, periods, horizontal, m);
+      ASSERT_EQ(ours.size(), 3u);
+      for (int i = 0; i < 3; ++i) {
+        EXPECT_EQ(cv::norm(ours[i], want[i], cv::NORM_INF), 0)
+            << preset << " " << w << "x" << h << " image " << i;
+      }
     }
   }
-  return {static_cast<double>(valid) / truth.total(), worst};
+  // OpenCV's setMarkers = false: --markers 0.
+  SchemeParameters p = Size(800, 600);
+  p.markers = 0;
+  const auto plain = GeneratePatterns(MakePresetScheme("opencv-ftp", p));
+  const auto want = OpencvSinusoidal(800, 600, 20, false, 0);
+  for (int i = 0; i < 3; ++i) EXPECT_EQ(cv::norm(plain[i], want[i], cv::NORM_INF), 0) << i;
+#ifdef FRINGE_HAVE_STRUCTURED_LIGHT
+  // And OpenCV's own generator, with markers at its default spacing.
+  cv::structured_light::SinusoidalPattern::Params params;
+  params.width = 800;
+  params.height = 600;
+  params.nbrOfPeriods = 20;
+  params.setMarkers = true;
+  params.methodId = cv::structured_light::FAPS;
+  auto sin = cv::structured_light::SinusoidalPattern::create(
+      cv::makePtr<cv::structured_light::SinusoidalPattern::Params>(params));
+  std::vector<cv::Mat> theirs;
+  sin->generate(theirs);
+  const auto ours = GeneratePatterns(MakePresetScheme("opencv-faps", Size(800, 600)));
+  ASSERT_EQ(theirs.size(), ours.size());
+  for (size_t i = 0; i < ours.size(); ++i) {
+    EXPECT_EQ(cv::norm(ours[i], theirs[i], cv::NORM_INF), 0) << i;
+  }
+#endif
 }
 
-class ToolCodecDecode : public ::testing::Test {
- protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("fringe_tool_codecs_" + std::to_string(::getpid()) + "_" +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
+TEST(ToolCodecs, InvertedGrayCodeWithPhaseSetsIsTheFormula) {
+  // A manifest's complementary Gray code with inverted images and white/black frames (SLMaster's
+  // code with inverses): bit b of gray(floor(2 v / P)) >> ... per image, each followed by its
+  // inverse, then white and black.
+  nlohmann::json j = SchemeToJson(MakeScheme("gray+4", 1280, 800));
+  j["gray_code"]["inverted"] = true;
+  j["white_frame"] = true;
+  j["dark_frame"] = true;
+  j.erase("images");
+  const PatternScheme s = SchemeFromJson(j, "inverted.json");
+  const int bits = s.gray_bits;
+  const double period = s.phase_sets[0].period_px;
+  ASSERT_EQ(s.NumImages(), 4 + 2 * (bits + 1) + 2);
+  const auto images = GeneratePatterns(s);
+  for (int b = 0; b <= bits; ++b) {
+    Profile want(1280), inverse(1280), got(1280), got_inverse(1280);
+    for (int u = 0; u < 1280; ++u) {
+      const unsigned half = static_cast<unsigned>(std::floor(2.0 * (u + 0.5) / period));
+      const unsigned gray = half ^ (half >> 1);
+      const bool bright = (gray >> (bits - b)) & 1u;
+      want[u] = bright ? 255 : 0;
+      inverse[u] = bright ? 0 : 255;
+      got[u] = images[s.GrayImageIndex(b)].at<uint8_t>(0, u);
+      got_inverse[u] = images[s.GrayInverseIndex(b)].at<uint8_t>(0, u);
+    }
+    EXPECT_EQ(CountDifferences(got, want), 0) << "bit " << b;
+    EXPECT_EQ(CountDifferences(got_inverse, inverse), 0) << "bit " << b;
   }
-  void TearDown() override { fs::remove_all(dir_); }
-  fs::path dir_;
-};
+  EXPECT_EQ(cv::countNonZero(images[s.WhiteImageIndex()] != 255), 0);
+  EXPECT_EQ(cv::countNonZero(images[s.DarkImageIndex()]), 0);
+}
 
 TEST_F(ToolCodecDecode, PhaseShiftCodecsDecodeToTheProjectorColumn) {
   // Noise 1 DN at B = 90 DN: the decoder's own noise model (AbsolutePhaseSigmaPx) gives the
   // coordinate's standard deviation; the largest error over ~5000 pixels stays within 6 sigma,
   // plus a quarter pixel for the patterns' 8-bit steps and the capture's interpolation.
   constexpr double kNoiseDn = 1.0, kModulationDn = 90.0, kSigmas = 6.0, kPatternPx = 0.25;
-  for (const char* preset : {"slstudio-phaseshift2x3", "slstudio-phaseshift4", "opencv-psp",
-                             "slmaster-sinus-comple-gray"}) {
+  for (const char* preset :
+       {"slstudio-phaseshift2x3", "slstudio-phaseshift4", "slstudio-phaseshift3fastwrap",
+        "slstudio-phaseshift2p1", "slstudio-phaseshiftnstep", "opencv-psp",
+        "slmaster-sinus-comple-gray", "slmaster-three-frequency-heterodyne"}) {
     const PatternScheme s = MakePresetScheme(preset, Size(1280, 800));
     const double tolerance_px =
         kSigmas * AbsolutePhaseSigmaPx(s, kNoiseDn, kModulationDn) + kPatternPx;
@@ -436,6 +524,42 @@ TEST_F(ToolCodecDecode, GrayPairsDecideWithoutAGlobalThreshold) {
   const auto [valid, worst] = Errors(r, cap.truth);
   EXPECT_GT(valid, 0.97) << r.summary.BriefReport();
   EXPECT_LE(worst, 1.5);
+}
+
+TEST_F(ToolCodecDecode, InvertedGrayPairsWithPhaseSetsDecodeAndReferenceFramesMask) {
+  // Complementary Gray code with inverted images and white/black frames beside a 4-step set: each
+  // bit from its pair, so a capture whose brightness falls to 15 % across the image decodes
+  // everywhere; pixels where white and black do not differ (here: the first 40 columns, where
+  // the test overwrites the white frame) are masked, whatever the phase set says.
+  nlohmann::json j = SchemeToJson(MakeScheme("gray+4", 1024, 768));
+  j["gray_code"]["inverted"] = true;
+  j["white_frame"] = true;
+  j["dark_frame"] = true;
+  j.erase("images");
+  const PatternScheme s = SchemeFromJson(j, "inverted.json");
+  Capture cap = ToolCapture(s, dir_ / "inverted", 0.5);
+  for (auto& img : cap.images) {
+    for (int y = 0; y < img.rows; ++y) {
+      for (int x = 0; x < img.cols; ++x) {
+        const double gain = 1.0 - 0.85 * x / (img.cols - 1.0);
+        img.at<uint8_t>(y, x) = cv::saturate_cast<uint8_t>(img.at<uint8_t>(y, x) * gain);
+      }
+    }
+  }
+  DecodeOptions o;
+  o.noise_sigma_dn = 0.5;
+  const DecodeResult r = Decode(s, cap.images, o);
+  const auto [valid, worst] = Errors(r, cap.truth);
+  EXPECT_GT(valid, 0.97) << r.summary.BriefReport();
+  EXPECT_LT(worst, 6 * AbsolutePhaseSigmaPx(s, 0.5, 0.15 * 90) + 0.25);
+  cap.images[s.DarkImageIndex()].colRange(0, 40).copyTo(
+      cap.images[s.WhiteImageIndex()].colRange(0, 40));
+  const DecodeResult masked = Decode(s, cap.images, o);
+  EXPECT_EQ(cv::countNonZero(masked.mask.colRange(0, 40)), 0);
+  const int before = cv::countNonZero(r.mask.colRange(0, 40));
+  EXPECT_GT(before, 0);
+  EXPECT_EQ(masked.summary.rejected_low_modulation, r.summary.rejected_low_modulation + before);
+  EXPECT_EQ(masked.summary.valid, r.summary.valid - before);
 }
 
 TEST(ToolCodecs, ManifestRoundTripAndBounds) {

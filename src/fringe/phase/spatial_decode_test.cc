@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "fringe/phase/scheme_presets.h"
-#include "fringe/phase/tool_codecs_test_util.h"
+#include "fringe/testing/tool_codecs.h"
 #include "fringe/util/error.h"
 #include "fringe_test.h"
 

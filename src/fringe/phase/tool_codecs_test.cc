@@ -17,7 +17,7 @@
 #include "fringe/phase/scheme_presets.h"
 #include "fringe/phase/stack_io.h"
 #include "fringe/phase/synthetic.h"
-#include "fringe/phase/tool_codecs_test_util.h"
+#include "fringe/testing/tool_codecs.h"
 #include "fringe/util/error.h"
 
 #ifdef FRINGE_HAVE_STRUCTURED_LIGHT

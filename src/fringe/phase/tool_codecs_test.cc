@@ -350,8 +350,10 @@ std::vector<cv::Mat> OpencvSinusoidal(int width, int height, int periods, bool h
   const float mean = 127.5, amplitude = 127.5, shift = static_cast<float>(2 * CV_PI / 3);
   const int n = periods / 3;
   const int period = horizontal ? height / periods : width / periods;
-  const int per_row =
-      static_cast<int>(std::floor(static_cast<float>(((horizontal ? width : height) - 10) / m)));
+  // m = 0 is OpenCV's setMarkers = false: no crosses, and no division by it.
+  const int per_row = m > 0 ? static_cast<int>(std::floor(
+                                  static_cast<float>(((horizontal ? width : height) - 10) / m)))
+                            : 0;
   const float frequency = static_cast<float>(1) / period;
   std::vector<cv::Mat> out;
   for (int i = 0; i < 3; ++i) {

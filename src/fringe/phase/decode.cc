@@ -799,6 +799,33 @@ double ModulationThreshold(const PatternScheme& scheme, double sigma_dn, double 
   return std::max(hi, noise_only);
 }
 
+ModulationLimit ChooseModulationThreshold(const PatternScheme& scheme,
+                                          const std::vector<cv::Mat>& images,
+                                          const DecodeOptions& options, double full_scale_dn) {
+  ModulationLimit out;
+  if (options.noise_sigma_dn > 0) {
+    out.noise.sigma_dn = options.noise_sigma_dn;
+    out.noise.source = NoiseSource::kGiven;
+    out.noise.message = StrCat("camera noise ", out.noise.sigma_dn, " DN given");
+  } else if (scheme.phase_sets.empty()) {
+    out.noise.message = StrCat("camera noise ", kAssumedNoiseSigmaDn,
+                               " DN assumed (pure Gray code); give --noise-sigma if known");
+  } else if (options.min_modulation_dn <= 0) {
+    out.noise = EstimateNoise(scheme, images, full_scale_dn);
+  }
+  out.min_modulation_dn = options.min_modulation_dn;
+  if (out.min_modulation_dn <= 0) {
+    out.min_modulation_dn =
+        ModulationThreshold(scheme, out.noise.sigma_dn, options.order_error_probability);
+    const double cap = kMaxModulationThresholdFraction * full_scale_dn;
+    if (out.min_modulation_dn > cap) {
+      out.min_modulation_dn = cap;
+      out.bounded = true;
+    }
+  }
+  return out;
+}
+
 NoiseEstimate EstimateNoise(const PatternScheme& scheme, const std::vector<cv::Mat>& images,
                             double full_scale_dn) {
   constexpr int kNoiseBlock = 16;
@@ -1050,24 +1077,10 @@ void DecodePureGray(const PatternScheme& scheme, const std::vector<cv::Mat>& ima
                     const DecodeOptions& options, double full, util::Timer* timer,
                     DecodeResult* result) {
   const cv::Size size = images[0].size();
-  NoiseEstimate noise;  // no phase set to estimate it from
-  if (options.noise_sigma_dn > 0) {
-    noise.sigma_dn = options.noise_sigma_dn;
-    noise.source = NoiseSource::kGiven;
-    noise.message = StrCat("camera noise ", noise.sigma_dn, " DN given");
-  } else {
-    noise.message = StrCat("camera noise ", kAssumedNoiseSigmaDn,
-                           " DN assumed (pure Gray code); give --noise-sigma if known");
-  }
-  double b_min = options.min_modulation_dn;
-  bool bounded = false;
-  if (b_min <= 0) {
-    b_min = GrayCodeThreshold(scheme, noise.sigma_dn, options.order_error_probability);
-    if (b_min > kMaxModulationThresholdFraction * full) {
-      b_min = kMaxModulationThresholdFraction * full;
-      bounded = true;
-    }
-  }
+  const ModulationLimit limit = ChooseModulationThreshold(scheme, images, options, full);
+  const NoiseEstimate& noise = limit.noise;
+  const double b_min = limit.min_modulation_dn;
+  const bool bounded = limit.bounded;
   for (cv::Mat* m : {&result->absolute_phase, &result->wrapped_phase, &result->modulation,
                      &result->background}) {
     m->create(size, CV_32F);
@@ -1196,24 +1209,10 @@ void Decode(const PatternScheme& scheme, const std::vector<cv::Mat>& images,
   const Chain chain = HeterodyneChain(scheme);
   std::optional<NumberTheoreticTable> nt;
   if (scheme.Method() == Unwrapping::kNumberTheoretic) nt = MakeNumberTheoreticTable(scheme);
-  NoiseEstimate noise;
-  if (options.noise_sigma_dn > 0) {
-    noise.sigma_dn = options.noise_sigma_dn;
-    noise.source = NoiseSource::kGiven;
-    noise.message = StrCat("camera noise ", noise.sigma_dn, " DN given");
-  } else if (options.min_modulation_dn <= 0) {
-    noise = EstimateNoise(scheme, images, full);
-  }
-  bool bounded = false;
-  double b_min = options.min_modulation_dn;
-  if (b_min <= 0) {
-    b_min = ModulationThreshold(scheme, noise.sigma_dn, options.order_error_probability);
-    const double cap = kMaxModulationThresholdFraction * full;
-    if (b_min > cap) {
-      b_min = cap;
-      bounded = true;
-    }
-  }
+  const ModulationLimit limit = ChooseModulationThreshold(scheme, images, options, full);
+  const NoiseEstimate& noise = limit.noise;
+  const double b_min = limit.min_modulation_dn;
+  const bool bounded = limit.bounded;
 
   result->absolute_phase.create(size, CV_32F);
   result->wrapped_phase.create(size, CV_32F);

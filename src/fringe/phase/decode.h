@@ -130,6 +130,21 @@ struct NoiseEstimate {
 NoiseEstimate EstimateNoise(const PatternScheme& scheme, const std::vector<cv::Mat>& images,
                             double full_scale_dn);
 
+// The camera noise and the modulation threshold of one decode, the same for every decoder
+// (temporal, spatial, pure Gray code): the noise given (DecodeOptions::noise_sigma_dn), else,
+// when the threshold is automatic, estimated (EstimateNoise; a pure Gray code has no phase set to
+// estimate it from and assumes kAssumedNoiseSigmaDn); the threshold given (min_modulation_dn),
+// else ModulationThreshold at order_error_probability, capped at kMaxModulationThresholdFraction
+// of full_scale_dn (`bounded` when the cap applied).
+struct ModulationLimit {
+  NoiseEstimate noise;
+  double min_modulation_dn = 0;
+  bool bounded = false;
+};
+ModulationLimit ChooseModulationThreshold(const PatternScheme& scheme,
+                                          const std::vector<cv::Mat>& images,
+                                          const DecodeOptions& options, double full_scale_dn);
+
 enum class DecodeStatus { kSuccess, kNoValidPixels };
 
 // Per-pixel outcome of the decoder (DecodeResult::reason): valid, or the first failing test in

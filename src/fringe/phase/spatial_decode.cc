@@ -272,23 +272,10 @@ void DecodeSpatial(const PatternScheme& scheme, const std::vector<cv::Mat>& imag
 
   // Camera noise and the modulation threshold (spatial unwrapping has no temporal step: the
   // threshold is the level noise alone exceeds with order_error_probability).
-  NoiseEstimate noise;
-  if (options.noise_sigma_dn > 0) {
-    noise.sigma_dn = options.noise_sigma_dn;
-    noise.source = NoiseSource::kGiven;
-    noise.message = StrCat("camera noise ", noise.sigma_dn, " DN given");
-  } else if (options.min_modulation_dn <= 0) {
-    noise = EstimateNoise(scheme, images, full);
-  }
-  bool bounded = false;
-  double b_min = options.min_modulation_dn;
-  if (b_min <= 0) {
-    b_min = ModulationThreshold(scheme, noise.sigma_dn, options.order_error_probability);
-    if (b_min > kMaxModulationThresholdFraction * full) {
-      b_min = kMaxModulationThresholdFraction * full;
-      bounded = true;
-    }
-  }
+  const ModulationLimit limit = ChooseModulationThreshold(scheme, images, options, full);
+  const NoiseEstimate& noise = limit.noise;
+  const double b_min = limit.min_modulation_dn;
+  const bool bounded = limit.bounded;
 
   std::vector<cv::Mat> f(n);
   for (int k = 0; k < n; ++k) images[first + k].convertTo(f[k], CV_32F);

@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "fringe/calib/calibrate_folder.h"
+#include "fringe/calib/calibration_scene.h"
 #include "fringe/io/json.h"
 #include "fringe/util/error.h"
 
@@ -520,6 +521,7 @@ CalibrationDiagnosis DiagnoseFolderCalibration(const FolderCalibration& cal,
                                                const CalibrationTarget& target,
                                                const DiagnosticsOptions& options) {
   CalibrationDiagnosis out;
+  out.target = target;
   if (cal.stereo) {
     out.devices = {{"left", &cal.pair.left}, {"right", &cal.pair.right}};
     out.diagnostics =
@@ -536,6 +538,7 @@ CalibrationDiagnosis DiagnoseProjectorCalibration(const ProjectorFolderCalibrati
                                                   const CalibrationTarget& target,
                                                   const DiagnosticsOptions& options) {
   CalibrationDiagnosis out;
+  out.target = target;
   if (cal.layout == ProjectorFolderLayout::kCamerasProjector) {
     const MultiDeviceCalibration& j = cal.cameras.joint;
     const char* names[] = {"left", "right", "projector"};
@@ -566,7 +569,16 @@ void WriteCalibrationReport(const std::filesystem::path& dir, const CalibrationD
                             const util::OutputFolderOptions& output) {
   const nlohmann::json summary = {{"calibration", calibration_json},
                                   {"diagnostics", ToJson(d.diagnostics)}};
-  const io::Report report = CalibrationReport(d.diagnostics, d.devices);
+  io::Report report = CalibrationReport(d.diagnostics, d.devices);
+  io::ReportSection view;
+  view.title = "Board poses and devices in 3D";
+  view.paragraphs.push_back(
+      "The board at every used pose, coloured by the pose's RMS reprojection residual, and the "
+      "devices at their calibrated poses. A click on a pose's or a device's row in the tables "
+      "shows it here.");
+  view.scene = CalibrationScene(d.diagnostics, d.devices, d.target);
+  report.sections.insert(report.sections.begin() + std::min<size_t>(1, report.sections.size()),
+                         std::move(view));
   util::WriteFolderAtomically(dir, output, [&](const std::filesystem::path& tmp) {
     io::WriteJson(tmp / "summary.json", summary);
     report.Write(tmp / "report.html");

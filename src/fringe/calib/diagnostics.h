@@ -151,6 +151,7 @@ io::Report CalibrationReport(const CalibrationDiagnostics& d,
 struct CalibrationDiagnosis {
   CalibrationDiagnostics diagnostics;
   std::vector<DiagnosedDevice> devices;
+  CalibrationTarget target;  // the board, for the report's 3D view of the poses
 };
 // One camera ("camera") or a stereo pair ("left", "right"; baseline, predicted depth sigma).
 CalibrationDiagnosis DiagnoseFolderCalibration(const FolderCalibration& cal,
@@ -164,7 +165,8 @@ CalibrationDiagnosis DiagnoseProjectorCalibration(const ProjectorFolderCalibrati
                                                   const CalibrationTarget& target,
                                                   const DiagnosticsOptions& options = {});
 // Writes the folder `dir` atomically: summary.json ({"calibration": calibration_json,
-// "diagnostics": ToJson(...)}) and report.html (CalibrationReport).
+// "diagnostics": ToJson(...)}) and report.html (CalibrationReport, with the 3D view of the
+// boards and devices, calibration_scene.h, after its summary).
 void WriteCalibrationReport(const std::filesystem::path& dir, const CalibrationDiagnosis& d,
                             const nlohmann::json& calibration_json,
                             const util::OutputFolderOptions& output = {});

@@ -5,6 +5,7 @@
 #include <Eigen/Geometry>
 #include <random>
 
+#include "fringe/calib/calibration_scene.h"
 #include "fringe/testing/board.h"
 #include "fringe/testing/report.h"
 #include "fringe/util/error.h"
@@ -300,6 +301,56 @@ TEST(Diagnostics, PredictedDepthSigmaOfAParallelRigFollowsTheBaselineLaw) {
   EXPECT_TRUE(
       std::isnan(PredictedDepthSigmaMm(rig, Eigen::MatrixXd(), Eigen::Vector3d(0, 0, 500))));
   EXPECT_TRUE(std::isnan(PredictedDepthSigmaMm(rig, cov, Eigen::Vector3d(0, 0, -500))));
+}
+
+TEST(Diagnostics, TheReportsSceneHoldsTheUsedBoardsAndTheDevicesAtTheirPoses) {
+  // Twelve poses, p05 with the board moved between the exposures (rejected): the 3D view of the
+  // report holds the eleven used boards at their solved poses (within kPoseMm of the truth),
+  // each with its pose's residual, and the right camera at the calibrated baseline.
+  constexpr double kPoseMm = 0.5;  // solved board corners and camera centre against the truth
+  const StereoRig rig = SmallRig();
+  const CalibrationTarget target = Chessboard();
+  const Poses poses = MakePoses(12, 35, 50, target);
+  StereoDetections det = DetectBoth(rig, target, poses, 2);
+  util::Rng rng(3);
+  const Rigid3d shifted =
+      poses.left_from_board[5] * Rigid3d(Eigen::Matrix3d::Identity(), Eigen::Vector3d(8, 0, 0));
+  det.right[5] = Detect(rig.right, target, rig.right_from_left * shifted, &rng);
+  const StereoCalibration cal = CalibrateStereo(det.left, det.right, target, 640, 512);
+  ASSERT_TRUE(cal.summary.ok()) << cal.summary.message;
+  const CalibrationDiagnostics d = DiagnoseStereo(cal, poses, target);
+  ASSERT_FALSE(d.poses[5].used);
+  const io::ReportScene scene =
+      CalibrationScene(d, {{"left", &cal.left}, {"right", &cal.right}}, target);
+  const nlohmann::json& s = scene.description;
+  ASSERT_EQ(s["boards"].size(), 11u);
+  const nlohmann::json& rms = s["colourings"][0];
+  ASSERT_EQ(rms["id"], "pose_rms");
+  size_t b = 0;
+  for (size_t v = 0; v < poses.names.size(); ++v) {
+    if (v == 5) continue;
+    const nlohmann::json& board = s["boards"][b];
+    EXPECT_EQ(board["name"], poses.names[v]);
+    const Eigen::Vector3d corner(board["corners"][2][0].get<double>(),
+                                 board["corners"][2][1].get<double>(),
+                                 board["corners"][2][2].get<double>());
+    const Eigen::Vector3d truth =
+        poses.left_from_board[v] * target.FeatureCentre(target.rows - 1, target.cols - 1);
+    EXPECT_LT((corner - truth).norm(), kPoseMm) << poses.names[v];
+    const PoseDiagnostics& p = d.poses[v];
+    const double expected = std::sqrt(
+        (p.features[0] * p.rms_px[0] * p.rms_px[0] + p.features[1] * p.rms_px[1] * p.rms_px[1]) /
+        (p.features[0] + p.features[1]));
+    EXPECT_NEAR(rms["boards"][b].get<double>(), expected, 1e-12) << poses.names[v];
+    ++b;
+  }
+  EXPECT_EQ(s["points"]["count"].get<size_t>(), 11u * target.rows * target.cols);
+  ASSERT_EQ(s["views"].size(), 2u);
+  EXPECT_EQ(s["views"][1]["name"], "right");
+  const nlohmann::json& t = s["views"][1]["world_from_sensor"];
+  const Eigen::Vector3d right_centre(t[3].get<double>(), t[7].get<double>(), t[11].get<double>());
+  EXPECT_NEAR(right_centre.norm(), cal.rig.BaselineMm(), 1e-6);
+  EXPECT_LT((right_centre - rig.right_from_left.Inverse().translation()).norm(), kPoseMm);
 }
 
 }  // namespace

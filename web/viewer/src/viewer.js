@@ -94,7 +94,8 @@ class FringeViewer {
     c.textContent = '';
     const bar = element('div', 'fv-bar', c);
     const d = this.description;
-    this.colourings = (d.colourings || []).filter((k) => k.mesh || k.points || k.kind === 'height');
+    this.colourings =
+        (d.colourings || []).filter((k) => k.mesh || k.points || k.boards || k.kind === 'height');
     const label = element('label', null, bar, 'colour: ');
     this.select = element('select', 'fv-colouring', label);
     for (const k of this.colourings) {
@@ -291,22 +292,52 @@ class FringeViewer {
     this.local.add(group);
   }
 
+  // Calibration boards (one per pose): a quad through the outline's corners, its outline, and
+  // its name; coloured by the colouring's per-board values when it has them (paintBoards).
   buildBoards(boards) {
     const group = new THREE.Group();
+    this.boards = {};
+    this.boardNames = boards.map((b) => b.name);
     for (const b of boards) {
       const c = b.corners.map((p) => this.toLocal(p));
       const g = new THREE.BufferGeometry().setFromPoints([c[0], c[1], c[2], c[0], c[2], c[3]]);
       g.computeVertexNormals();
-      group.add(new THREE.Mesh(g, new THREE.MeshLambertMaterial({
+      const face = new THREE.Mesh(g, new THREE.MeshLambertMaterial({
         color: new THREE.Color(...(b.colour || [0.8, 0.8, 0.8])), side: THREE.DoubleSide,
-        transparent: true, opacity: 0.8 })));
+        transparent: true, opacity: 0.6, depthWrite: false }));
+      group.add(face);
+      const edge = new THREE.LineLoop(new THREE.BufferGeometry().setFromPoints(c),
+                                      new THREE.LineBasicMaterial({ color: 0x333333 }));
+      group.add(edge);
       const label = element('div', 'fv-label', null, b.name);
+      label.title = `board pose ${b.name}`;
       const l = new CSS2DObject(label);
       l.position.copy(c[0]);
       group.add(l);
+      this.boards[b.name] = { face, edge, label, colour: face.material.color.clone() };
     }
     this.objects.boards = group;
     this.local.add(group);
+  }
+
+  paintBoards() {
+    const k = this.colouring;
+    const values = k.boards;
+    const [lo, hi] = k.kind === 'category' || !values ? [0, 1] : this.range(k);
+    this.boardNames.forEach((name, i) => {
+      const b = this.boards[name];
+      if (values && i < values.length) {
+        const v = values[i];
+        const c = k.kind === 'category' ? categoryColour(v)
+                  : Number.isFinite(v) ? turbo((v - lo) / (hi - lo)) : kNoValue;
+        b.colour.setRGB(c[0], c[1], c[2]);
+      }
+      const on = name === this.highlightedBoard;
+      b.face.material.color.copy(b.colour);
+      b.face.material.opacity = this.highlightedBoard && !on ? 0.2 : 0.6;
+      b.edge.material.color.set(on ? 0xff5500 : 0x333333);
+      b.label.style.background = on ? '#ff5500' : '';
+    });
   }
 
   // --- Colours -----------------------------------------------------------------------------
@@ -335,6 +366,10 @@ class FringeViewer {
 
   range(colouring) {
     if (colouring.range) return colouring.range;
+    if (!this.objects.mesh && !this.objects.points && colouring.boards) {
+      colouring.range = quantiles(Float32Array.from(colouring.boards), 0, 1);
+      return colouring.range;
+    }
     const v = this.values(colouring, this.objects.mesh ? 'mesh' : 'points');
     colouring.range = v ? quantiles(v, 0.01, 0.99) : [0, 1];
     return colouring.range;
@@ -348,6 +383,7 @@ class FringeViewer {
     for (const what of ['mesh', 'points']) {
       if (this.objects[what]) this.paint(what);
     }
+    if (this.boards) this.paintBoards();
     this.drawLegend();
     this.requestRender();
   }
@@ -409,22 +445,40 @@ class FringeViewer {
   }
 
   // --- Views in the report's tables --------------------------------------------------------
-  // Rows of the page's tables whose first cell names a view select it here.
+  // Rows of the page's tables whose first cell names a view (or a board pose) select it here.
   connectTables() {
-    if (!this.viewNames.length) return;
+    const boardNames = this.boardNames || [];
+    if (!this.viewNames.length && !boardNames.length) return;
     this.rows = [];
     for (const row of document.querySelectorAll('table tr')) {
       const first = row.querySelector('td');
-      if (!first || !this.viewNames.includes(first.textContent.trim())) continue;
+      if (!first) continue;
       const name = first.textContent.trim();
+      const isView = this.viewNames.includes(name);
+      if (!isView && !boardNames.includes(name)) continue;
       row.classList.add('fringe-view-row');
-      row.title = `show view ${name} in the 3D view`;
+      row.title = `show ${isView ? 'view' : 'board pose'} ${name} in the 3D view`;
       row.addEventListener('click', () => {
-        this.highlightView(this.highlighted === name ? null : name);
+        if (isView) {
+          this.highlightView(this.highlighted === name ? null : name);
+        } else {
+          this.highlightBoard(this.highlightedBoard === name ? null : name);
+        }
         this.container.scrollIntoView({ behavior: 'smooth', block: 'start' });
       });
-      this.rows.push({ row, name });
+      this.rows.push({ row, name, isView });
     }
+  }
+
+  // Highlights board pose `name` (null: none): its outline and its table rows; the other boards
+  // fade.
+  highlightBoard(name) {
+    this.highlightedBoard = name && this.boards?.[name] ? name : null;
+    for (const { row, name: n, isView } of this.rows || []) {
+      if (!isView) row.classList.toggle('fringe-view-selected', n === this.highlightedBoard);
+    }
+    if (this.boards) this.paintBoards();
+    this.requestRender();
   }
 
   // Highlights view `name` (null: none): its frustum, its points and its table rows.
@@ -436,8 +490,8 @@ class FringeViewer {
       f.face.visible = on;
       f.label.style.background = on ? '#ff5500' : '';
     }
-    for (const { row, name: n } of this.rows || []) {
-      row.classList.toggle('fringe-view-selected', n === this.highlighted);
+    for (const { row, name: n, isView } of this.rows || []) {
+      if (isView) row.classList.toggle('fringe-view-selected', n === this.highlighted);
     }
     for (const what of ['mesh', 'points']) {
       if (this.objects[what]) this.paint(what);

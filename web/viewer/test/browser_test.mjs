@@ -5,7 +5,8 @@
 //   node browser_test.mjs CASE REPORT_DIR
 //
 // REPORT_DIR holds a scan's output (report.html, mesh.ply), made by make_report.sh from a small
-// simulated scan. Exit 0 passed, 1 failed, 77 skipped (node_modules or chromium absent, unless
+// simulated scan; for the case `calibration`, a calibration report folder (report.html,
+// summary.json) made by make_calibration_report.sh. Exit 0 passed, 1 failed, 77 skipped (node_modules or chromium absent, unless
 // FRINGE_REQUIRE_SHARED_DATA=1, where that fails).
 import { existsSync, readFileSync } from 'node:fs';
 import { join } from 'node:path';
@@ -215,6 +216,80 @@ try {
     const h = (await compare(deviation, lit)).changed;
     check(h > 0.02, `and the 3D view shows it (${(100 * h).toFixed(1)} % of pixels changed)`);
     check(consoleErrors.length === 0, `no console error (${consoleErrors.join(' | ') || 'none'})`);
+  } else if (testCase === 'calibration') {
+    // The calibration report (REPORT_DIR holds report.html and summary.json of `fringe
+    // calibrate --report`): the boards at the used poses, coloured by each pose's residual, and
+    // the devices at their calibrated poses.
+    const html = readFileSync(reportPath, 'latin1');
+    const summary = JSON.parse(readFileSync(join(dir, 'summary.json'), 'utf8')).diagnostics;
+    const { description, arrays } = sceneOf(html);
+    const used = summary.poses.filter((p) => p.used);
+    check(description.boards.length === summary.used_poses && used.length === summary.used_poses,
+          `a board per used pose (${description.boards.length} of ${summary.used_poses})`);
+    // Each board's colour value is its pose's RMS over every device's features.
+    const rms = description.colourings.find((k) => k.id === 'pose_rms');
+    let worst = 0;
+    used.forEach((p, i) => {
+      let ss = 0, n = 0;
+      for (const d of Object.values(p.devices)) { ss += d.features * d.rms_px ** 2; n += d.features; }
+      worst = Math.max(worst, Math.abs(Math.sqrt(ss / n) - rms.boards[i]));
+      if (description.boards[i].name !== p.name) worst = Infinity;
+    });
+    check(worst < 1e-9, `each board carries its pose's RMS residual from summary.json (${worst.toExponential(2)} px off)`);
+    const names = description.views.map((v) => v.name);
+    check(summary.devices.every((d) => names.includes(d.name)),
+          `every device has a frustum (${names.join(', ')})`);
+    // The second camera sits at the calibrated baseline from the first.
+    const second = description.views[1];
+    const t = second.world_from_sensor;
+    const baseline = summary.distances_mm.baseline ?? summary.distances_mm['projector distance'];
+    const off = Math.abs(Math.hypot(t[3], t[7], t[11]) - baseline);
+    check(off < 1e-6, `${second.name} at the calibrated distance ${baseline.toFixed(3)} mm (${off.toExponential(2)} mm off)`);
+    check(arrays['points.positions'].length === 3 * description.points.count,
+          `the boards' features (${description.points.count})`);
+    const state = await page.evaluate(() => ({
+      viewer: !!window.fringeViewer, frames: window.fringeViewer?.frames,
+      boards: Object.keys(window.fringeViewer?.boards || {}).length,
+    }));
+    check(state.viewer && state.frames >= 1 && state.boards === description.boards.length,
+          `the 3D view draws them (${state.boards} boards, ${state.frames} frames)`);
+    const before = await canvasShot();
+    const cover = (await compare(before)).covered;
+    check(cover > 0.02 && cover < 0.9, `the boards cover a plausible part of the view (${(100 * cover).toFixed(1)} %)`);
+    await page.evaluate(() => window.fringeViewer.orbit(0.6, 0.2));
+    const turned = await canvasShot();
+    check((await compare(before, turned)).changed > 0.02, 'orbiting changes the picture');
+    await page.click('.fringe-scene .fv-reset');
+    // The picker returns a board feature: the nearest one to the camera, clicked where it shows.
+    const p = arrays['points.positions'];
+    let target = null;
+    for (let i = 0; i < description.points.count; i += 7) {
+      const w = [0, 1, 2].map((k) => p[3 * i + k] + description.origin[k]);
+      const s = await page.evaluate((x) => window.fringeViewer.project(x), w);
+      if (!target || s.depth < target.s.depth) target = { i, w, s };
+    }
+    await page.mouse.click(target.s.x, target.s.y);
+    const pick = await page.evaluate(() => window.fringeViewer.lastPick);
+    check(pick && pick.kind === 'point', `a click on a board feature picks it (${pick?.index})`);
+    if (pick) {
+      const q = [0, 1, 2].map((k) => p[3 * pick.index + k] + description.origin[k]);
+      const err = Math.max(...q.map((v, k) => Math.abs(v - pick.world[k])));
+      const s = await page.evaluate((x) => window.fringeViewer.project(x), q);
+      check(err < 0.01 && Math.hypot(s.x - target.s.x, s.y - target.s.y) < 8,
+            `at that feature's coordinates (${err.toExponential(2)} mm) where the click was`);
+      check(pick.pose_rms !== undefined && Math.abs(pick.pose_rms - arrays['points.pose_rms'][pick.index]) < 1e-6,
+            `with its pose's residual (${pick.pose_rms} px) and pose (${pick.pose})`);
+    }
+    // A click on a pose's row in the tables highlights its board.
+    const row = page.locator('tr.fringe-view-row', { hasText: description.boards[0].name }).first();
+    const plain = await canvasShot();
+    await row.click();
+    await page.evaluate(() => document.querySelector('.fringe-scene').scrollIntoView({ block: 'start' }));
+    const lit = await page.evaluate(() => window.fringeViewer.highlightedBoard);
+    check(lit === description.boards[0].name, `a click on pose ${description.boards[0].name}'s row highlights its board (${lit})`);
+    check((await compare(plain, await canvasShot())).changed > 0.005, 'and the 3D view shows it');
+    check(consoleErrors.length === 0, `no console error (${consoleErrors.join(' | ') || 'none'})`);
+    check(requests.length === 0, `no network request (${requests.join(', ') || 'none'})`);
   } else if (testCase === 'no-webgl') {
     // Without WebGL: the pictures are there and the page says why the 3D view is not.
     const state = await page.evaluate(() => ({

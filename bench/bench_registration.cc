@@ -370,6 +370,18 @@ int Run(int argc, char** argv) {
   app.add_option("--icp-normal-space", options.icp.normal_space_sampling,
                  "ICP samples in normal-space order (1) or uniformly (0)")
       ->capture_default_str();
+  app.add_option("--icp-normal-spread-deg", options.icp.sample_max_normal_spread_deg,
+                 "ICP samples only points whose neighbours' normals lie within this angle "
+                 "(0: all points)")
+      ->capture_default_str();
+  app.add_option("--pair-normal-spread-deg", options.coarse_icp_normal_spread_deg,
+                 "Marker-free pairwise ICP samples only points whose neighbours' normals lie "
+                 "within this angle (0: all points)")
+      ->capture_default_str();
+  app.add_option("--ransac-score-samples", options.coarse.score_samples,
+                 "Marker-free RANSAC scores each hypothesis on this many source samples (a "
+                 "number above the samples: all, as Open3D)")
+      ->capture_default_str();
   app.add_option("--icp-trim", options.icp.trim_fraction,
                  "ICP keeps this fraction of each view pair's correspondences (the closest)")
       ->capture_default_str();
@@ -729,6 +741,8 @@ int Run(int argc, char** argv) {
     }
     registration::RegistrationOptions bo;
     bo.use_markers = false;
+    bo.coarse = options.coarse;  // the marker-free flags apply to the bunny too
+    bo.coarse_icp_normal_spread_deg = options.coarse_icp_normal_spread_deg;
     util::Timer free_timer;
     const registration::RegistrationResult bfree = registration::RegisterViews(bv, bo);
     const double free_s = free_timer.ElapsedSeconds();

@@ -1,4 +1,4 @@
-// Marker-free coarse alignment: FPFH features + RANSAC from Open3D (Rusu et al., "Fast Point
+// Marker-free coarse alignment: FPFH features from Open3D + RANSAC (Rusu et al., "Fast Point
 // Feature Histograms (FPFH) for 3D registration", ICRA 2009), for views that share fewer than
 // three reliable markers with the map and for clouds without markers.
 //
@@ -10,17 +10,21 @@
 // Hypotheses: every source sample is paired with its 3 nearest target features (and, in a
 // second pass, every distinctive source sample with the 3 nearest distinctive target features;
 // see distinctive_variation), and RANSAC
-// (Open3D's RegistrationRANSACBasedOnCorrespondence) runs `hypotheses` times in sequence, each
+// (see below) runs `hypotheses` times in sequence, each
 // time on the correspondences the earlier alignments did not explain. The candidates are
 // therefore the best alignment and the best DIFFERENT ones: on a scene with a symmetry (a square
 // box on a plate) the second is another copy and fits as well as the first, which no single
 // fitness reveals. RegisterViews refines and compares them and refuses such a view rather than
 // place it confidently wrong.
 //
-// Determinism: Open3D's random generator is seeded with `seed`, but its RANSAC evaluates
-// hypotheses on several OpenMP threads and keeps the best as they finish, so two runs can pick
-// different (equally good) hypotheses; ICP refinement afterwards removes the difference to
-// within its convergence limits. Set OMP_NUM_THREADS=1 for bit-identical runs.
+// RANSAC is Open3D's algorithm (RegistrationRANSACBasedOnCorrespondence: 3 correspondences,
+// edge-length and distance checks, point-to-point fit, confidence-cut iteration count) run by
+// coarse.cc itself so that a hypothesis is scored on a subsample of the source (score_samples)
+// and only the best few on all of it: scoring every hypothesis on all samples was most of the
+// marker-free registration's time.
+//
+// Determinism: every iteration draws from its own seed (util::MixSeed(seed, iteration)) and the
+// parallel blocks are reduced in order: the same result for any thread count.
 //
 // Frames: source and target clouds in their own frames; result target_from_source. mm.
 #pragma once
@@ -42,6 +46,10 @@ struct CoarseOptions {
   double ransac_confidence = 0.999;    // (0, 1)
   double min_fitness = 0.2;            // accepted fraction of matched source samples, (0, 1]
   int hypotheses = 4;                  // sequential RANSAC runs (see above), >= 1
+  // Each hypothesis that passes the checks is scored on this many seeded source samples, >= 10;
+  // the rescored_hypotheses best (>= 1) are scored again on all samples and the best kept.
+  int score_samples = 1000;
+  int rescored_hypotheses = 8;
   // A second sequential RANSAC (hypotheses more runs) among the distinctive samples only: those
   // whose surface variation (smallest eigenvalue / sum, over the feature radius; 0 on a plane)
   // reaches this, when they are fewer than half of either cloud's samples. On a scene dominated

@@ -30,6 +30,11 @@ void IcpOptions::Check() const {
                     "max_normal_angle_deg", max_normal_angle_deg, "must be in (0, 180]");
   util::CheckOption(min_overlap_fraction >= 0 && min_overlap_fraction < 1, o,
                     "min_overlap_fraction", min_overlap_fraction, "must be in [0, 1)");
+  util::CheckOption(sample_max_normal_spread_deg >= 0 && sample_max_normal_spread_deg < 180, o,
+                    "sample_max_normal_spread_deg", sample_max_normal_spread_deg,
+                    "must be in [0, 180)");
+  util::CheckOption(sample_spread_neighbours >= 1, o, "sample_spread_neighbours",
+                    sample_spread_neighbours, "must be >= 1");
   util::CheckOption(projective_from_level >= 0, o, "projective_from_level", projective_from_level,
                     "must be >= 0");
   util::CheckOption(projective_window_px >= 0, o, "projective_window_px", projective_window_px,
@@ -330,12 +335,41 @@ IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& o
       }
     }
     const uint64_t order_seed = options.seed * 1000003u + static_cast<uint64_t>(i);
-    if (options.normal_space_sampling) {
-      pv.order =
-          NormalSpaceOrder(std::vector<Vector3d>(pv.normals, pv.normals + pv.data.n), order_seed);
+    // The points samples may come from (see IcpOptions::sample_max_normal_spread_deg).
+    std::vector<uint32_t> candidates;
+    if (options.sample_max_normal_spread_deg > 0 && pv.data.n > 0) {
+      pv.tree = std::make_unique<KdTree>(3, pv.data, nanoflann::KDTreeSingleIndexAdaptorParams(16));
+      const double cos_spread = std::cos(options.sample_max_normal_spread_deg * M_PI / 180);
+      const size_t k = std::min<size_t>(options.sample_spread_neighbours + 1, pv.data.n);
+      std::vector<uint8_t> smooth(pv.data.n, 0);
+      tbb::parallel_for(tbb::blocked_range<size_t>(0, pv.data.n, 4096),
+                        [&](const tbb::blocked_range<size_t>& rg) {
+                          std::vector<uint32_t> idx(k);
+                          std::vector<double> d2(k);
+                          for (size_t p = rg.begin(); p != rg.end(); ++p) {
+                            const size_t found =
+                                pv.tree->knnSearch(pv.data.pts[p].data(), k, idx.data(), d2.data());
+                            bool ok = true;
+                            for (size_t m = 0; m < found && ok; ++m) {
+                              ok = pv.normals[idx[m]].dot(pv.normals[p]) >= cos_spread;
+                            }
+                            smooth[p] = ok;
+                          }
+                        });
+      for (size_t p = 0; p < pv.data.n; ++p) {
+        if (smooth[p]) candidates.push_back(static_cast<uint32_t>(p));
+      }
     } else {
-      pv.order.resize(pv.data.n);
-      std::iota(pv.order.begin(), pv.order.end(), 0u);
+      candidates.resize(pv.data.n);
+      std::iota(candidates.begin(), candidates.end(), 0u);
+    }
+    if (options.normal_space_sampling) {
+      std::vector<Vector3d> cn(candidates.size());
+      for (size_t m = 0; m < candidates.size(); ++m) cn[m] = pv.normals[candidates[m]];
+      pv.order = NormalSpaceOrder(cn, order_seed);
+      for (uint32_t& o : pv.order) o = candidates[o];
+    } else {
+      pv.order = std::move(candidates);
       std::mt19937_64 rng(order_seed);
       std::shuffle(pv.order.begin(), pv.order.end(), rng);
     }
@@ -353,7 +387,7 @@ IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& o
     }
     const bool needs_tree =
         !projective || (options.projective_from_level > 0 && !pv.projective_from_start);
-    if (needs_tree && pv.data.n > 0) {
+    if (needs_tree && pv.data.n > 0 && !pv.tree) {
       pv.tree = std::make_unique<KdTree>(3, pv.data, nanoflann::KDTreeSingleIndexAdaptorParams(16));
     }
   });

@@ -9,7 +9,7 @@
 //     pending view with the most verified correspondences, until no pending view matches. A
 //     view with an initial pose (e.g. fringe register --initial) is placed by it.
 //  3. Views still pending are placed marker-free: every pair of usable views with at
-//     least one pending view gets coarse candidates (coarse.h: Open3D FPFH + sequential RANSAC,
+//     least one pending view gets coarse candidates (coarse.h: Open3D's FPFH + sequential RANSAC,
 //     features computed once per view), each refined by pairwise ICP and verified on its own
 //     (register_views.cc, CheckPair: overlap and normal agreement within the views' noise,
 //     surface_noise.h; for views with grids, the free-space check of free_space.h; no rival
@@ -78,7 +78,10 @@ struct RegistrationOptions {
   double coarse_max_free_space = 0.015;
   double coarse_min_gap = 0.05;
   double coarse_same_pose_deg = 1.0;  // > 0
-  double coarse_same_pose_mm = 1.0;   // > 0
+  // The pairwise ICP of the candidates samples only points whose neighbours' normals agree
+  // within this (IcpOptions::sample_max_normal_spread_deg), [0, 180).
+  double coarse_icp_normal_spread_deg = 10.0;
+  double coarse_same_pose_mm = 1.0;  // > 0
   MarkerMatchOptions matching;
   PoseGraphOptions pose_graph;  // the marker-free path's cycle check (pose_graph.h)
   AdjustmentOptions adjustment;

@@ -1,6 +1,7 @@
 #include "fringe/registration/register_views.h"
 
 #include <gtest/gtest.h>
+#include <tbb/task_arena.h>
 
 #include <cmath>
 #include <random>
@@ -281,6 +282,43 @@ RegistrationView SeeSynthetic(const PointCloud& world, const Rigid3d& world_from
     v.cloud.normals.push_back(sensor_from_world.RotateDirection(world.normals[i]));
   }
   return v;
+}
+
+// The coarse alignment alone: the RANSAC's best candidate lies within the reach of the ICP that
+// refines it (RegisterViews starts it at 3 voxels; a wrong copy of the scene would be tens of
+// degrees off), and it is the same on one thread as on all (each iteration has its own seed,
+// the parallel blocks are reduced in order).
+constexpr double kCoarseRotTolDeg = 10;
+constexpr double kCoarseCentroidTolMm = 9;  // 3 voxels
+TEST(AlignCoarse, FindsTheMotionAndIsTheSameOnOneThread) {
+  const Rigid3d pose0 =
+      Rigid3d::FromAxisAngle(Eigen::Vector3d(1, 0, 0), M_PI * 0.9, Eigen::Vector3d(0, 20, 450));
+  const Rigid3d pose1 = Rigid3d::FromAxisAngle(Eigen::Vector3d(0.9, 0.3, 0.1).normalized(),
+                                               M_PI * 0.8, Eigen::Vector3d(25, -10, 430));
+  const Rigid3d truth = pose0.Inverse() * pose1;  // 0_from_1
+  const PointCloud world = SyntheticScene(true);
+  const RegistrationView a = SeeSynthetic(world, pose0, "a", 1);
+  const RegistrationView b = SeeSynthetic(world, pose1, "b", 2);
+  CoarseOptions o;
+  o.voxel_mm = 3;
+  o.max_ransac_iterations = 20000;
+  o.hypotheses = 2;
+  const CoarseResult all = AlignCoarse(b.cloud, a.cloud, o);
+  ASSERT_TRUE(all.ok()) << all.BriefReport();
+  const RigidDifference d = Difference(all.target_from_source, truth);
+  EXPECT_LT(d.angle_rad * 180 / M_PI, kCoarseRotTolDeg) << all.BriefReport();
+  Eigen::Vector3d c = Eigen::Vector3d::Zero();
+  for (const auto& p : b.cloud.points) c += p;
+  c /= static_cast<double>(b.cloud.size());
+  EXPECT_LT((all.target_from_source * c - truth * c).norm(), kCoarseCentroidTolMm);
+  CoarseResult one;
+  tbb::task_arena(1).execute([&] { one = AlignCoarse(b.cloud, a.cloud, o); });
+  ASSERT_EQ(one.candidates.size(), all.candidates.size());
+  for (size_t k = 0; k < all.candidates.size(); ++k) {
+    EXPECT_EQ(one.candidates[k].fitness, all.candidates[k].fitness);
+    EXPECT_EQ(one.candidates[k].target_from_source.ToMatrix4(),
+              all.candidates[k].target_from_source.ToMatrix4());
+  }
 }
 
 TEST(RegisterViews, MarkerFreePathPlacesAUniqueSceneAndRefusesASymmetricOne) {

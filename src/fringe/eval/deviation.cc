@@ -27,12 +27,40 @@ namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
+// Closest point to p on segment [a, b] (a when the segment has no length).
+Eigen::Vector3d ClosestOnSegment(const Eigen::Vector3d& p, const Eigen::Vector3d& a,
+                                 const Eigen::Vector3d& b) {
+  const Eigen::Vector3d ab = b - a;
+  const double len_sq = ab.squaredNorm();
+  if (!(len_sq > 0)) return a;
+  return a + std::clamp(ab.dot(p - a) / len_sq, 0.0, 1.0) * ab;
+}
+
+// Closest point to p on a triangle of no area (two vertices equal, or all three on a line):
+// the closest of its three edges. Ericson's regions divide by edge lengths and by the area, so
+// on such a triangle they give 0/0.
+Eigen::Vector3d ClosestOnDegenerateTriangle(const Eigen::Vector3d& p, const Eigen::Vector3d& a,
+                                            const Eigen::Vector3d& b, const Eigen::Vector3d& c,
+                                            int* feature) {
+  const Eigen::Vector3d q[3] = {ClosestOnSegment(p, a, b), ClosestOnSegment(p, b, c),
+                                ClosestOnSegment(p, c, a)};
+  int best = 0;
+  for (int k = 1; k < 3; ++k) {
+    if ((q[k] - p).squaredNorm() < (q[best] - p).squaredNorm()) best = k;
+  }
+  *feature = 4 + best;
+  return q[best];
+}
+
 // Closest point to p on triangle (a, b, c) and the feature it lies on:
-// 0 face, 1/2/3 vertex a/b/c, 4/5/6 edge ab/bc/ca (Ericson 5.1.5).
+// 0 face, 1/2/3 vertex a/b/c, 4/5/6 edge ab/bc/ca (Ericson 5.1.5). Always finite for finite
+// input, also on triangles of no area (which Poisson's iso-surface produces where it clamps a
+// root to a cell corner).
 Eigen::Vector3d ClosestOnTriangle(const Eigen::Vector3d& p, const Eigen::Vector3d& a,
                                   const Eigen::Vector3d& b, const Eigen::Vector3d& c,
                                   int* feature) {
   const Eigen::Vector3d ab = b - a, ac = c - a, ap = p - a;
+  if (!(ab.cross(ac).squaredNorm() > 0)) return ClosestOnDegenerateTriangle(p, a, b, c, feature);
   const double d1 = ab.dot(ap), d2 = ac.dot(ap);
   if (d1 <= 0 && d2 <= 0) return *feature = 1, a;
   const Eigen::Vector3d bp = p - b;
@@ -49,7 +77,10 @@ Eigen::Vector3d ClosestOnTriangle(const Eigen::Vector3d& p, const Eigen::Vector3
   if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) {
     return *feature = 5, b + ((d4 - d3) / ((d4 - d3) + (d5 - d6))) * (c - b);
   }
-  const double denom = 1.0 / (va + vb + vc);
+  const double sum = va + vb + vc;
+  // A sliver whose area rounds away in the barycentric sums: its edges are as close.
+  if (!(sum > 0)) return ClosestOnDegenerateTriangle(p, a, b, c, feature);
+  const double denom = 1.0 / sum;
   *feature = 0;
   return a + ab * (vb * denom) + ac * (vc * denom);
 }
@@ -81,6 +112,9 @@ bool QueryCallback(RTCPointQueryFunctionArguments* args) {
   const Eigen::Vector3d c = ClosestOnTriangle(q->p, m.mesh.vertices[t[0]], m.mesh.vertices[t[1]],
                                               m.mesh.vertices[t[2]], &feature);
   const double d2 = (c - q->p).squaredNorm();
+  // A non-finite distance must not be kept: NaN compares false with everything, so it would let
+  // the next triangle visited win whatever its distance.
+  if (!std::isfinite(d2)) return false;
   // Equally close triangles (a shared vertex or edge) may give different normals: the lowest
   // triangle index wins, so that the choice does not depend on Embree's traversal order.
   if (d2 > q->best_sq || (d2 == q->best_sq && args->primID >= q->best_prim)) return false;

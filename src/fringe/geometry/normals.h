@@ -1,13 +1,16 @@
 // Normals of an organized point cloud from its image grid (thesis capability 4).
 //
 // For every valid point, the normal is the direction of least spread (PCA) of the valid grid
-// neighbours in a square window around its pixel; the window sums come from integral images,
-// so the cost per point does not depend on the window size (as PCL's integral-image normal
-// estimation: Holzer et al., "Adaptive neighborhood selection for real-time surface normal
-// estimation from organized point cloud data using integral images", IROS 2012). Depth-
-// discontinuity aware: pixels next to a depth jump (or a hole, or the image border) are edge
-// pixels; each point's window is shrunk to stay on its own side of the nearest one and
-// symmetric about the point (chessboard distance transform), and edge pixels use an explicit
+// neighbours in a square window around its pixel; the window sums are box sums of the points'
+// coordinate products (as PCL's integral-image normal estimation: Holzer et al., "Adaptive
+// neighborhood selection for real-time surface normal estimation from organized point cloud data
+// using integral images", IROS 2012), here per band of rows with per-thread row buffers instead
+// of image-sized integral images (column sums over the window's rows, then per point the sum of
+// its window's columns: no image-sized buffer, and no sum over the whole image to lose
+// precision); normals_test checks them against a direct PCA of each window. Depth-discontinuity
+// aware: pixels next to a depth jump (or a hole, or the image border) are edge pixels; each
+// point's window is shrunk to stay on its own side of the nearest one and symmetric about the
+// point (chessboard distance transform), and edge pixels use an explicit
 // 5x5 window that keeps only neighbours on the same surface.
 // Normals are oriented toward the camera that measured the cloud (the frame's origin):
 // n . p < 0.

@@ -14,6 +14,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <fstream>
 #include <functional>
 #include <map>
@@ -22,6 +23,7 @@
 
 #include "file_size_limit.h"
 #include "fringe/eval/deviation.h"
+#include "fringe/geometry/point_index.h"
 #include "fringe/io/calibration_io.h"
 #include "fringe/io/mesh_io.h"
 #include "fringe/io/ply.h"
@@ -804,6 +806,44 @@ TEST(Scan, ResultsDoNotDependOnTheThreadCount) {
   }
 }
 
+TEST(Scan, FusionInTilesEqualsTheWholeAtOnce) {
+  // The small sphere scan fused at once and in tiles of 20 mm: the same poses, and the fused
+  // clouds equal within fusion/tiles.h's stated tolerance (counts within 0.5 %, 90 % of the
+  // points within 1 um of the other's, 99 % within 0.01 mm).
+  constexpr double kMaxCountDifference = 0.005;
+  constexpr double kMinEqualFraction = 0.9;
+  constexpr double kEqualMm = 1e-3;
+  constexpr double kP99Mm = 0.01;
+  test::TempDir dir;
+  ScanOptions options = SmallSphereScan(dir / "scan");
+  options.write_report = false;
+  const ScanSummary whole = RunScan(dir / "scan", dir / "whole", options);
+  EXPECT_EQ(whole.fusion_tiles, 1);
+  options.fusion_tile_mm = 20;
+  const ScanSummary tiled = RunScan(dir / "scan", dir / "tiled", options);
+  EXPECT_GE(tiled.fusion_tiles, 2);
+  EXPECT_EQ(tiled.fusion_tile_mm, 20);
+  EXPECT_FALSE(fs::exists(dir / "tiled" / ".fusion_tiles"));  // the pieces are gone
+  EXPECT_EQ(util::ReadTextFile(dir / "whole" / "poses.json"),
+            util::ReadTextFile(dir / "tiled" / "poses.json"));
+  EXPECT_NEAR(double(tiled.fused_points) / double(whole.fused_points), 1.0, kMaxCountDifference);
+  const PointCloud a = io::ReadPly(dir / "whole" / "fused.ply").cloud;
+  const PointCloud b = io::ReadPly(dir / "tiled" / "fused.ply").cloud;
+  for (const auto& [from, to] : {std::pair{&a, &b}, std::pair{&b, &a}}) {
+    const PointIndex index(to->points);
+    std::vector<double> d;
+    for (const Eigen::Vector3d& p : from->points) d.push_back(std::sqrt(index.Nearest(p).second));
+    ASSERT_FALSE(d.empty());
+    std::sort(d.begin(), d.end());
+    const double equal =
+        double(std::upper_bound(d.begin(), d.end(), kEqualMm) - d.begin()) / double(d.size());
+    EXPECT_GE(equal, kMinEqualFraction);
+    EXPECT_LE(d[static_cast<size_t>(0.99 * double(d.size() - 1))], kP99Mm) << "max " << d.back();
+  }
+  for (const char* f : {"mesh.ply", "registered/000.ply", "registered/001.ply"})
+    EXPECT_TRUE(fs::exists(dir / "tiled" / f)) << f;
+}
+
 // Every regular file below `dir` (relative path) with its contents.
 std::map<std::string, std::string> FolderContents(const fs::path& dir) {
   std::map<std::string, std::string> out;
@@ -888,6 +928,20 @@ TEST(Scan, FullDiskFailsCleanlyNamingTheFileAndTheStage) {
       EXPECT_EQ(FolderContents(dir / "scan"), inputs) << "the scan folder was changed";
     }
   }
+}
+
+TEST_F(ScanTest, MemoryLimitTooSmallForOneViewIsAClearError) {
+  // A view of this scan (2 x 12 images of 640 x 512 px) needs ~0.07 GiB: 0.05 GiB is refused
+  // before anything is written, naming the option and the sizes.
+  ScanOptions options = TestOptions();
+  options.memory_limit_gib = 0.05;
+  const std::string message = test::ErrorOf([&] { RunScan(Scan(), tmp_ / "out", options); });
+  EXPECT_NE(message.find("--memory-limit"), std::string::npos) << message;
+  EXPECT_NE(message.find("too small for one view"), std::string::npos) << message;
+  EXPECT_NE(message.find("640 x 512"), std::string::npos) << message;
+  EXPECT_FALSE(fs::exists(tmp_ / "out"));
+  options.memory_limit_gib = -1;
+  EXPECT_THROW(options.Check(), Error);
 }
 
 TEST_F(ScanTest, UnwritableOutputFailsBeforeWriting) {

@@ -19,7 +19,8 @@ foreach(f include/fringe/geometry/triangle_mesh.h include/fringe/io/mesh_io.h
 endforeach()
 run_step("configuring the consumer" ${CMAKE_COMMAND} -S ${CONSUMER_SOURCE_DIR}
          -B ${WORK_DIR}/build -G ${GENERATOR} -DCMAKE_BUILD_TYPE=Release
-         -DCMAKE_CXX_COMPILER=${CXX_COMPILER} -DCMAKE_PREFIX_PATH=${prefix})
+         -DCMAKE_CXX_COMPILER=${CXX_COMPILER} -DCMAKE_PREFIX_PATH=${prefix}
+         "-DCMAKE_CXX_FLAGS=${CONSUMER_FLAGS}" "-DCMAKE_EXE_LINKER_FLAGS=${CONSUMER_FLAGS}")
 run_step("building the consumer" ${CMAKE_COMMAND} --build ${WORK_DIR}/build)
 run_step("running the consumer" ${WORK_DIR}/build/fringe_consumer ${WORK_DIR})
 if(NOT STEP_OUTPUT MATCHES "consumer ok: 8 triangles, 6 vertices")

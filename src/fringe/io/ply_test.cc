@@ -210,5 +210,18 @@ TEST(Ply, HugeAsciiFaceIndexIsAnError) {
   }
 }
 
+// An element declared with a huge count and no properties holds no bytes: it is read in no time
+// (it hung the reader: a loop over 10^11 empty items; found by fuzzing) and the cloud is intact.
+TEST(Ply, ElementWithoutPropertiesAndHugeCountIsSkipped) {
+  test::TempDir dir;
+  const auto path = dir / "empty_element.ply";
+  std::ofstream(path) << "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n"
+                         "property float y\nproperty float z\nelement note 111111111111\n"
+                         "end_header\n0 0 0\n1 0 0\n0 1 0\n";
+  const PlyData d = ReadPly(path);
+  ASSERT_EQ(d.cloud.size(), 3u);
+  EXPECT_FLOAT_EQ(d.cloud.points[1].x(), 1.0f);
+}
+
 }  // namespace
 }  // namespace fringe::io

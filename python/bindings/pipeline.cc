@@ -43,6 +43,8 @@ void BindPipeline(py::module_& m) {
       .def_readwrite("keep_going", &pipeline::ScanOptions::keep_going)
       .def_readwrite("resume", &pipeline::ScanOptions::resume)
       .def_readwrite("views_in_flight", &pipeline::ScanOptions::views_in_flight)
+      .def_readwrite("memory_limit_gib", &pipeline::ScanOptions::memory_limit_gib)
+      .def_readwrite("fusion_tile_mm", &pipeline::ScanOptions::fusion_tile_mm)
       .def_readwrite("reconstruction", &pipeline::ScanOptions::reconstruction)
       .def_readwrite("detect_markers", &pipeline::ScanOptions::detect_markers)
       .def_readwrite("markers", &pipeline::ScanOptions::markers)

@@ -535,6 +535,8 @@ class ScannerOptions:
     keep_going: bool
     resume: bool
     views_in_flight: int
+    memory_limit_gib: float
+    fusion_tile_mm: float
     reconstruction: ReconstructionOptions
     detect_markers: bool
     markers: MarkerDetectionOptions

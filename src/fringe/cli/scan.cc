@@ -57,6 +57,15 @@ void AddScanCommand(CLI::App& app) {
   sub->add_option("--views-in-flight", a->options.views_in_flight,
                   "Views reconstructed at once (bounds memory)")
       ->capture_default_str();
+  sub->add_option("--memory-limit", a->options.memory_limit_gib,
+                  "Memory the scan may use, GiB (default: half the machine's memory): fewer views "
+                  "in flight, and fusion in spatial tiles streamed from OUT/views/ when the views "
+                  "do not fit at once; a limit below one view is an error")
+      ->check(CLI::NonNegativeNumber);
+  sub->add_option("--fusion-tile", a->options.fusion_tile_mm,
+                  "Fusion tile edge, mm (default: chosen from --memory-limit; one tile when the "
+                  "views fit)")
+      ->check(CLI::NonNegativeNumber);
   sub->add_option("--noise-sigma", a->options.reconstruction.decode.noise_sigma_dn,
                   "Camera noise in DN (sets the decoder's modulation threshold)")
       ->capture_default_str();

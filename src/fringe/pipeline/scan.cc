@@ -20,6 +20,7 @@
 #include "fringe/calib/calibrate_folder.h"
 #include "fringe/calib/projector_folder.h"
 #include "fringe/eval/deviation.h"
+#include "fringe/fusion/tiles.h"
 #include "fringe/geometry/align.h"
 #include "fringe/geometry/point_index.h"
 #include "fringe/io/calibration_formats.h"
@@ -29,6 +30,7 @@
 #include "fringe/io/ply.h"
 #include "fringe/phase/decode.h"
 #include "fringe/phase/pattern_scheme.h"
+#include "fringe/pipeline/memory_budget.h"
 #include "fringe/pipeline/report.h"
 #include "fringe/pipeline/view_checkpoint.h"
 #include "fringe/registration/markers.h"
@@ -854,6 +856,33 @@ void EvaluateAgainstTruth(const scan::ScanFolder& folder, Model* m, ScanSummary*
 // After a stage: without keep_going (or when no view is left) any failed view fails the scan,
 // the error naming every failed view, its stage and why, and the views that worked; with
 // keep_going the scan goes on without them and is partial.
+// Views reconstructed at once within the memory limit: views_in_flight, lowered to what fits
+// beside the memory in use; a limit below one view is an error naming the scan and the sizes.
+int ViewsInFlight(const fs::path& project, const scan::ScanFolder& folder,
+                  const std::vector<phase::PatternScheme>& schemes, const ScanOptions& options,
+                  double limit_gib) {
+  constexpr double kGiB = 1024.0 * 1024.0 * 1024.0;
+  const scan::ScanManifest& m = folder.manifest();
+  int images = 0;
+  for (const phase::PatternScheme& sc : schemes) images += sc.NumImages();
+  const double pixels = double(m.image_width) * m.image_height;
+  // A view in flight, and the grid it leaves for the later stages.
+  const double view_gib =
+      (ViewWorkBytes(m.image_width, m.image_height, images, m.cameras, m.bit_depth) +
+       kGridBytesPerSlot * pixels) /
+      kGiB;
+  const double in_use_gib = util::CurrentMemoryGiB();
+  const double free_gib = limit_gib - in_use_gib;
+  if (free_gib < view_gib) {
+    throw Error(StrCat("scan: ", project.string(), ": the memory limit of ", Fixed(limit_gib, 3),
+                       " GiB (--memory-limit) is too small for one view: a view of ", m.cameras,
+                       " x ", images, " images of ", m.image_width, " x ", m.image_height,
+                       " px needs ~", Fixed(view_gib, 3), " GiB to reconstruct, and ",
+                       Fixed(in_use_gib, 3), " GiB are in use already"));
+  }
+  return std::clamp(static_cast<int>(free_gib / view_gib), 1, options.views_in_flight);
+}
+
 void HandleFailures(const fs::path& project, const fs::path& out, bool keep_going, ScanSummary* s) {
   std::vector<std::string> failed, worked;
   bool output_failed = false;  // a view's files could not be written: fatal even with keep_going
@@ -1111,14 +1140,16 @@ Report BuildReport(const fs::path& project, const ScanSummary& s, const Calibrat
     ReportTable m;
     m.caption = "Result";
     m.header = {"figure", "value"};
-    m.rows = {{"views measured", StrCat(s.views_ok, " of ", s.views.size())},
-              {"points", std::to_string(s.points)},
-              {"registration", s.registration_status},
-              {"marker adjustment RMS", Fixed(s.marker_adjusted_rms_mm, 4) + " mm"},
-              {"ICP RMS (last level)", Fixed(s.icp_rms_mm, 4) + " mm"},
-              {"fused points", std::to_string(s.fused_points)},
-              {"mesh", StrCat(s.mesh_vertices, " vertices, ", s.mesh_triangles, " triangles")},
-              {"peak memory", Fixed(s.peak_mem_gib, 2) + " GiB"}};
+    m.rows = {
+        {"views measured", StrCat(s.views_ok, " of ", s.views.size())},
+        {"points", std::to_string(s.points)},
+        {"registration", s.registration_status},
+        {"marker adjustment RMS", Fixed(s.marker_adjusted_rms_mm, 4) + " mm"},
+        {"ICP RMS (last level)", Fixed(s.icp_rms_mm, 4) + " mm"},
+        {"fused points", std::to_string(s.fused_points)},
+        {"mesh", StrCat(s.mesh_vertices, " vertices, ", s.mesh_triangles, " triangles")},
+        {"peak memory", Fixed(s.peak_mem_gib, 2) + " GiB (limit " + Fixed(s.memory_limit_gib, 2) +
+                            " GiB; fusion in " + std::to_string(s.fusion_tiles) + " tile(s))"}};
     if (s.has_truth) {
       m.rows.push_back({"pose error (max over views)", Fixed(s.pose_rot_err_deg, 4) + " deg, " +
                                                            Fixed(s.pose_trans_err_mm, 4) + " mm"});
@@ -1230,6 +1261,12 @@ MeshTruthFigures CompareMeshWithTruth(const TriangleMesh& mesh_in_truth,
 void ScanOptions::Check() const {
   util::CheckOption(views_in_flight >= 1 && views_in_flight <= 64, "ScanOptions", "views_in_flight",
                     views_in_flight, "must be in [1, 64]");
+  util::CheckOption(std::isfinite(memory_limit_gib) && memory_limit_gib >= 0, "ScanOptions",
+                    "memory_limit_gib", memory_limit_gib,
+                    "must be >= 0 (0: half the machine's memory)");
+  util::CheckOption(std::isfinite(fusion_tile_mm) && fusion_tile_mm >= 0, "ScanOptions",
+                    "fusion_tile_mm", fusion_tile_mm,
+                    "must be >= 0 (0: chosen from the memory limit)");
   util::CheckOption(std::isfinite(tolerance_mm) && tolerance_mm >= 0, "ScanOptions", "tolerance_mm",
                     tolerance_mm, "must be >= 0 (0: the colour range from the data)");
   util::CheckOption(opencv_intrinsics.empty() == opencv_extrinsics.empty(), "ScanOptions",
@@ -1310,6 +1347,10 @@ json ScanSummary::FiguresJson() const {
           {"total_cpu_s", total_cpu_s},
           {"evaluate_cpu_s", evaluate_cpu_s},
           {"peak_mem_gib", peak_mem_gib},
+          {"memory_limit_gib", memory_limit_gib},
+          {"views_in_flight", views_in_flight},
+          {"fusion_tiles", fusion_tiles},
+          {"fusion_tile_mm", std::isfinite(fusion_tile_mm) ? json(fusion_tile_mm) : json(nullptr)},
           {"marker_adjusted_rms_mm", marker_adjusted_rms_mm},
           {"icp_rms_mm", icp_rms_mm},
           {"projector_columns_used", projector_columns_used},
@@ -1412,6 +1453,9 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
   const std::vector<std::string>& names = folder.views();
 
   ScanSummary s;
+  // The memory limit against one view's needs, before anything is written.
+  s.memory_limit_gib = ResolveMemoryLimitGiB(options.memory_limit_gib);
+  s.views_in_flight = ViewsInFlight(project, folder, schemes, options, s.memory_limit_gib);
   // The output folder must neither be the scan folder nor hold it (replacing it would delete the
   // user's images); checked before the work.
   util::OutputFolderOptions output;
@@ -1492,7 +1536,7 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
       util::Progress progress("scan: reconstruct views", static_cast<int>(names.size()));
       size_t next = 0;
       tbb::parallel_pipeline(
-          static_cast<size_t>(options.views_in_flight),
+          static_cast<size_t>(s.views_in_flight),
           tbb::make_filter<void, size_t>(tbb::filter_mode::serial_in_order,
                                          [&](tbb::flow_control& fc) -> size_t {
                                            if (next == names.size()) {
@@ -1601,15 +1645,43 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
     std::vector<std::string> placed_names;
     std::vector<Rigid3d> placed_poses;
     m.fusion_of.assign(m.inputs.size(), -1);
-    std::vector<fusion::FusionView> fusion_views;
+    std::vector<size_t> placed;  // registration inputs, in fusion order
+    int64_t placed_points = 0;
     for (size_t k = 0; k < m.inputs.size(); ++k) {
       const registration::ViewRegistration& r = m.registration.views[k];
       if (!r.placed()) continue;
       placed_names.push_back(r.name);
       placed_poses.push_back(r.world_from_sensor);
-      OrganizedPointCloud& grid = results[static_cast<size_t>(m.view_of[k])].cloud;
-      m.fusion_of[k] = static_cast<int>(fusion_views.size());
-      fusion_views.push_back({r.name, std::move(grid), r.world_from_sensor});
+      m.fusion_of[k] = static_cast<int>(placed.size());
+      placed.push_back(k);
+      placed_points += static_cast<int64_t>(m.inputs[k].cloud.size());
+    }
+    // Fusion at once, or in tiles streamed from OUT/views/ when the views' grids and fusion's
+    // working memory would not fit in the limit beside what registration holds.
+    constexpr double kGiB = 1024.0 * 1024.0 * 1024.0;
+    const double whole_gib =
+        util::CurrentMemoryGiB() + kFusionBytesPerPoint * double(placed_points) / kGiB;
+    const bool tiled = options.fusion_tile_mm > 0 || whole_gib > s.memory_limit_gib;
+    std::vector<fusion::FusionView> fusion_views;
+    std::vector<fusion::TiledView> tiled_views;
+    std::vector<Eigen::Vector3d> samples;  // every kSampleStride-th point, world frame
+    constexpr size_t kSampleStride = 16;
+    for (size_t k : placed) {
+      const registration::ViewRegistration& r = m.registration.views[k];
+      ViewResult& v = results[static_cast<size_t>(m.view_of[k])];
+      if (!tiled) {
+        fusion_views.push_back({r.name, std::move(v.cloud), r.world_from_sensor});
+        continue;
+      }
+      const fs::path file = dir / "views" / (r.name + ".ply");
+      tiled_views.push_back(fusion::DescribeTiledView(
+          r.name, v.cloud, r.world_from_sensor, [file] { return io::ReadOrganizedPly(file); }));
+      const PointCloud& compact = m.inputs[k].cloud;
+      for (size_t i = 0; i < compact.size(); i += kSampleStride)
+        samples.push_back(r.world_from_sensor * compact.points[i]);
+      // The grid is on disk (OUT/views/): fusion and registered/ read it from there.
+      v.cloud = OrganizedPointCloud();
+      v.phase_left.release();
     }
     WriteOutput("register", out, [&] {
       registration::WritePoses(dir / "poses.json", placed_names, placed_poses);
@@ -1631,10 +1703,49 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
       return Error(StrCat("scan: ", project.string(), ": stage '", stage, "' failed: ", status,
                           ": ", message, "; nothing was written to ", out.string()));
     };
-    m.fused = fusion::FuseViews(fusion_views, fusion_options);
+    if (!tiled) {
+      m.fused = fusion::FuseViews(fusion_views, fusion_options);
+    } else {
+      util::ReleaseFreeMemory();
+      fusion::TileOptions tile_options;
+      tile_options.scratch_dir = dir / ".fusion_tiles";
+      const double margin_mm = fusion::TileMarginMm(tiled_views, fusion_options, tile_options);
+      // Beside what is held: one full view being cut, and the fused output (~a quarter of the
+      // input points, ~70 bytes each with support and view).
+      int64_t largest_grid = 0;
+      for (const fusion::TiledView& v : tiled_views)
+        largest_grid = std::max(largest_grid, int64_t{v.width} * v.height);
+      const double in_use_gib = util::CurrentMemoryGiB();
+      const double free_bytes = (s.memory_limit_gib - in_use_gib) * kGiB -
+                                kGridBytesPerSlot * double(largest_grid) -
+                                0.25 * 70 * double(placed_points);
+      const double max_points = std::max(0.0, free_bytes / kFusionBytesPerPoint);
+      double tile_points = 0;
+      tile_options.tile_size_mm = options.fusion_tile_mm > 0
+                                      ? options.fusion_tile_mm
+                                      : ChooseTileSize(samples, double(kSampleStride), margin_mm,
+                                                       max_points, margin_mm, &tile_points);
+      if (tile_options.tile_size_mm == 0) {
+        throw Error(StrCat(
+            "scan: ", project.string(), ": the memory limit of ", Fixed(s.memory_limit_gib, 3),
+            " GiB (--memory-limit) is too small to fuse the ", placed.size(),
+            " views: the smallest tile (", Fixed(margin_mm, 1), " mm with a margin of ",
+            Fixed(margin_mm, 1), " mm) holds ~", static_cast<int64_t>(tile_points), " points, ~",
+            Fixed(tile_points * kFusionBytesPerPoint / kGiB, 3), " GiB to fuse, beside ",
+            Fixed(in_use_gib, 3),
+            " GiB in use (registration holds every view's points); nothing was written to ",
+            out.string()));
+      }
+      fusion::TiledFusionResult t = fusion::FuseTiled(tiled_views, fusion_options, tile_options);
+      s.fusion_tiles = t.tiles.tiles_fused;
+      s.fusion_tile_mm = t.tiles.tile_size_mm;
+      s.tiling = t.tiles.ToJson();
+      m.fused = std::move(t.result);
+    }
     const fusion::FusionSummary& fs_ = m.fused.summary;
     s.fusion = fusion::SummaryToJson(fs_);
     s.fusion["registration_rms_mm"] = fusion_options.registration_rms_mm;
+    if (tiled) s.fusion["tiles"] = s.tiling;
     if (!fs_.has_output()) throw stage_failed("fuse", fusion::ToString(fs_.status), fs_.message);
     s.fused_points = fs_.fused_points;
     s.overlap_points = fs_.overlap_points;
@@ -1700,13 +1811,16 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
                         "mm; intensity = texture, quality = weighted modulation"});
         });
         fs::create_directories(dir / "registered");
-        tbb::parallel_for(size_t{0}, fusion_views.size(), [&](size_t f) {
-          OrganizedPointCloud world = fusion_views[f].cloud;
-          registration::TransformGrid(fusion_views[f].world_from_sensor, &world);
+        // Tiled: the grids are read back from OUT/views/ one view per task.
+        tbb::parallel_for(size_t{0}, placed.size(), [&](size_t f) {
+          const std::string& name = placed_names[f];
+          OrganizedPointCloud world =
+              tiled ? io::ReadOrganizedPly(dir / "views" / (name + ".ply")) : fusion_views[f].cloud;
+          registration::TransformGrid(placed_poses[f], &world);
           WriteOutput("register", out, [&] {
-            io::WritePly(dir / "registered" / (fusion_views[f].name + ".ply"), world,
+            io::WritePly(dir / "registered" / (name + ".ply"), world,
                          io::PlyFormat::kBinaryLittleEndian,
-                         {StrCat("fringe scan: view ", fusion_views[f].name,
+                         {StrCat("fringe scan: view ", name,
                                  " registered, world frame (the first view's sensor frame), mm")});
           });
         });

@@ -13,8 +13,9 @@
 //   3. registration (registration::RegisterViews: markers, global marker adjustment, multi-view
 //      ICP, marker-free fallback): OUT/poses.json, OUT/markers.json (the marker map) and
 //      OUT/registered/NNN.ply (organized, world frame);
-//   4. fusion (fusion::FuseViews) into OUT/fused.ply and screened Poisson meshing
-//      (fusion::MeshPoisson) into OUT/mesh.ply and OUT/mesh.stl;
+//   4. fusion (fusion::FuseViews, or fusion::FuseTiled in spatial tiles streamed from
+//      OUT/views/ when the views do not fit in memory_limit_gib at once) into OUT/fused.ply and
+//      screened Poisson meshing (fusion::MeshPoisson) into OUT/mesh.ply and OUT/mesh.stl;
 //   2b. drift: every view is checked against the rig (pipeline/drift.h: the markers' epipolar
 //      residual, the calibrated projector, two-direction phase), each verdict in the summary
 //      with the evidence it rests on, a warning when a view drifted;
@@ -85,6 +86,16 @@ struct ScanOptions {
   // of 1.3 Mpx: ~60 MB for 8-bit) while it is decoded; 2 keeps both cores of a 2-core machine busy.
   int views_in_flight = 2;
   stereo::ReconstructionOptions reconstruction;
+  // Memory the scan may use, GiB, >= 0; 0: half the machine's physical memory
+  // (pipeline/memory_budget.h). It lowers views_in_flight to the views that fit at once, and
+  // when fusing every registered view at once would exceed it, fusion runs in spatial tiles
+  // streamed from OUT/views/ (fusion/tiles.h) with the largest tile that fits; a limit below
+  // what one view needs is an error before any work. Meshing runs once on the fused cloud (its
+  // size is the part's surface, not the number of views) and is not bounded by it.
+  double memory_limit_gib = 0;
+  // Fusion tile edge, mm, >= 0; 0: chosen from memory_limit_gib (one tile, the whole at once,
+  // when it fits); > 0: tiles of this size whatever the limit.
+  double fusion_tile_mm = 0;
   // Stereo with a rig that has no calibrated projector (one calibrated from board images): after
   // the views, the projector's columns are fitted to the scan's own points and their left
   // phases (stereo/projector_columns.h) and, when the fit is accepted, the points off their
@@ -195,7 +206,14 @@ struct ScanSummary {
   // views_cpu_s covers read, decode, reconstruct and markers of all views together.
   double calibrate_cpu_s = 0, views_cpu_s = 0, register_cpu_s = 0, fuse_cpu_s = 0, mesh_cpu_s = 0;
   double report_cpu_s = 0, total_cpu_s = 0, evaluate_cpu_s = 0;
-  double peak_mem_gib = 0;
+  double peak_mem_gib = 0;      // the process' peak resident memory (VmHWM, as getrusage's maxrss)
+  double memory_limit_gib = 0;  // the limit used (ScanOptions::memory_limit_gib resolved)
+  int views_in_flight = 0;      // views reconstructed at once, as the limit allowed
+  // Fusion in tiles (fusion/tiles.h): the tiles fused (1: the whole at once) and their edge
+  // (infinity with one tile); tiling: fusion::TiledFusionSummary::ToJson, null with one tile.
+  int fusion_tiles = 1;
+  double fusion_tile_mm = std::numeric_limits<double>::infinity();
+  nlohmann::json tiling;
   // The projector columns fitted to the scan (ScanOptions::fit_projector_columns): whether they
   // were fitted and used, why not, their fit and the points dropped (all views); null when not
   // attempted (the rig has a projector, one camera, or the option is off).

@@ -1,6 +1,9 @@
 #include "fringe/util/memory.h"
 
 #include <unistd.h>
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
 
 #include <cstdlib>
 #include <cstring>
@@ -39,6 +42,18 @@ double StatusFieldGiB(const char* key) {
 
 double PeakMemoryGiB() { return StatusFieldGiB("VmHWM"); }
 double CurrentMemoryGiB() { return StatusFieldGiB("VmRSS"); }
+
+double PhysicalMemoryGiB() {
+  const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGE_SIZE);
+  if (pages <= 0 || page <= 0) return 0;
+  return double(pages) * double(page) / (1024.0 * 1024.0 * 1024.0);
+}
+
+void ReleaseFreeMemory() {
+#if defined(__GLIBC__)
+  malloc_trim(0);
+#endif
+}
 
 void UseTransparentHugePages(char** argv) {
 #if defined(__linux__) && !defined(FRINGE_ADDRESS_SANITIZER)

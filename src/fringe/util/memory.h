@@ -7,6 +7,11 @@ namespace fringe::util {
 double PeakMemoryGiB();
 // Current resident set size (VmRSS), GiB.
 double CurrentMemoryGiB();
+// Physical memory of the machine (sysconf _SC_PHYS_PAGES x _SC_PAGE_SIZE), GiB; 0 when unknown.
+double PhysicalMemoryGiB();
+// Hands the heap's free pages back to the system (glibc malloc_trim; nothing elsewhere), so that
+// CurrentMemoryGiB measures what is held after large buffers were freed.
+void ReleaseFreeMemory();
 
 // Large buffers on transparent huge pages. On a machine whose THP mode is "madvise" (Debian's
 // default, and this project's machines), every 4 KiB page a buffer touches for the first time is

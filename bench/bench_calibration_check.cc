@@ -73,6 +73,8 @@ Rendered Render(const bench::SimulatedScan& scan, int views) {
 struct Verdict {
   bool drift = false;
   double worst_systematic_px = 0, worst_bias_px = 0;
+  double worst_projector_systematic_px = 0;
+  double worst_significance = 0;  // markers' systematic part over its standard error
 };
 
 Verdict Check(const Rendered& r, const StereoRig& rig) {
@@ -95,6 +97,14 @@ Verdict Check(const Rendered& r, const StereoRig& rig) {
     }
     if (std::isfinite(d.projector_bias_px)) {
       out.worst_bias_px = std::max(out.worst_bias_px, std::abs(d.projector_bias_px));
+    }
+    if (std::isfinite(d.projector_systematic_px)) {
+      out.worst_projector_systematic_px =
+          std::max(out.worst_projector_systematic_px, d.projector_systematic_px);
+    }
+    if (std::isfinite(d.epipolar_systematic_sigma_px) && d.epipolar_systematic_sigma_px > 0) {
+      out.worst_significance = std::max(out.worst_significance,
+                                        d.epipolar_systematic_px / d.epipolar_systematic_sigma_px);
     }
   }
   return out;
@@ -451,7 +461,9 @@ json DriftDetection(int views, int intact, double scale) {
                            {"angle_deg", angle},
                            {"flagged", v.drift},
                            {"systematic_epipolar_px", v.worst_systematic_px},
-                           {"projector_bias_px", v.worst_bias_px}});
+                           {"systematic_epipolar_significance", v.worst_significance},
+                           {"projector_bias_px", v.worst_bias_px},
+                           {"projector_systematic_px", v.worst_projector_systematic_px}});
     }
     if (all && std::isnan(smallest_rotation)) smallest_rotation = angle;
   }
@@ -464,13 +476,16 @@ json DriftDetection(int views, int intact, double scale) {
                               {"shift_mm", shift},
                               {"flagged", v.drift},
                               {"systematic_epipolar_px", v.worst_systematic_px},
-                              {"projector_bias_px", v.worst_bias_px}});
+                              {"systematic_epipolar_significance", v.worst_significance},
+                              {"projector_bias_px", v.worst_bias_px},
+                              {"projector_systematic_px", v.worst_projector_systematic_px}});
     }
     if (all && std::isnan(smallest_translation)) smallest_translation = shift;
   }
   // False alarms: intact scans with other seeds.
   int false_alarms = 0;
-  double intact_worst_systematic = 0, intact_worst_bias = 0;
+  double intact_worst_systematic = 0, intact_worst_bias = 0, intact_worst_projector_systematic = 0;
+  double intact_worst_significance = 0;
   for (int k = 0; k < intact; ++k) {
     bench::SimulatedScanOptions o = so;
     o.seed = 100 + static_cast<uint64_t>(k);
@@ -479,6 +494,9 @@ json DriftDetection(int views, int intact, double scale) {
     false_alarms += v.drift ? 1 : 0;
     intact_worst_systematic = std::max(intact_worst_systematic, v.worst_systematic_px);
     intact_worst_bias = std::max(intact_worst_bias, v.worst_bias_px);
+    intact_worst_projector_systematic =
+        std::max(intact_worst_projector_systematic, v.worst_projector_systematic_px);
+    intact_worst_significance = std::max(intact_worst_significance, v.worst_significance);
   }
   const auto number = [](double v) { return std::isfinite(v) ? json(v) : json(nullptr); };
   return {{"views", views},
@@ -488,7 +506,9 @@ json DriftDetection(int views, int intact, double scale) {
           {"false_alarms", false_alarms},
           {"intact_scans", intact},
           {"intact_worst_systematic_epipolar_px", intact_worst_systematic},
+          {"intact_worst_systematic_epipolar_significance", intact_worst_significance},
           {"intact_worst_projector_bias_px", intact_worst_bias},
+          {"intact_worst_projector_systematic_px", intact_worst_projector_systematic},
           {"rotations", rotations},
           {"translations", translations}};
 }

@@ -12,20 +12,16 @@
 #include "fringe/calib/calibration_scene.h"
 #include "fringe/io/json.h"
 #include "fringe/util/error.h"
+#include "fringe/util/format.h"
 
 namespace fringe::calib {
 namespace {
 
 using util::CheckOption;
+using util::Fixed;
 using util::StrCat;
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-
-std::string Fixed(double v, int digits) {
-  std::ostringstream os;
-  os << std::fixed << std::setprecision(digits) << v;
-  return os.str();
-}
 
 // Midpoint of the closest points of the two pixel rays (left frame). The stereo module's
 // triangulation sits in a later layer; the prediction needs only the geometry of two rays.

@@ -7,30 +7,21 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 #include <cmath>
-#include <iomanip>
 #include <memory>
-#include <sstream>
 
 #include "fringe/util/error.h"
+#include "fringe/util/format.h"
 
 namespace fringe::calib {
 namespace {
 
+using util::FigureOrNull;
+using util::Fixed;
 using util::StrCat;
 using Interpolator = ceres::BiCubicInterpolator<ceres::Grid2D<float, 1>>;
 
 constexpr double kDeg = 180 / M_PI;
 constexpr double kSqrt2 = 1.4142135623730951;
-
-std::string Fixed(double v, int digits) {
-  std::ostringstream os;
-  os << std::fixed << std::setprecision(digits) << v;
-  return os.str();
-}
-
-nlohmann::json Figure(double v) {
-  return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr);
-}
 
 template <typename T>
 void RotateTranslate(const T* rotation, const T* translation, const T* p, T* out) {
@@ -328,12 +319,12 @@ nlohmann::json RigRefinementSummary::ToJson() const {
           {"views", views},
           {"points", points},
           {"markers", markers},
-          {"marker_epipolar_rms_before_px", Figure(marker_epipolar_rms_before_px)},
-          {"marker_epipolar_rms_after_px", Figure(marker_epipolar_rms_after_px)},
-          {"right_phase_rms_before_px", Figure(right_phase_rms_before_px)},
-          {"right_phase_rms_after_px", Figure(right_phase_rms_after_px)},
-          {"projector_rms_before_px", Figure(projector_rms_before_px)},
-          {"projector_rms_after_px", Figure(projector_rms_after_px)},
+          {"marker_epipolar_rms_before_px", FigureOrNull(marker_epipolar_rms_before_px)},
+          {"marker_epipolar_rms_after_px", FigureOrNull(marker_epipolar_rms_after_px)},
+          {"right_phase_rms_before_px", FigureOrNull(right_phase_rms_before_px)},
+          {"right_phase_rms_after_px", FigureOrNull(right_phase_rms_after_px)},
+          {"projector_rms_before_px", FigureOrNull(projector_rms_before_px)},
+          {"projector_rms_after_px", FigureOrNull(projector_rms_after_px)},
           {"right_rotation_change_deg", right_rotation_change_deg},
           {"projector_rotation_change_deg", projector_rotation_change_deg},
           {"baseline_before_mm", baseline_before_mm},

@@ -1,26 +1,18 @@
 #include "fringe/pipeline/drift.h"
 
 #include <Eigen/Dense>
+#include <algorithm>
 #include <cmath>
-#include <iomanip>
-#include <sstream>
 
 #include "fringe/util/error.h"
+#include "fringe/util/format.h"
 
 namespace fringe::pipeline {
 namespace {
 
+using util::FigureOrNull;
+using util::Fixed;
 using util::StrCat;
-
-std::string Fixed(double v, int digits) {
-  std::ostringstream os;
-  os << std::fixed << std::setprecision(digits) << v;
-  return os.str();
-}
-
-nlohmann::json Figure(double v) {
-  return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr);
-}
 
 }  // namespace
 
@@ -30,8 +22,12 @@ void DriftOptions::Check() const {
   CheckOption(max_epipolar_systematic_px > 0, o, "max_epipolar_systematic_px",
               max_epipolar_systematic_px, "must be > 0");
   CheckOption(min_markers >= 2, o, "min_markers", min_markers, "must be >= 2");
+  CheckOption(min_epipolar_significance > 0, o, "min_epipolar_significance",
+              min_epipolar_significance, "must be > 0");
   CheckOption(max_projector_bias_px > 0, o, "max_projector_bias_px", max_projector_bias_px,
               "must be > 0");
+  CheckOption(max_projector_systematic_px > 0, o, "max_projector_systematic_px",
+              max_projector_systematic_px, "must be > 0");
   CheckOption(min_projector_points >= 1, o, "min_projector_points", min_projector_points,
               "must be >= 1");
   CheckOption(max_two_direction_rms_px > 0, o, "max_two_direction_rms_px", max_two_direction_rms_px,
@@ -44,13 +40,15 @@ nlohmann::json ViewDrift::ToJson() const {
           {"drift", drift},
           {"evidence", evidence},
           {"message", message},
-          {"epipolar_rms_px", Figure(epipolar_rms_px)},
-          {"epipolar_mean_px", Figure(epipolar_mean_px)},
-          {"epipolar_systematic_px", Figure(epipolar_systematic_px)},
+          {"epipolar_rms_px", FigureOrNull(epipolar_rms_px)},
+          {"epipolar_mean_px", FigureOrNull(epipolar_mean_px)},
+          {"epipolar_systematic_px", FigureOrNull(epipolar_systematic_px)},
+          {"epipolar_systematic_sigma_px", FigureOrNull(epipolar_systematic_sigma_px)},
           {"epipolar_samples", epipolar_samples},
           {"epipolar_source", epipolar_source},
-          {"projector_bias_px", Figure(projector_bias_px)},
-          {"projector_rms_px", Figure(projector_rms_px)},
+          {"projector_bias_px", FigureOrNull(projector_bias_px)},
+          {"projector_rms_px", FigureOrNull(projector_rms_px)},
+          {"projector_systematic_px", FigureOrNull(projector_systematic_px)},
           {"projector_samples", projector_samples}};
 }
 
@@ -64,8 +62,11 @@ void MeasureProjectorConsistency(const StereoRig& rig, const OrganizedPointCloud
   const size_t valid = cloud.NumValid();
   const size_t stride = std::max<size_t>(
       1, (valid + options.max_samples - 1) / static_cast<size_t>(options.max_samples));
-  double sum = 0, sum2 = 0;
-  int n = 0;
+  struct Sample {
+    double u, v, e;  // left pixel normalised by the focal length; residual, projector px
+  };
+  std::vector<Sample> samples;
+  samples.reserve(std::min<size_t>(valid, static_cast<size_t>(options.max_samples)));
   size_t k = 0;
   for (int r = 0; r < cloud.height; ++r) {
     for (int c = 0; c < cloud.width; ++c) {
@@ -77,15 +78,46 @@ void MeasureProjectorConsistency(const StereoRig& rig, const OrganizedPointCloud
       if (!(p.z() > 0)) continue;
       const double e = rig.projector->Project(p).x() - phi;
       if (!std::isfinite(e)) continue;
-      sum += e;
-      sum2 += e * e;
-      ++n;
+      samples.push_back({(c - rig.left.cx) / rig.left.fx, (r - rig.left.cy) / rig.left.fy, e});
     }
   }
-  drift->projector_samples = n;
+  const size_t n = samples.size();
+  drift->projector_samples = static_cast<int>(n);
   if (n == 0) return;
-  drift->projector_bias_px = sum / n;
-  drift->projector_rms_px = std::sqrt(sum2 / n);
+  double sum = 0, sum2 = 0;
+  for (const Sample& s : samples) {
+    sum += s.e;
+    sum2 += s.e * s.e;
+  }
+  drift->projector_bias_px = sum / static_cast<double>(n);
+  drift->projector_rms_px = std::sqrt(sum2 / static_cast<double>(n));
+
+  // The systematic part: a + b u + c v fitted by least squares to the residuals within 5 robust
+  // sigmas of their median (a mismatch at an edge is off by a fringe, far more than any tilt),
+  // RMS of the plane's values at those points.
+  std::vector<double> e(n);
+  for (size_t j = 0; j < n; ++j) e[j] = samples[j].e;
+  const auto median = [](std::vector<double>* v) {
+    std::nth_element(v->begin(), v->begin() + static_cast<std::ptrdiff_t>(v->size() / 2), v->end());
+    return (*v)[v->size() / 2];
+  };
+  const double med = median(&e);
+  for (size_t j = 0; j < n; ++j) e[j] = std::abs(samples[j].e - med);
+  const double max_dev = 5 * 1.4826 * median(&e);
+  Eigen::Matrix3d normal = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d rhs = Eigen::Vector3d::Zero();
+  double used = 0;
+  for (const Sample& s : samples) {
+    if (std::abs(s.e - med) > max_dev) continue;
+    const Eigen::Vector3d a(1, s.u, s.v);
+    normal += a * a.transpose();
+    rhs += s.e * a;
+    ++used;
+  }
+  if (used < 3) return;
+  const Eigen::Vector3d plane = normal.ldlt().solve(rhs);
+  // Sum over the points of (a . plane)^2 = plane' normal plane.
+  drift->projector_systematic_px = std::sqrt(std::max(0.0, plane.dot(normal * plane)) / used);
 }
 
 void MeasureMarkerEpipolar(const StereoRig& rig,
@@ -127,6 +159,13 @@ void MeasureMarkerEpipolar(const StereoRig& rig,
   }
   const Eigen::VectorXd fit = A * Eigen::VectorXd(A.colPivHouseholderQr().solve(b));
   drift->epipolar_systematic_px = std::sqrt(fit.squaredNorm() / n);
+  // Its standard error: with centre noise sigma the plane's p parameters carry p sigma^2 of the
+  // sum of squares, so RMS ~ sigma sqrt(p / n); sigma from the scatter about the plane.
+  const Eigen::Index p = A.cols();
+  if (n > p) {
+    const double sigma = std::sqrt((b - fit).squaredNorm() / static_cast<double>(n - p));
+    drift->epipolar_systematic_sigma_px = sigma * std::sqrt(static_cast<double>(p) / n);
+  }
 }
 
 void MeasureTwoDirectionResidual(const OrganizedPointCloud& cloud, ViewDrift* drift) {
@@ -153,11 +192,17 @@ void DecideDrift(const DriftOptions& options, ViewDrift* d) {
       std::isfinite(d->epipolar_rms_px)) {
     d->checked = true;
     d->evidence.push_back(StrCat("markers (", d->epipolar_samples, " in both images)"));
-    if (d->epipolar_systematic_px > options.max_epipolar_systematic_px) {
-      exceeded.push_back(StrCat(
-          "the markers' systematic epipolar residual ", Fixed(d->epipolar_systematic_px, 3),
-          " px (RMS ", Fixed(d->epipolar_rms_px, 3), " px, mean ", Fixed(d->epipolar_mean_px, 3),
-          " px) exceeds ", options.max_epipolar_systematic_px, " px"));
+    // Too few markers for a scatter (sigma NaN): the size threshold alone.
+    const double sigma = d->epipolar_systematic_sigma_px;
+    const bool significant = !(std::isfinite(sigma)) ||
+                             d->epipolar_systematic_px > options.min_epipolar_significance * sigma;
+    if (d->epipolar_systematic_px > options.max_epipolar_systematic_px && significant) {
+      exceeded.push_back(
+          StrCat("the markers' systematic epipolar residual ", Fixed(d->epipolar_systematic_px, 3),
+                 " px (RMS ", Fixed(d->epipolar_rms_px, 3), " px, mean ",
+                 Fixed(d->epipolar_mean_px, 3), " px, standard error ", Fixed(sigma, 3),
+                 " px) exceeds ", options.max_epipolar_systematic_px, " px and ",
+                 options.min_epipolar_significance, " standard errors"));
     }
   }
   if (d->epipolar_source == "two-direction phase" &&
@@ -176,6 +221,13 @@ void DecideDrift(const DriftOptions& options, ViewDrift* d) {
       exceeded.push_back(StrCat("the points' mean projector column residual ",
                                 Fixed(d->projector_bias_px, 3), " px exceeds +-",
                                 options.max_projector_bias_px, " px"));
+    } else if (d->projector_systematic_px > options.max_projector_systematic_px) {
+      exceeded.push_back(
+          StrCat("the points' projector column residual varies across the image "
+                 "(RMS of the fitted plane ",
+                 Fixed(d->projector_systematic_px, 4), " px, mean ", Fixed(d->projector_bias_px, 4),
+                 " px) by more than ", options.max_projector_systematic_px,
+                 " px: a roll or a shift along the optical axis"));
     }
   }
   d->drift = !exceeded.empty();

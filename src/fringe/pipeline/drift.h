@@ -9,13 +9,19 @@
 //     signed distance of each right centre to the epipolar line of its left centre is noise for
 //     an intact rig and a systematic offset (pitch, vertical shift) or tilt (roll) for a drifted
 //     one ("markers" below). The verdict looks at the systematic part (a plane fitted to the
-//     signed distances over the image), not the RMS: the centres' noise depends on the markers'
-//     size in pixels (~0.03 px RMS on the reference rig, ~0.11 px at half its resolution).
+//     signed distances over the image), not the RMS, and compares it with its own standard error
+//     from the scatter about the plane: the centres' noise depends on the markers' size in pixels
+//     (~0.03 px RMS on the reference rig, ~0.11 px at half its resolution), and a fixed threshold
+//     high enough for small markers hides a roll the larger markers of a full-size rig show.
 //   - A calibrated projector (stereo or camera + projector): a point triangulated by a drifted
 //     pair lies off the plane of its projector column, so the mean signed difference between the
 //     projector column of the point and its decoded phase moves away from zero ("calibrated
 //     projector"). It sees what the markers cannot: a rotation about the vertical axis or a
-//     change of the baseline's length changes the depth, not the vertical disparity.
+//     change of the baseline's length changes the depth, not the vertical disparity. Its spatial
+//     pattern sees more: a roll of a camera (about its optical axis) or a shift along it moves
+//     the matched pixel along the epipolar line by an amount growing linearly with y (roll) or
+//     x (scale), so the residual tilts across the image while its mean stays near zero; the
+//     plane fitted to the residual over the image measures that tilt.
 //   - Camera + projector with both fringe directions: each point is triangulated from three
 //     measurements (camera pixel, projector column and row), and the round-trip residual of that
 //     triangulation is the epipolar residual ("two-direction phase").
@@ -44,15 +50,27 @@ namespace fringe::pipeline {
 
 struct DriftOptions {
   // Markers seen by both cameras: the systematic part of their signed epipolar distances (RMS of
-  // the plane a + b x + c y fitted to them over the image) above this is drift, pixels, > 0.
-  // A right camera pitched by 0.01 degrees gives 2500 px * 1.75e-4 = 0.44 px on the reference
-  // rig. Intact: the markers' RMS is 0.03 px on the full-size demo scan, and the systematic part
-  // 0.02-0.065 px on the half-size test scan (RMS 0.09-0.13 px); bench_calibration_check.
-  double max_epipolar_systematic_px = 0.1;
+  // the plane a + b x + c y fitted to them over the image) above this, and significant (below),
+  // is drift, pixels, > 0. A right camera pitched by 0.01 degrees gives 2500 px * 1.75e-4 =
+  // 0.44 px on the reference rig, rolled by 0.01 degrees ~0.07 px. Intact: the systematic part
+  // is up to 0.015 px on the full-size demo scan (markers' RMS 0.03 px) and 0.02-0.065 px on the
+  // half-size test scan (RMS 0.09-0.13 px); bench_calibration_check.
+  double max_epipolar_systematic_px = 0.03;
   int min_markers = 4;  // fewer markers in both images: no marker verdict, >= 2
+  // The markers' systematic part must also exceed this many of its standard errors (from the
+  // markers' scatter about the plane) to be drift, > 0: with ~12 px markers the centres' noise
+  // alone gives a plane of up to 0.065 px, with ~25 px markers 0.015 px.
+  double min_epipolar_significance = 3;
   // Calibrated projector: |mean signed column residual| of the points above this is drift,
   // projector pixels, > 0.
   double max_projector_bias_px = 0.05;
+  // Calibrated projector: RMS of the plane a + b x + c y fitted to the points' column residuals
+  // over the image above this is drift, projector pixels, > 0. A right camera rolled by 0.01
+  // degrees tilts it by ~0.05 px across the reference rig's image (RMS ~0.02 px); an intact
+  // rig's plane stays under 0.001 px (bench_calibration_check). Between the two, the threshold
+  // leaves room for a real calibration's own error (a right camera orientation sigma of 0.0016
+  // degrees: ~0.004 px).
+  double max_projector_systematic_px = 0.01;
   int min_projector_points = 1000;  // fewer points: no projector verdict, >= 1
   // Camera + projector with both directions: RMS of the triangulation's round-trip residual
   // above this is drift, projector pixels, > 0 (the intact half-size test scan: 0.011 px).
@@ -69,10 +87,15 @@ struct ViewDrift {
   double epipolar_rms_px = kNaN;
   double epipolar_mean_px = kNaN;
   double epipolar_systematic_px = kNaN;  // markers: RMS of the fitted plane (DriftOptions)
+  // markers: the standard error of epipolar_systematic_px from the scatter about the plane
+  double epipolar_systematic_sigma_px = kNaN;
   int epipolar_samples = 0;
   std::string epipolar_source;  // "markers", "two-direction phase", or empty
   // Projector consistency: projector column of the point minus its decoded phase, projector px.
   double projector_bias_px = kNaN, projector_rms_px = kNaN;
+  // RMS of the plane fitted to the residuals over the image (the bias and tilt together), of the
+  // points within 5 robust sigmas of the median residual (mismatches at edges are left out).
+  double projector_systematic_px = kNaN;
   int projector_samples = 0;
   bool checked = false;               // some evidence was enough for a verdict
   bool drift = false;                 // a figure exceeded its threshold

@@ -937,8 +937,10 @@ std::string DriftParagraph(const ScanSummary& s) {
               "; epipolar RMS over the views ",
               std::isfinite(s.epipolar_rms_px) ? Fixed(s.epipolar_rms_px, 3) + " px" : "-",
               " (thresholds: systematic epipolar residual ",
-              s.drift_options.max_epipolar_systematic_px, " px, projector bias ",
-              s.drift_options.max_projector_bias_px, " px).");
+              s.drift_options.max_epipolar_systematic_px, " px and ",
+              s.drift_options.min_epipolar_significance, " standard errors, projector bias ",
+              s.drift_options.max_projector_bias_px, " px, its plane across the image ",
+              s.drift_options.max_projector_systematic_px, " px).");
   for (const ScanViewSummary& v : s.views) {
     if (v.ok && v.drift.drift) p += StrCat(" View ", v.name, ": ", v.drift.message, ".");
   }
@@ -1395,7 +1397,9 @@ json ScanSummary::ToJson() const {
                 {"evidence", drift_evidence},
                 {"max_epipolar_systematic_px", drift_options.max_epipolar_systematic_px},
                 {"min_markers", drift_options.min_markers},
+                {"min_epipolar_significance", drift_options.min_epipolar_significance},
                 {"max_projector_bias_px", drift_options.max_projector_bias_px},
+                {"max_projector_systematic_px", drift_options.max_projector_systematic_px},
                 {"min_projector_points", drift_options.min_projector_points},
                 {"max_two_direction_rms_px", drift_options.max_two_direction_rms_px}};
   if (calibration_rms_left_px > 0) {

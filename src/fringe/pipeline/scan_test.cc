@@ -404,13 +404,21 @@ TEST_F(ScanTest, RefineRecoversADriftedRigFromTheScan) {
   const nlohmann::json j = io::ReadJson(out);
   EXPECT_EQ(j.at("refinement").at("status").get<std::string>(), "ok");
   EXPECT_FALSE(j.at("refinement").at("parameters").empty());
-  // The scan with --refine uses the refined rig and no view drifts.
+  // `fringe scan --refine` refines the rig first, uses it, and its view no longer drifts; on
+  // the first view alone (the refinement above is its accuracy test, this one the wiring).
+  const fs::path one_view = tmp_ / "refine-one-view";
+  fs::copy(scan, one_view, fs::copy_options::recursive);
+  for (const char* view : {"001", "002"}) fs::remove_all(one_view / "views" / view);
+  nlohmann::json manifest = io::ReadJson(one_view / "scan.json");
+  manifest["views"] = 1;
+  io::WriteJson(one_view / "scan.json", manifest);
   ScanOptions o = TestOptions();
   o.refine = true;
   o.evaluate_truth = false;
   o.write_report = false;
-  const ScanSummary s = RunScan(scan, tmp_ / "out", o);
+  const ScanSummary s = RunScan(one_view, tmp_ / "out", o);
   EXPECT_TRUE(s.rig_refined) << s.refinement.dump();
+  EXPECT_EQ(s.drift_views_checked, 1);
   EXPECT_FALSE(s.calibration_drift);
 }
 

@@ -20,7 +20,7 @@ namespace fs = std::filesystem;
 static_assert(sizeof(registration::ViewMarker) == 192,
               "ViewMarker changed: update PutMarker/GetMarker");
 
-constexpr char kMagic[8] = {'F', 'R', 'V', 'I', 'E', 'W', '0', '2'};
+constexpr char kMagic[8] = {'F', 'R', 'V', 'I', 'E', 'W', '0', '3'};
 
 // FNV-1a over the payload: a torn or altered checkpoint is ignored, not half-read.
 uint64_t Checksum(const char* data, size_t size) {
@@ -107,9 +107,9 @@ void PutSummary(Writer& w, const ScanViewSummary& s) {
   w.Str(s.name);
   w.Pod<int32_t>(s.points);
   w.Pod<int32_t>(s.markers);
-  for (double d :
-       {s.valid_fraction, s.decode_valid_left, s.decode_valid_right, s.read_s, s.decode_s,
-        s.reconstruct_s, s.markers_s, s.drift.projector_bias_px, s.drift.projector_rms_px}) {
+  for (double d : {s.valid_fraction, s.decode_valid_left, s.decode_valid_right, s.read_s,
+                   s.decode_s, s.reconstruct_s, s.markers_s, s.drift.projector_bias_px,
+                   s.drift.projector_rms_px, s.drift.projector_systematic_px}) {
     w.Pod(d);
   }
   w.Pod<int32_t>(s.drift.projector_samples);
@@ -122,7 +122,7 @@ bool GetSummary(Reader& r, ScanViewSummary* s) {
   s->markers = markers;
   for (double* d : {&s->valid_fraction, &s->decode_valid_left, &s->decode_valid_right, &s->read_s,
                     &s->decode_s, &s->reconstruct_s, &s->markers_s, &s->drift.projector_bias_px,
-                    &s->drift.projector_rms_px}) {
+                    &s->drift.projector_rms_px, &s->drift.projector_systematic_px}) {
     if (!r.Pod(d)) return false;
   }
   int32_t projector_samples = 0;

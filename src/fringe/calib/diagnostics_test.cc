@@ -158,17 +158,28 @@ TEST(Diagnostics, AGoodStereoCalibrationHasNoWarningAndReportsEveryPose) {
   EXPECT_EQ(sources, 5);
 }
 
+// Twelve poses of the small rig; in pose p05 the board moved by 8 mm between the left and the
+// right camera's exposures.
+struct ShiftedPoseScene {
+  StereoRig rig = SmallRig();
+  CalibrationTarget target = Chessboard();
+  Poses poses = MakePoses(12, 35, 50, target);
+  StereoDetections det = DetectBoth(rig, target, poses, 2);
+  ShiftedPoseScene() {
+    util::Rng rng(3);
+    const Rigid3d shifted =
+        poses.left_from_board[5] * Rigid3d(Eigen::Matrix3d::Identity(), Eigen::Vector3d(8, 0, 0));
+    det.right[5] = Detect(rig.right, target, rig.right_from_left * shifted, &rng);
+  }
+};
+
 TEST(Diagnostics, APoseWithAShiftedBoardIsRejectedNamedAndKeptWithKeepAll) {
   // In pose p05 the board moved by 8 mm between the left and the right camera's exposures: its
   // joint residual is far above the others'.
-  const StereoRig rig = SmallRig();
-  const CalibrationTarget target = Chessboard();
-  const Poses poses = MakePoses(12, 35, 50, target);
-  StereoDetections det = DetectBoth(rig, target, poses, 2);
-  util::Rng rng(3);
-  const Rigid3d shifted =
-      poses.left_from_board[5] * Rigid3d(Eigen::Matrix3d::Identity(), Eigen::Vector3d(8, 0, 0));
-  det.right[5] = Detect(rig.right, target, rig.right_from_left * shifted, &rng);
+  ShiftedPoseScene scene;
+  const CalibrationTarget& target = scene.target;
+  const Poses& poses = scene.poses;
+  StereoDetections& det = scene.det;
 
   const StereoCalibration cal = CalibrateStereo(det.left, det.right, target, 640, 512);
   ASSERT_TRUE(cal.summary.ok()) << cal.summary.message;
@@ -308,14 +319,11 @@ TEST(Diagnostics, TheReportsSceneHoldsTheUsedBoardsAndTheDevicesAtTheirPoses) {
   // report holds the eleven used boards at their solved poses (within kPoseMm of the truth),
   // each with its pose's residual, and the right camera at the calibrated baseline.
   constexpr double kPoseMm = 0.5;  // solved board corners and camera centre against the truth
-  const StereoRig rig = SmallRig();
-  const CalibrationTarget target = Chessboard();
-  const Poses poses = MakePoses(12, 35, 50, target);
-  StereoDetections det = DetectBoth(rig, target, poses, 2);
-  util::Rng rng(3);
-  const Rigid3d shifted =
-      poses.left_from_board[5] * Rigid3d(Eigen::Matrix3d::Identity(), Eigen::Vector3d(8, 0, 0));
-  det.right[5] = Detect(rig.right, target, rig.right_from_left * shifted, &rng);
+  ShiftedPoseScene shifted_scene;
+  const StereoRig& rig = shifted_scene.rig;
+  const CalibrationTarget& target = shifted_scene.target;
+  const Poses& poses = shifted_scene.poses;
+  StereoDetections& det = shifted_scene.det;
   const StereoCalibration cal = CalibrateStereo(det.left, det.right, target, 640, 512);
   ASSERT_TRUE(cal.summary.ok()) << cal.summary.message;
   const CalibrationDiagnostics d = DiagnoseStereo(cal, poses, target);

@@ -12,6 +12,7 @@
 #include "fringe/sim/scene.h"
 #include "fringe/testing/fusion_views.h"
 #include "fringe/util/error.h"
+#include "fringe_test.h"
 
 namespace fringe::fusion {
 namespace {
@@ -78,14 +79,7 @@ std::vector<TiledView> Describe(const std::vector<FusionView>& views) {
 
 class FusionTiles : public ::testing::Test {
  protected:
-  void SetUp() override {
-    scratch_ =
-        fs::temp_directory_path() /
-        ("fringe_tiles_test_" + std::to_string(::testing::UnitTest::GetInstance()->random_seed()) +
-         "_" + std::to_string(reinterpret_cast<uintptr_t>(this)));
-  }
-  void TearDown() override { fs::remove_all(scratch_); }
-  fs::path scratch_;
+  test::TempDir scratch_;  // removed with the fixture
 };
 
 TEST_F(FusionTiles, DefaultOptionsPassCheckAndBadOptionsThrow) {

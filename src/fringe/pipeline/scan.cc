@@ -1324,6 +1324,8 @@ json ScanSummary::FiguresJson() const {
   return {{"views", views.size()},
           {"views_ok", views_ok},
           {"views_resumed", views_resumed},
+          {"checkpoint_s", checkpoint_s},
+          {"checkpoint_mib", checkpoint_mib},
           {"points", points},
           {"fused_points", fused_points},
           {"mesh_vertices", mesh_vertices},
@@ -1536,6 +1538,7 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
       rig_and_schemes += phase::SchemeToJson(sc).dump();
     rig_and_schemes += StrCat(" check_columns ", check_columns);
     std::atomic<int> resumed{0};
+    std::atomic<int64_t> checkpoint_ns{0}, checkpoint_bytes{0};
     {
       util::Progress progress("scan: reconstruct views", static_cast<int>(names.size()));
       size_t next = 0;
@@ -1570,7 +1573,10 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
                   // and the output's own writes report the disk.
                   if (results[i].summary.ok) {
                     try {
-                      WriteViewCheckpoint(dir, key, results[i]);
+                      const util::Timer write_timer;
+                      checkpoint_bytes +=
+                          static_cast<int64_t>(WriteViewCheckpoint(dir, key, results[i]));
+                      checkpoint_ns += static_cast<int64_t>(write_timer.ElapsedSeconds() * 1e9);
                     } catch (const std::exception& e) {
                       util::LogWarning(
                           StrCat("scan: view ", names[i], " not kept for --resume: ", e.what()));
@@ -1581,6 +1587,8 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
               }));
     }
     s.views_resumed = resumed;
+    s.checkpoint_s = static_cast<double>(checkpoint_ns.load()) * 1e-9;
+    s.checkpoint_mib = static_cast<double>(checkpoint_bytes.load()) / (1024.0 * 1024.0);
     if (resumed > 0) {
       util::LogInfo(StrCat("scan: ", resumed.load(), " of ", names.size(),
                            " views taken from the interrupted run"));

@@ -192,6 +192,11 @@ struct ScanSummary {
   std::vector<ScanViewSummary> views;
   int views_ok = 0;
   int views_resumed = 0;  // views taken from an interrupted run (ScanOptions::resume)
+  // What keeping the views for --resume costs (view_checkpoint.h): the wall time of the
+  // checkpoint writes summed over the views (they run beside other views' work, so this is an
+  // upper bound of what they add to views_s) and the bytes written.
+  double checkpoint_s = 0;
+  double checkpoint_mib = 0;
   int64_t points = 0;     // sum over the views that worked
   // Stage times. read_s, decode_s, reconstruct_s and markers_s are sums over views (several views
   // run at once, so they can exceed views_s, the wall time of the view stage); the others are wall.

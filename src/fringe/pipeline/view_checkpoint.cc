@@ -251,7 +251,7 @@ std::string ViewCheckpointKey(const scan::ScanFolder& folder, const std::string&
   return key;
 }
 
-void WriteViewCheckpoint(const fs::path& dir, const std::string& key, const ViewResult& v) {
+uint64_t WriteViewCheckpoint(const fs::path& dir, const std::string& key, const ViewResult& v) {
   Writer w;
   w.buf().append(kMagic, sizeof(kMagic));
   w.Str(key);
@@ -283,6 +283,7 @@ void WriteViewCheckpoint(const fs::path& dir, const std::string& key, const View
   }
   fs::rename(tmp, path, ec);
   if (ec) throw Error(util::StrCat(path.string(), ": cannot write: ", ec.message()));
+  return w.buf().size();
 }
 
 std::optional<ViewResult> ReadViewCheckpoint(const fs::path& dir, const std::string& name,

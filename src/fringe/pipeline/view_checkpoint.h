@@ -7,6 +7,7 @@
 // committed. Internal to the pipeline module.
 #pragma once
 
+#include <cstdint>
 #include <filesystem>
 #include <optional>
 #include <string>
@@ -42,8 +43,8 @@ std::string ViewCheckpointKey(const scan::ScanFolder& folder, const std::string&
                               const std::string& rig_and_schemes, const std::string& options_key);
 
 // Writes `v` (a view that worked) to dir/.resume/NAME.view (temporary name, then rename; no
-// fsync: a cache). Throws fringe::Error on a write failure.
-void WriteViewCheckpoint(const std::filesystem::path& dir, const std::string& key,
+// fsync: a cache) and returns the bytes written. Throws fringe::Error on a write failure.
+uint64_t WriteViewCheckpoint(const std::filesystem::path& dir, const std::string& key,
                          const ViewResult& v);
 
 // The checkpoint of view `name` in dir/.resume when it exists, is whole (checksum) and has

@@ -14,6 +14,7 @@ packages=(
   libcli11-dev                          # command line
   nlohmann-json3-dev                    # JSON
   libyaml-cpp-dev libtinyxml2-dev       # untrusted YAML / XML calibration files (bounded parsers)
+  zlib1g-dev                            # the reports' 3D view: its arrays deflated
   libgtest-dev libgmock-dev             # tests
   libceres-dev                          # nonlinear least squares (calibration, marker adjustment)
   libopen3d-dev                         # FPFH + RANSAC coarse alignment, Poisson meshing; peer in benchmarks

@@ -1,7 +1,7 @@
-// The pieces of a self-contained report page (one HTML file, images embedded as base64 PNG data
-// URIs, no external URL): sections of text, tables, pictures and an interactive 3D view, and the
-// picture helpers that fill them: false-colour maps of per-pixel values with a colour bar legend
-// in their unit, and histograms. A page with a 3D view carries its one script, the bundled
+// The pieces of a self-contained report page (one HTML file, images embedded as base64 PNG or JPEG
+// data URIs, no external URL): sections of text, tables, pictures and an interactive 3D view, and
+// the picture helpers that fill them: false-colour maps of per-pixel values with a colour bar
+// legend in their unit, and histograms. A page with a 3D view carries its one script, the bundled
 // viewer of web/viewer/ (three.js, WebGL), embedded into this library at build time. The scan
 // report (pipeline/report.h, which adds renderings of meshes), the calibration report
 // (calib/diagnostics.h) and the check page (eval/check.h) are built from them.

@@ -6,6 +6,7 @@
 #include <cstring>
 #include <limits>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "fringe/testing/report.h"
 #include "fringe/util/files.h"
@@ -128,6 +129,50 @@ TEST(Report, HtmlIsSelfContainedAndEveryImageDecodes) {
   EXPECT_EQ(html.find("<img src=\"http"), std::string::npos);
 }
 
+// Noise-like colour maps (the pictures of measured data) go as JPEG when that halves the PNG,
+// close to the picture; flat plots stay PNG, exact.
+TEST(Report, NoisyPicturesAreJpegCloseToThePictureAndFlatOnesExactPng) {
+  // JPEG keeps what a reader sees, the map's local level (5 x 5 means), to a fraction of a DN;
+  // pixel by pixel it differs by about the noise (8 DN here), which it partly smooths away.
+  constexpr double kMaxLocalMeanDn = 1;
+  constexpr double kMaxPixelDn = 8;
+  cv::Mat noisy(200, 240, CV_8UC3), flat(200, 240, CV_8UC3, cv::Scalar(255, 255, 255));
+  cv::RNG rng(7);
+  for (int r = 0; r < noisy.rows; ++r) {
+    for (int c = 0; c < noisy.cols; ++c) {
+      const double v = 128 + 60 * std::sin(c * 0.05) + rng.gaussian(8);
+      noisy.at<cv::Vec3b>(r, c) =
+          cv::Vec3b(cv::saturate_cast<uint8_t>(v), cv::saturate_cast<uint8_t>(255 - v),
+                    cv::saturate_cast<uint8_t>(0.5 * v));
+    }
+  }
+  cv::rectangle(flat, {20, 20}, {120, 150}, cv::Scalar(200, 30, 30), cv::FILLED);
+  Report r;
+  ReportSection s;
+  s.images.push_back({"noisy", noisy});
+  s.images.push_back({"flat", flat});
+  r.sections.push_back(s);
+  const std::string html = r.ToHtml();
+  EXPECT_NE(html.find("<img src=\"data:image/jpeg;base64,"), std::string::npos);
+  EXPECT_NE(html.find("<img src=\"data:image/png;base64,"), std::string::npos);
+  int sources = 0;
+  const std::vector<cv::Mat> images = testing::EmbeddedImages(html, &sources);
+  ASSERT_EQ(images.size(), 2u);
+  ASSERT_EQ(images[0].size(), noisy.size());
+  const auto mean_abs_dn = [](const cv::Mat& a, const cv::Mat& b) {
+    cv::Mat diff;
+    cv::absdiff(a, b, diff);
+    const cv::Scalar m = cv::mean(diff);
+    return (m[0] + m[1] + m[2]) / 3;
+  };
+  cv::Mat local_jpeg, local_noisy;
+  cv::blur(images[0], local_jpeg, {5, 5});
+  cv::blur(noisy, local_noisy, {5, 5});
+  EXPECT_LT(mean_abs_dn(local_jpeg, local_noisy), kMaxLocalMeanDn);
+  EXPECT_LT(mean_abs_dn(images[0], noisy), kMaxPixelDn);
+  EXPECT_EQ(cv::norm(images[1], flat, cv::NORM_INF), 0);
+}
+
 TEST(Report, SceneIsEmbeddedAsJsonAndOneBase64BlockWithTheViewerScript) {
   ReportScene scene;
   scene.description["title"] = "a </script><!-- b";
@@ -160,11 +205,12 @@ TEST(Report, SceneIsEmbeddedAsJsonAndOneBase64BlockWithTheViewerScript) {
   const size_t begin = html.find(open) + open.size(), end = html.find("</script>", begin);
   ASSERT_NE(html.find(open), std::string::npos);
   EXPECT_EQ(nlohmann::json::parse(html.substr(begin, end - begin)), scene.description);
-  // The arrays decode to the block.
-  const std::string open_arrays =
-      "<script type=\"application/octet-stream\" id=\"fringe-scene-0-arrays\">";
-  const size_t b = html.find(open_arrays) + open_arrays.size(), e = html.find("</script>", b);
-  EXPECT_EQ(testing::DecodeBase64(html.substr(b, e - b)), scene.bytes());
+  // The arrays, deflated, inflate to the block (and the page states its size).
+  EXPECT_NE(html.find("<script type=\"application/octet-stream\" data-encoding=\"deflate\" "
+                      "data-bytes=\"" +
+                      std::to_string(scene.bytes().size()) + "\" id=\"fringe-scene-0-arrays\">"),
+            std::string::npos);
+  EXPECT_EQ(testing::EmbeddedSceneBytes(html), scene.bytes());
   // The container with its message for a browser without JavaScript, before the pictures; the
   // viewer script once, at the end; no external source.
   const size_t container = html.find("<div class=\"fringe-scene\" id=\"fringe-scene-0\">");

@@ -1,6 +1,8 @@
 // The scene a report embeds (docs/formats.md, "The report's 3D view"): a JSON description in
 // <script type="application/json" id="ID-description"> and the binary arrays it names, one
-// little-endian blob in base64 in <script type="application/octet-stream" id="ID-arrays">.
+// little-endian blob in <script type="application/octet-stream" id="ID-arrays">: base64 of the
+// blob deflated by zlib when the element says data-encoding="deflate" (with the blob's size in
+// data-bytes), of the blob itself without data-encoding.
 
 const kTypes = {
   float32: Float32Array,
@@ -37,15 +39,35 @@ export function base64ToBytes(text) {
   return out;
 }
 
+// The blob inflated by the browser's own zlib (DecompressionStream, in every browser since
+// 2023; no network: a stream over bytes in memory).
+async function inflate(bytes, expected, id) {
+  if (typeof DecompressionStream !== 'function') {
+    throw new Error('this browser cannot inflate the embedded scene (no DecompressionStream)');
+  }
+  const stream = new Blob([bytes]).stream().pipeThrough(new DecompressionStream('deflate'));
+  const out = new Uint8Array(await new Response(stream).arrayBuffer());
+  if (out.byteLength !== expected) {
+    throw new Error(`scene ${id}: the arrays inflate to ${out.byteLength} bytes, not ${expected}`);
+  }
+  return out;
+}
+
 // The description and its arrays (typed views on the decoded blob) of the scene whose
-// container is `element`. Throws when the page's scene is malformed.
-export function readScene(element) {
+// container is `element`. Rejects when the page's scene is malformed.
+export async function readScene(element) {
   const id = element.id;
   const descriptionElement = document.getElementById(`${id}-description`);
   const arraysElement = document.getElementById(`${id}-arrays`);
   if (!descriptionElement || !arraysElement) throw new Error(`scene ${id}: data missing`);
   const description = JSON.parse(descriptionElement.textContent);
-  const bytes = base64ToBytes(arraysElement.textContent);
+  let bytes = base64ToBytes(arraysElement.textContent);
+  const encoding = arraysElement.dataset.encoding;
+  if (encoding === 'deflate') {
+    bytes = await inflate(bytes, Number(arraysElement.dataset.bytes), id);
+  } else if (encoding !== undefined) {
+    throw new Error(`scene ${id}: unknown encoding ${encoding}`);
+  }
   const arrays = {};
   for (const [name, a] of Object.entries(description.arrays || {})) {
     const Type = kTypes[a.type];

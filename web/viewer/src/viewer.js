@@ -662,13 +662,14 @@ class FringeViewer {
   }
 }
 
-function start() {
+async function start() {
   const containers = document.querySelectorAll('.fringe-scene');
   if (!containers.length) return;
   const style = document.createElement('style');
   style.textContent = kStyle;
   document.head.appendChild(style);
-  window.fringeViewers = [];
+  // Published together once every scene is read (reading is asynchronous: the arrays inflate).
+  const viewers = [];
   const reason = webglUnavailableReason();
   for (const container of containers) {
     if (reason) {
@@ -681,11 +682,11 @@ function start() {
     }
     try {
       const t0 = performance.now();
-      const scene = readScene(container);
+      const scene = await readScene(container);
       const t1 = performance.now();
       const viewer = new FringeViewer(container, scene);
       viewer.timings = { start_ms: t0, read_ms: t1 - t0, build_ms: performance.now() - t1 };
-      window.fringeViewers.push(viewer);
+      viewers.push(viewer);
     } catch (e) {
       container.textContent = '';
       element('p', 'fv-message fv-failed', container,
@@ -694,7 +695,8 @@ function start() {
       console.error(e);
     }
   }
-  window.fringeViewer = window.fringeViewers[0] || null;
+  window.fringeViewers = viewers;
+  window.fringeViewer = viewers[0] || null;
   window.fringeViewerUnavailable = reason;
 }
 

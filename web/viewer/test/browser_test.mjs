@@ -10,6 +10,7 @@
 // FRINGE_REQUIRE_SHARED_DATA=1, where that fails).
 import { existsSync, readFileSync } from 'node:fs';
 import { join } from 'node:path';
+import { inflateSync } from 'node:zlib';
 
 const [testCase, dir] = process.argv.slice(2);
 const chromiumPath = process.env.FRINGE_CHROMIUM || '/usr/bin/chromium';
@@ -41,8 +42,10 @@ function check(ok, what) {
 function sceneOf(html) {
   const description = JSON.parse(
       html.match(/<script type="application\/json" id="fringe-scene-0-description">(.*?)<\/script>/s)[1]);
-  const b64 = html.match(/<script type="application\/octet-stream" id="fringe-scene-0-arrays">(.*?)<\/script>/s)[1];
-  const bytes = Buffer.from(b64, 'base64');
+  const [, stated, b64] = html.match(
+      /<script type="application\/octet-stream" data-encoding="deflate" data-bytes="(\d+)" id="fringe-scene-0-arrays">(.*?)<\/script>/s);
+  const bytes = inflateSync(Buffer.from(b64, 'base64'));
+  if (bytes.length !== Number(stated)) throw new Error(`the scene inflates to ${bytes.length} bytes, not ${stated}`);
   const types = { float32: Float32Array, uint32: Uint32Array, uint16: Uint16Array, uint8: Uint8Array };
   const arrays = {};
   for (const [name, a] of Object.entries(description.arrays)) {

@@ -32,7 +32,8 @@ import tempfile
 import time
 
 
-TIMING_KEYS = {"peak_mem_gib", "seconds", "time_s"}
+# checkpoint_mib: the --resume cache written, whose keys hold the output path and the options.
+TIMING_KEYS = {"peak_mem_gib", "seconds", "time_s", "checkpoint_mib"}
 
 
 def without_timings(value):

@@ -13,7 +13,8 @@ import fringe.batch
 from conftest import cli_path, run_cli
 
 # Figures that measure the run, not the result.
-TIMING_KEYS = {"peak_mem_gib", "seconds", "time_s"}
+# checkpoint_mib: the --resume cache written, whose keys hold the output path and the options.
+TIMING_KEYS = {"peak_mem_gib", "seconds", "time_s", "checkpoint_mib"}
 
 
 def without_timings(value):

@@ -32,6 +32,8 @@
 // --scan DIR reuses a scan folder simulated by an earlier run (--keep leaves it in WORK/scan)
 // instead of simulating again (simulate_s is then null).
 #include <CLI/CLI.hpp>
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
@@ -39,6 +41,7 @@
 
 #include "fringe/eval/deviation.h"
 #include "fringe/fusion/mesh.h"
+#include "fringe/geometry/point_index.h"
 #include "fringe/io/calibration_io.h"
 #include "fringe/io/json.h"
 #include "fringe/io/ply.h"
@@ -71,6 +74,10 @@ void MeshSweep(const fs::path& out, const fs::path& scan_dir,
   for (size_t i = 0; i < fused.size(); i += std::max<size_t>(1, fused.size() / 200000)) {
     measured.push_back(truth_from_world * fused.points[i]);
   }
+  // Every fused point in the truth's frame: how far each vertex is from the data it stands for.
+  std::vector<Eigen::Vector3d> all_measured(fused.size());
+  for (size_t i = 0; i < fused.size(); ++i) all_measured[i] = truth_from_world * fused.points[i];
+  const PointIndex support(std::move(all_measured));
   std::vector<std::pair<std::string, fusion::MeshOptions>> sweep;
   for (int depth : depths) {
     sweep.emplace_back("mesh_depth_" + std::to_string(depth), options);
@@ -93,6 +100,43 @@ void MeshSweep(const fs::path& out, const fs::path& scan_dir,
       const pipeline::MeshTruthFigures f = pipeline::CompareMeshWithTruth(m.mesh, measured, truth);
       e["rms_mm"] = f.vertices_rms_mm;
       e["truth_rms_mm"] = f.truth_rms_mm;
+      // Where the error is: the tail of |vertex - truth| (a few far vertices at the borders
+      // or a smooth bias everywhere).
+      std::vector<double> d;
+      for (double v : f.vertex_deviation_mm) {
+        if (std::isfinite(v)) d.push_back(std::abs(v));
+      }
+      std::sort(d.begin(), d.end());
+      // The squared deviation by the vertex's distance to the nearest fused point (in median
+      // point spacings): the share of the mean square from vertices Poisson put beyond the
+      // data (borders, bridged gaps) against those on it.
+      const double spacing = m.summary.spacing_mm;
+      const std::vector<double> edges = {0.5, 1, 2, 4};
+      std::vector<double> count(edges.size() + 1, 0), sum_sq(edges.size() + 1, 0);
+      for (size_t v = 0; v < m.mesh.vertices.size(); ++v) {
+        const double dev = f.vertex_deviation_mm[v];
+        if (!std::isfinite(dev)) continue;
+        const double nn = std::sqrt(support.Nearest(m.mesh.vertices[v]).second) / spacing;
+        const size_t b = std::upper_bound(edges.begin(), edges.end(), nn) - edges.begin();
+        count[b] += 1;
+        sum_sq[b] += dev * dev;
+      }
+      json by_support = json::array();
+      for (size_t b = 0; b < count.size(); ++b) {
+        by_support.push_back({{"below_spacings", b < edges.size() ? edges[b] : INFINITY},
+                              {"vertices", count[b]},
+                              {"rms_mm", count[b] > 0 ? std::sqrt(sum_sq[b] / count[b]) : 0.0},
+                              {"share_of_mean_square", sum_sq[b] / std::max(1e-300, [&] {
+                                                         double t = 0;
+                                                         for (double x : sum_sq) t += x;
+                                                         return t;
+                                                       }())}});
+      }
+      e["by_support"] = std::move(by_support);
+      for (const double q : {0.5, 0.9, 0.99, 0.999}) {
+        e[util::StrCat("abs_p", q * 100)] =
+            d.empty() ? 0.0 : d[static_cast<size_t>(q * static_cast<double>(d.size() - 1))];
+      }
     }
     util::LogInfo(key + ": " + e.dump());
     (*j)[key] = std::move(e);
@@ -140,6 +184,17 @@ int main(int argc, char** argv) {
   app.add_option("--poisson-pieces", options.mesh.poisson_pieces,
                  "Poisson in two pieces: 0 automatic, 1 never, 2 always (fusion::MeshOptions)")
       ->check(CLI::Range(0, 2));
+  app.add_flag(
+      "--no-mesh-projection", [&](int64_t) { options.mesh.project_to_points = false; },
+      "Leave Poisson's vertices where it put them (fusion::MeshOptions::project_to_points)");
+  app.add_option("--max-surface-cells", options.mesh.max_surface_cells,
+                 "Coarsest automatic Poisson cell: at most this many cells on the surface "
+                 "(0: no cap; fusion::MeshOptions)")
+      ->capture_default_str();
+  app.add_option("--trim-distance", options.mesh.trim_distance_factor,
+                 "Mesh vertices farther than this many point spacings from every point are "
+                 "trimmed (fusion::MeshOptions::trim_distance_factor)")
+      ->capture_default_str();
   std::vector<double> mesh_resolutions;
   app.add_option("--mesh-resolutions", mesh_resolutions,
                  "Mesh the scan's fused cloud again at these wanted resolutions (mm, automatic "

@@ -743,6 +743,11 @@ class MeshOptions:
     watertight: bool
     trim_density_quantile: float
     trim_distance_factor: float
+    max_surface_cells: int
+    project_to_points: bool
+    project_neighbours: int
+    max_project_flatness: float
+    max_project_spacings: float
     max_triangles: int
     threads: int
     poisson_pieces: int

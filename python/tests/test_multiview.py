@@ -11,7 +11,8 @@ import fringe
 from conftest import RIG_SCALE, SENSOR_NOISE_DN, run_cli
 
 TIMING_KEYS = {"seconds", "time_s", "poisson_s", "total_s", "prepare_s", "overlap_s", "candidates_s",
-               "cluster_s", "output_s", "spacing_s", "trim_s", "check_s"}
+               "cluster_s", "output_s", "spacing_s", "trim_s", "check_s",
+               "project_s"}
 # A coarse Poisson octree keeps the meshing to about a second (depth 10, the default, takes
 # ~35 s on these views on the 2-core CI machine).
 POISSON_DEPTH = 6
@@ -125,6 +126,9 @@ def test_fuse_and_mesh_equal_fringe_fuse(tmp_path, views, cli_registration):
     assert ours_mesh.pop("cell_mm") == pytest.approx(theirs_mesh.pop("cell_mm"), rel=1e-12)
     assert ours_mesh.pop("surface_cells") == pytest.approx(theirs_mesh.pop("surface_cells"),
                                                            rel=1e-9)
+    # The projection's RMS is summed over vertices whose moves carry that same last-bit difference.
+    assert ours_mesh.pop("projection_rms_mm") == pytest.approx(
+        theirs_mesh.pop("projection_rms_mm"), rel=1e-12)
     assert ours_mesh == theirs_mesh
     mesh_file = fringe.Mesh.load(tmp_path / "m.ply")
     np.testing.assert_array_equal(surface.mesh.triangles, mesh_file.triangles)

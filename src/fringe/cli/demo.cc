@@ -37,7 +37,7 @@ void AddDemoCommand(CLI::App& app) {
       ->capture_default_str();
   sub->add_option("--poisson-pieces", a->options.scan.mesh.poisson_pieces,
                   "Poisson in two pieces side by side, joined on a grid plane: 0 automatic "
-                  "(surfaces of 20,000 finest cells and more), 1 never, 2 always")
+                  "(surfaces of 200,000 finest cells and more), 1 never, 2 always")
       ->check(CLI::Range(0, 2))
       ->capture_default_str();
   sub->add_option("--tolerance", a->options.scan.tolerance_mm,

@@ -4,6 +4,8 @@
 #include <tbb/global_control.h>
 
 #include <cmath>
+#include <functional>
+#include <vector>
 
 #include "fringe/eval/deviation.h"
 #include "fringe/fusion/fuse.h"
@@ -300,7 +302,7 @@ TEST(Mesh, TwoPiecesJoinIntoOneSurfaceAsCloseToTheSphereAsOnePiece) {
 
 TEST(Mesh, TrimmingKeepsOnlyTheMeasuredPart) {
   // Half a sphere measured: the closing bubble over the other half must go.
-  constexpr double kMaxFromDataMm = 4 * 0.9;  // trim_distance_factor * ~spacing
+  const double kMaxFromDataMm = MeshOptions().trim_distance_factor * 0.9;  // ~spacing 0.9 mm
   const FusionResult& fused = FusedSphere();
   PointCloud half;
   for (size_t i = 0; i < fused.fused.size(); ++i) {
@@ -325,6 +327,50 @@ TEST(Mesh, TrimmingKeepsOnlyTheMeasuredPart) {
   }
   ASSERT_GT(inner.size(), vertices.size() / 2);
   EXPECT_LT(RadialErrorRmsMax(inner)[0], 0.05);
+}
+
+TEST(Mesh, ProjectionOntoThePointsMakesACoarseMeshAsAccurateAsItsCloud) {
+  // Cells of ~1 mm on a 30 mm sphere sampled at ~0.9 mm with 0.02 mm noise: Poisson alone lies
+  // off the sphere by its smoothing; each vertex projected onto the quadric of its nearest
+  // points is within the fused cloud's own error (the points' noise averaged, the curvature
+  // kept).
+  constexpr double kRatioTol = 1.2;  // vertices' radial RMS over the fused points'
+  const FusionResult& fused = FusedSphere();
+  MeshOptions options;
+  options.poisson_depth = 6;
+  options.watertight = true;
+  options.project_to_points = false;
+  const MeshResult poisson = MeshPoisson(fused.fused, options);
+  options.project_to_points = true;
+  const MeshResult projected = MeshPoisson(fused.fused, options);
+  SCOPED_TRACE(poisson.summary.BriefReport() + "\n" + projected.summary.BriefReport());
+  ASSERT_TRUE(poisson.summary.ok());
+  ASSERT_TRUE(projected.summary.ok());
+  EXPECT_EQ(poisson.summary.projected_vertices, 0);
+  EXPECT_GT(projected.summary.projected_vertices, projected.summary.vertices * 9 / 10);
+  EXPECT_TRUE(projected.summary.watertight);
+  EXPECT_EQ(InwardNormals(projected), 0);
+  const double cloud_rms = RadialErrorRmsMax(fused.fused)[0];
+  const double poisson_rms = RadialErrorRmsMax(VertexCloud(poisson))[0];
+  const double projected_rms = RadialErrorRmsMax(VertexCloud(projected))[0];
+  EXPECT_LT(projected_rms, poisson_rms);
+  EXPECT_LT(projected_rms, kRatioTol * cloud_rms)
+      << "cloud " << cloud_rms << ", Poisson " << poisson_rms << " mm";
+  // Moves are bounded by max_project_spacings point spacings.
+  EXPECT_LE(projected.summary.projection_max_mm,
+            options.max_project_spacings * projected.summary.spacing_mm + 1e-12);
+}
+
+TEST(Mesh, ProjectionOptionsAreChecked) {
+  for (const auto& bad : std::vector<std::function<void(MeshOptions*)>>{
+           [](MeshOptions* o) { o->project_neighbours = 3; },
+           [](MeshOptions* o) { o->max_project_flatness = 0; },
+           [](MeshOptions* o) { o->max_project_spacings = std::nan(""); },
+           [](MeshOptions* o) { o->max_surface_cells = 10; }}) {
+    MeshOptions o;
+    bad(&o);
+    EXPECT_THROW(o.Check(), Error);
+  }
 }
 
 TEST(Mesh, DecimationReportsItsDeviationAndFilesAreWritten) {

@@ -37,8 +37,8 @@ struct DemoOptions {
   // Measure with the true rig instead of the estimated calibration (shows what calibration
   // costs); the default uses the calibration estimated from the board images.
   bool use_true_calibration = false;
-  // The scanner's options (its mesh: Poisson depth 9, ~0.6 mm cells over the ~300 mm scene,
-  // from the half-size rig's ~0.4 mm point spacing and the scanner's 0.75 mm resolution).
+  // The scanner's options (its mesh: Poisson depth 9, ~0.8 mm cells over the ~300 mm scene,
+  // 2 point spacings of the half-size rig).
   ScanOptions scan;
 
   void Check() const;

@@ -119,15 +119,11 @@ struct ScanOptions {
   registration::MarkerDetectionOptions markers;
   registration::RegistrationOptions registration;
   fusion::FusionOptions fusion;  // registration_rms_mm is set from the registration's ICP RMS
-  // The mesh resolves 0.75 mm (fused.ply keeps every point): on the full-size demo scan Poisson
-  // depth 9 with 0.75 mm cells, in two pieces side by side (MeshOptions::poisson_pieces);
-  // mesh vertices to the truth 0.035 mm against 0.030 mm with 0.61 mm cells at 1.6 x the
-  // Poisson CPU time. 0 meshes as fine as the points allow.
-  fusion::MeshOptions mesh = [] {
-    fusion::MeshOptions o;
-    o.resolution_mm = 0.75;
-    return o;
-  }();
+  // The mesh follows the data: Poisson's cell is 2 point spacings, or coarser where the cloud
+  // would give more than MeshOptions::max_surface_cells cells (a dense real view), and every
+  // vertex is then projected onto the surface of its nearest points, which restores what the
+  // coarser cell smooths (fusion/mesh.h). fused.ply keeps every point.
+  fusion::MeshOptions mesh;
   // Compare with the scan folder's truth/ when it has one (simulated scans).
   bool evaluate_truth = true;
   bool write_report = true;  // OUT/report.html
@@ -197,7 +193,7 @@ struct ScanSummary {
   // upper bound of what they add to views_s) and the bytes written.
   double checkpoint_s = 0;
   double checkpoint_mib = 0;
-  int64_t points = 0;     // sum over the views that worked
+  int64_t points = 0;  // sum over the views that worked
   // Stage times. read_s, decode_s, reconstruct_s and markers_s are sums over views (several views
   // run at once, so they can exceed views_s, the wall time of the view stage); the others are wall.
   // mesh_s also covers what runs beside the one-threaded Poisson: writing fused.ply and

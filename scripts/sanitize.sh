@@ -3,9 +3,10 @@
 #
 #   scripts/sanitize.sh        every test: the unit tests of every module, the parsers' fuzz
 #                              corpora, the end-to-end tests (integration/, pipeline/, hostile/,
-#                              capture/), the installed package (install/) and the Python module
-#                              (python/: an ASan-built extension loaded by an uninstrumented python3,
-#                              so the sanitizer runtimes are preloaded into it, and CPython's own
+#                              capture/: without the exit-time leak check, see below), the
+#                              installed package (install/) and the Python module (python/: an
+#                              ASan-built extension loaded by an uninstrumented python3, so the
+#                              sanitizer runtimes are preloaded into it, and CPython's own
 #                              allocations alive at its exit are not reported as leaks).
 #   scripts/sanitize.sh --ci   the subset run by the README's test command (so by CI): the modules
 #                              that read untrusted bytes (util, io, phase — the scheme manifests —
@@ -32,10 +33,21 @@ if [ "${1:-}" = "--ci" ]; then
   ctest --test-dir "$build" -j2 --output-on-failure \
     -R '^(util|io|phase|scan)/|^fuzz/Replay(ply|json|opencv|image|names|mesh)$'
 else
+  # Every part runs even when an earlier one fails, so one failure does not hide the others.
+  rc=0
   cmake --build "$build" -j2
-  ctest --test-dir "$build" -j2 --output-on-failure -E '^python/'
+  ctest --test-dir "$build" -j2 --output-on-failure -E '^(python|capture)/' || rc=1
+  # capture/ opens an SDL2 window and X11 displays (Xvfb). Their stack leaks at exit: 1032 bytes
+  # allocated in libdbus-1 and 2 x 56 bytes in a library SDL has already unloaded, which LSan
+  # cannot name, so no suppression can match them (scripts/sanitize.sh full run, 2026-12-06: the
+  # 14 capture tests each passed and then failed on these leaks; no frame of fringe's code was in
+  # any of the stacks). These tests keep ASan's memory errors and UBSan, without the exit-time
+  # leak check.
+  ASAN_OPTIONS=detect_leaks=0:abort_on_error=1 \
+    ctest --test-dir "$build" -j2 --output-on-failure -R '^capture/' || rc=1
   cxx=$(sed -n 's/^CMAKE_CXX_COMPILER:[A-Z]*=//p' "$build/CMakeCache.txt")
   LD_PRELOAD="$("$cxx" -print-file-name=libasan.so) $("$cxx" -print-file-name=libubsan.so)" \
     ASAN_OPTIONS=detect_leaks=0:abort_on_error=1 \
-    ctest --test-dir "$build" -j2 --output-on-failure -R '^python/'
+    ctest --test-dir "$build" -j2 --output-on-failure -R '^python/' || rc=1
+  exit $rc
 fi

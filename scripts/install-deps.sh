@@ -19,6 +19,7 @@ packages=(
   libceres-dev                          # nonlinear least squares (calibration, marker adjustment)
   libopen3d-dev                         # FPFH + RANSAC coarse alignment, Poisson meshing; peer in benchmarks
   libcgal-dev                           # meshing alternative measured against Open3D
+  libmeshoptimizer-dev                  # the reports' 3D view: fast mesh decimation
   pybind11-dev python3-pybind11 python3-dev python3-numpy python3-pytest   # Python module
   python3-distributed                   # fringe.batch: scan folders as tasks on a Dask cluster
   libaravis-dev                         # capture: GenICam cameras (GigE Vision, USB3 Vision)

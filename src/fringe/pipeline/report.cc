@@ -285,7 +285,8 @@ ReportScene ScanScene(const ScanSceneInput& in, const ScanSceneOptions& options)
   }
 
   if (has_mesh) {
-    const TriangleMesh shown = fusion::DecimateMesh(*in.mesh, options.max_triangles);
+    std::vector<int64_t> source;  // per shown vertex: the vertex of the full mesh it is
+    const TriangleMesh shown = fusion::DecimateMesh(*in.mesh, options.max_triangles, &source);
     const size_t n = shown.vertices.size();
     std::vector<uint32_t> indices;
     indices.reserve(3 * shown.triangles.size());
@@ -299,17 +300,12 @@ ReportScene ScanScene(const ScanSceneInput& in, const ScanSceneOptions& options)
                            {"vertices", n},
                            {"triangles", shown.triangles.size()},
                            {"full_triangles", in.mesh->triangles.size()}};
-    const bool decimated = shown.triangles.size() != in.mesh->triangles.size();
     if (in.mesh_deviation_mm && !in.mesh_deviation_mm->empty()) {
-      // Deviation: that of the nearest vertex of the full mesh (the same vertex when not
-      // decimated).
+      // Deviation: that of the same vertex of the full mesh (decimation keeps vertices).
       std::vector<float> deviation(n);
-      std::unique_ptr<PointIndex> full;
-      if (decimated) full = std::make_unique<PointIndex>(in.mesh->vertices);
-      tbb::parallel_for(size_t{0}, n, [&](size_t v) {
-        const size_t j = full ? full->Nearest(shown.vertices[v]).first : v;
-        deviation[v] = static_cast<float>((*in.mesh_deviation_mm)[j]);
-      });
+      for (size_t v = 0; v < n; ++v) {
+        deviation[v] = static_cast<float>((*in.mesh_deviation_mm)[size_t(source[v])]);
+      }
       scene.AddArray("mesh.deviation", deviation);
     }
     if (point_index) {

@@ -116,8 +116,8 @@ struct ScanSceneOptions {
 };
 
 // The 3D view of a scan: the description and arrays io::ReportScene embeds (docs/formats.md,
-// "The report's 3D view"). A decimated mesh's vertices take the deviation of the nearest
-// vertex of `mesh`, and every vertex the view, support and quality of the nearest fused point.
+// "The report's 3D view"). A decimated mesh's vertices are vertices of `mesh` and keep their
+// deviation; every vertex takes the view, support and quality of the nearest fused point.
 // Throws fringe::Error for bad options or per-vertex / per-point arrays of the wrong size.
 ReportScene ScanScene(const ScanSceneInput& input, const ScanSceneOptions& options = {});
 

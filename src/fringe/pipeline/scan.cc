@@ -253,29 +253,14 @@ cv::Mat TextureWithMarkers(const cv::Mat& texture_left,
   return colour;
 }
 
-// The absolute phase of the left camera for the report, decoded from the stack shrunk to the
-// picture's width (area averaging): the reconstruction drops its full-size phase maps, and
-// decoding a 480-pixel-wide copy costs a few milliseconds. Phase unwrapping is per pixel, so the
-// picture shows the same absolute phase, slightly smoothed.
-ReportImage PhasePicture(const std::string& name, const std::vector<cv::Mat>& left,
-                         const phase::PatternScheme& scheme, const phase::DecodeOptions& decode,
-                         int max_width_px) {
-  const double scale = std::min(1.0, double(max_width_px) / left.front().cols);
-  std::vector<cv::Mat> small(left.size());
-  for (size_t i = 0; i < left.size(); ++i) {
-    if (scale < 1) {
-      cv::resize(left[i], small[i], cv::Size(), scale, scale, cv::INTER_AREA);
-    } else {
-      small[i] = left[i];
-    }
-  }
-  const phase::DecodeResult d = phase::Decode(scheme, small, decode);
-  const auto range = DisplayRange(d.absolute_phase, 0.0);
-  return {
-      StrCat("view ", name, ": absolute phase of the left camera (projector column), decoded at ",
-             small.front().cols, " x ", small.front().rows, " px for this picture"),
-      ColourMapWithBar(d.absolute_phase, range[0], range[1], "absolute phase, projector px",
-                       max_width_px)};
+// The absolute phase of the left camera for the report: the reconstruction's own phase map
+// (ViewReconstruction::phase_left), shrunk to the picture's width as the other maps are (the
+// mean of the decoded pixels of each picture pixel, grey where fewer than half were decoded).
+ReportImage PhasePicture(const std::string& name, const cv::Mat& phase_left, int max_width_px) {
+  const auto range = DisplayRange(phase_left, 0.0);
+  return {StrCat("view ", name, ": absolute phase of the left camera (projector column)"),
+          ColourMapWithBar(phase_left, range[0], range[1], "absolute phase, projector px",
+                           max_width_px)};
 }
 
 std::vector<ReportImage> ViewPictures(const std::string& name, const OrganizedPointCloud& cloud) {
@@ -364,9 +349,7 @@ ViewResult ProcessView(const scan::ScanFolder& folder, const std::string& name,
     stereo::ViewReconstruction rec = folder.stereo() ? reconstructor.Reconstruct(left, right)
                                                      : reconstructor.Reconstruct(one_camera);
     if (rec.summary.ok() && options.write_report) {
-      v.pictures.push_back(PhasePicture(name,
-                                        folder.stereo() ? left.front() : one_camera.left.front(),
-                                        scheme, options.reconstruction.decode, kPictureWidthPx));
+      v.pictures.push_back(PhasePicture(name, rec.phase_left, kPictureWidthPx));
     }
     left.clear();
     right.clear();

@@ -262,6 +262,8 @@ const char* ToString(RefineStatus s) {
       return "not determined";
     case RefineStatus::kFailed:
       return "failed";
+    case RefineStatus::kNotSignificant:
+      return "not significant";
   }
   return "?";
 }
@@ -277,6 +279,11 @@ void RigRefinementOptions::Check() const {
               "must be > 0");
   CheckOption(max_translation_sigma_mm > 0, o, "max_translation_sigma_mm", max_translation_sigma_mm,
               "must be > 0");
+  CheckOption(min_change_sigmas > 0, o, "min_change_sigmas", min_change_sigmas, "must be > 0");
+  CheckOption(min_evidence_ratio > 0 && min_evidence_ratio <= 1, o, "min_evidence_ratio",
+              min_evidence_ratio, "must be in (0, 1]");
+  CheckOption(settle_sigmas > 0, o, "settle_sigmas", settle_sigmas, "must be > 0");
+  CheckOption(max_rounds >= 1, o, "max_rounds", max_rounds, "must be >= 1");
   CheckOption(max_focal_sigma_fraction > 0, o, "max_focal_sigma_fraction", max_focal_sigma_fraction,
               "must be > 0");
   solve.Check();
@@ -329,6 +336,7 @@ nlohmann::json RigRefinementSummary::ToJson() const {
           {"projector_rotation_change_deg", projector_rotation_change_deg},
           {"baseline_before_mm", baseline_before_mm},
           {"baseline_after_mm", baseline_after_mm},
+          {"solve_rounds", solve_rounds},
           {"solver", solve.BriefReport()}};
 }
 
@@ -498,9 +506,6 @@ RigRefinement RefineRig(const StereoRig& rig, const RigRefinementData& data,
     restore();
     return out;
   }
-  s.right_phase_rms_after_px = GroupRms(&problem, right_phase_ids, options.phase_sigma_px);
-  s.projector_rms_after_px = GroupRms(&problem, projector_ids, options.phase_sigma_px);
-
   // Uncertainties, and whether the data determine what was refined.
   std::vector<const double*> blocks = {left.data(),    right.data(),  right_w.data(),
                                        right_t.data(), proj_w.data(), proj_t.data()};
@@ -512,7 +517,58 @@ RigRefinement RefineRig(const StereoRig& rig, const RigRefinementData& data,
   for (Eigen::Vector3d& p : points) point_blocks.push_back(p.data());
   for (Eigen::Vector3d& p : markers) point_blocks.push_back(p.data());
   std::vector<std::vector<double>> sd;
-  const bool have_sd = RigStandardDeviations(&problem, present, point_blocks, &sd);
+  bool have_sd = RigStandardDeviations(&problem, present, point_blocks, &sd);
+  // Further rounds until one moves no free rig coordinate by more than settle_sigmas of its
+  // sigma (header: Ceres' tolerance stops in the pitch / vertical-shift valley of one view).
+  const auto snapshot = [&] {
+    std::vector<double> v;
+    for (const double* b : present) {
+      const int n = problem.ParameterBlockSize(const_cast<double*>(b));
+      v.insert(v.end(), b, b + n);
+    }
+    return v;
+  };
+  const auto largest_move_in_sigmas = [&](const std::vector<double>& a,
+                                          const std::vector<double>& b) {
+    double worst = 0;
+    size_t k = 0;
+    for (size_t i = 0; i < present.size(); ++i) {
+      for (double sigma : sd[i]) {
+        const double d = std::abs(a[k] - b[k]);
+        ++k;
+        if (sigma > 0 && std::isfinite(sigma)) worst = std::max(worst, d / sigma);
+      }
+    }
+    return worst;
+  };
+  int rounds = 1;
+  bool settled = options.max_rounds == 1;  // one round: nothing to compare it with
+  while (have_sd && s.solve.converged()) {
+    if (rounds >= options.max_rounds) break;
+    const std::vector<double> before = snapshot();
+    const SolveReport again = Solve(options.solve, &problem);
+    ++rounds;
+    s.solve.termination = again.termination;
+    s.solve.message = again.message;
+    s.solve.iterations += again.iterations;
+    s.solve.final_cost = again.final_cost;
+    if (!again.converged()) break;
+    const double moved = largest_move_in_sigmas(before, snapshot());
+    have_sd = RigStandardDeviations(&problem, present, point_blocks, &sd);
+    if (moved < options.settle_sigmas) {
+      settled = true;
+      break;
+    }
+  }
+  s.solve_rounds = rounds;
+  if (!s.solve.converged() && s.solve.termination != ceres::NO_CONVERGENCE) {
+    s.status = RefineStatus::kFailed;
+    s.message = "the solver failed: " + s.solve.BriefReport() + "; the rig is unchanged";
+    restore();
+    return out;
+  }
+  s.right_phase_rms_after_px = GroupRms(&problem, right_phase_ids, options.phase_sigma_px);
+  s.projector_rms_after_px = GroupRms(&problem, projector_ids, options.phase_sigma_px);
   const auto sigma_of = [&](const double* block, int k) {
     for (size_t i = 0; i < present.size(); ++i) {
       if (present[i] == block) return sd[i][static_cast<size_t>(k)];
@@ -520,10 +576,16 @@ RigRefinement RefineRig(const StereoRig& rig, const RigRefinementData& data,
     return 0.0;
   };
   std::vector<std::string> undetermined;
+  double largest_change_sigmas = 0;
+  std::string largest_change;
   const auto add = [&](const std::string& name, const std::string& unit, double before,
                        double after, double sigma, double limit) {
     s.parameters.push_back({name, unit, before, after, sigma});
     if (!(sigma <= limit)) undetermined.push_back(StrCat(name, " (sigma ", sigma, " ", unit, ")"));
+    if (sigma > 0 && std::abs(after - before) / sigma > largest_change_sigmas) {
+      largest_change_sigmas = std::abs(after - before) / sigma;
+      largest_change = name;
+    }
   };
   const char* axis[3] = {"x", "y", "z"};
   if (has_right) {
@@ -563,12 +625,15 @@ RigRefinement RefineRig(const StereoRig& rig, const RigRefinementData& data,
     restore();
     return out;
   }
-  if (!undetermined.empty() || !s.solve.converged()) {
+  if (!undetermined.empty() || !s.solve.converged() || !settled) {
     s.status = RefineStatus::kNotDetermined;
     s.message = "the data do not determine ";
     for (size_t i = 0; i < undetermined.size(); ++i) s.message += (i ? ", " : "") + undetermined[i];
-    if (undetermined.empty()) {
+    if (undetermined.empty() && !s.solve.converged()) {
       s.message += "the rig (the solver did not converge: " + s.solve.BriefReport() + ")";
+    } else if (undetermined.empty()) {
+      s.message += StrCat("the rig (after ", rounds, " solve rounds it still moved by more than ",
+                          options.settle_sigmas, " of its standard deviations)");
     }
     s.message += "; the rig is unchanged";
     restore();
@@ -580,6 +645,39 @@ RigRefinement RefineRig(const StereoRig& rig, const RigRefinementData& data,
   SetIntrinsicsFromBlock(right.data(), &refined.right);
   refined.right_from_left = FromBlocks(right_w.data(), right_t.data());
   if (rig.projector) refined.projector_from_left = FromBlocks(proj_w.data(), proj_t.data());
+  // Something measurable gained? A change significant against the bundle's own uncertainty,
+  // and evidence that improved.
+  s.marker_epipolar_rms_after_px = MarkerEpipolarRms(refined, data.markers);
+  std::vector<std::string> worse;
+  bool better = false;
+  for (const auto& [name, before, after] :
+       {std::tuple{"markers' epipolar RMS", s.marker_epipolar_rms_before_px,
+                   s.marker_epipolar_rms_after_px},
+        std::tuple{"right-phase RMS", s.right_phase_rms_before_px, s.right_phase_rms_after_px},
+        std::tuple{"projector column RMS", s.projector_rms_before_px, s.projector_rms_after_px}}) {
+    if (!std::isfinite(before) || !std::isfinite(after)) continue;
+    if (after > before)
+      worse.push_back(StrCat(name, " ", Fixed(before, 4), " -> ", Fixed(after, 4), " px"));
+    if (after < options.min_evidence_ratio * before) better = true;
+  }
+  if (largest_change_sigmas <= options.min_change_sigmas || !worse.empty() || !better) {
+    s.status = RefineStatus::kNotSignificant;
+    if (largest_change_sigmas <= options.min_change_sigmas) {
+      s.message = StrCat("no significant change: the largest, ", largest_change, ", moved by ",
+                         Fixed(largest_change_sigmas, 2), " of its standard deviations (at least ",
+                         options.min_change_sigmas, " needed)");
+    } else if (!worse.empty()) {
+      s.message = "the evidence got worse: ";
+      for (size_t i = 0; i < worse.size(); ++i) s.message += (i ? ", " : "") + worse[i];
+    } else {
+      s.message = StrCat("the evidence did not improve (no residual RMS fell below ",
+                         options.min_evidence_ratio, " of its initial value)");
+    }
+    s.message += "; the rig is unchanged";
+    s.marker_epipolar_rms_after_px = s.marker_epipolar_rms_before_px;
+    restore();
+    return out;
+  }
   s.status = RefineStatus::kOk;
   s.right_rotation_change_deg =
       refined.right_from_left.rotation().angularDistance(rig.right_from_left.rotation()) * kDeg;

@@ -35,8 +35,13 @@
 // spread in depth decides it.
 //
 // A result is accepted only when the data determine it: every refined parameter's standard
-// deviation (ceres::Covariance, calib/bundle.h) must be below the options' limits, else the
-// status is kNotDetermined naming the parameter, and the rig is returned unchanged.
+// deviation (Schur complement of the points, below) must be below the options' limits, else the
+// status is kNotDetermined naming the parameter, and the rig is returned unchanged. The solve is
+// repeated until it settles (a round moves no parameter by more than settle_sigmas of its sigma):
+// Ceres' function tolerance alone stopped a one-view bundle 10 sigmas short of its optimum. And
+// it is accepted only when it gained something measurable: a change significant against its own
+// uncertainty (min_change_sigmas) and residuals that improved (min_evidence_ratio); else
+// kNotSignificant, the rig unchanged.
 //
 // Thread safety: reentrant. Deterministic (Ceres single-threaded, bundle.h).
 #pragma once
@@ -95,6 +100,18 @@ struct RigRefinementOptions {
   double max_rotation_sigma_deg = 0.01;     // > 0
   double max_translation_sigma_mm = 0.2;    // > 0
   double max_focal_sigma_fraction = 0.005;  // of the focal length, > 0
+  // Acceptance: the change must be significant against the bundle's own uncertainty (some
+  // refined parameter moved by more than this many of its standard deviations), > 0 ...
+  double min_change_sigmas = 3.0;
+  // ... and the evidence must improve: every residual kind present ends no higher than it began
+  // and one of them ends below this fraction of its initial RMS, in (0, 1].
+  double min_evidence_ratio = 0.9;
+  // Solve rounds: a one-view bundle stops (function tolerance) in the shallow valley where a
+  // pitch of the right camera trades against its vertical shift, several of its own sigmas from
+  // the optimum; the solve is restarted until a round moves every refined parameter by less
+  // than settle_sigmas of its standard deviation, at most max_rounds times (else kNotDetermined).
+  double settle_sigmas = 0.1;  // > 0
+  int max_rounds = 10;         // >= 1
   // The cost creeps down for many iterations once the rig is found (thousands of points each
   // settling on its interpolated phase); a relative change of 1e-6 per iteration moves the rig by
   // far less than its sigma (the half-size test scan converges in ~40 iterations).
@@ -112,6 +129,10 @@ enum class RefineStatus {
   kNoEvidence,     // nothing redundant constrains the rig (no markers, no calibrated projector)
   kNotDetermined,  // the data leave a refined parameter undetermined (one flat view, ...)
   kFailed,         // the solver failed
+  // The solution differs from the input rig by no more than its own uncertainty, or the
+  // evidence (epipolar, right-phase, projector residuals) did not improve: nothing measurable
+  // was gained, the rig is left as it was.
+  kNotSignificant,
 };
 const char* ToString(RefineStatus s);
 
@@ -140,6 +161,7 @@ struct RigRefinementSummary {
   // Rotation of the right camera (and projector) between the input and the refined rig, deg.
   double right_rotation_change_deg = 0, projector_rotation_change_deg = 0;
   double baseline_before_mm = 0, baseline_after_mm = 0;
+  int solve_rounds = 0;  // Ceres solves until the rig settled (RigRefinementOptions::max_rounds)
   SolveReport solve;
   bool ok() const { return status == RefineStatus::kOk; }
   std::string BriefReport() const;

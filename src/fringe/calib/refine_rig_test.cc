@@ -156,6 +156,34 @@ TEST(RefineRig, RecoversADriftedRightCamera) {
   EXPECT_LT(err, 5 * std::sqrt(3.0) * sigma_deg);
 }
 
+// A drift far below what the data resolve (0.0002 degrees about each axis against sigmas of
+// 0.0005-0.0009 degrees): the bundle moves the rig by its noise, not towards the truth, so the
+// change is not significant against its own uncertainty; the refinement says so and leaves the
+// rig as it was (it used to report ok and return the noise-moved rig).
+TEST(RefineRig, AChangeWithinItsOwnUncertaintyIsNotAccepted) {
+  const StereoRig truth = sim::ScaledRig(StereoRig::Reference(), 0.5);
+  const StereoRig drifted = Drifted(truth, 0.0002);
+  const RigRefinementData data = MakeData(truth, 3, 30, 300, false, 7);
+  RigRefinementOptions o;
+  o.scale = RefineScale::kProjector;
+  o.marker_sigma_px = kMarkerNoisePx;
+  o.phase_sigma_px = kPhaseNoisePx;
+  const RigRefinement r = RefineRig(drifted, data, o);
+  EXPECT_EQ(r.summary.status, RefineStatus::kNotSignificant) << r.summary.BriefReport();
+  EXPECT_FALSE(r.summary.ok());
+  EXPECT_NE(r.summary.message.find("no significant change"), std::string::npos)
+      << r.summary.message;
+  EXPECT_NE(r.summary.message.find("rig is unchanged"), std::string::npos);
+  EXPECT_EQ(r.rig.right_from_left.rotation().coeffs(), drifted.right_from_left.rotation().coeffs());
+  EXPECT_EQ(r.rig.right_from_left.translation(), drifted.right_from_left.translation());
+  // The same data with the 0.03 degree drift: significant, accepted, closer to the truth.
+  const StereoRig far = Drifted(truth, 0.03);
+  const RigRefinement f = RefineRig(far, data, o);
+  ASSERT_TRUE(f.summary.ok()) << f.summary.BriefReport();
+  EXPECT_GE(f.summary.solve_rounds, 2);
+  EXPECT_LT(AngleDeg(f.rig.right_from_left, truth.right_from_left), kMaxRotationErrDeg);
+}
+
 // One flat view with the intrinsics free: focal lengths and depth trade off on a plane; the
 // refinement says which parameters are not determined and leaves the rig as it was.
 TEST(RefineRig, OneFlatViewWithFreeIntrinsicsIsNotDetermined) {

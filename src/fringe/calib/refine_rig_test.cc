@@ -116,6 +116,15 @@ RigRefinementData MakeData(const StereoRig& truth, int views, int markers, int p
   return d;
 }
 
+// Options with the simulated noise stated and the given scale reference.
+RigRefinementOptions WithNoise(RefineScale scale) {
+  RigRefinementOptions o;
+  o.scale = scale;
+  o.marker_sigma_px = kMarkerNoisePx;
+  o.phase_sigma_px = kPhaseNoisePx;
+  return o;
+}
+
 TEST(RigRefinementOptions, DefaultsPassCheck) {
   EXPECT_NO_THROW(RigRefinementOptions().Check());
   RigRefinementOptions o;
@@ -131,10 +140,7 @@ TEST(RefineRig, RecoversADriftedRightCamera) {
   const StereoRig drifted = Drifted(truth, 0.03);
   ASSERT_GT(AngleDeg(drifted.right_from_left, truth.right_from_left), 0.05);
   const RigRefinementData data = MakeData(truth, 3, 30, 300, false, 7);
-  RigRefinementOptions o;
-  o.scale = RefineScale::kProjector;
-  o.marker_sigma_px = kMarkerNoisePx;
-  o.phase_sigma_px = kPhaseNoisePx;
+  const RigRefinementOptions o = WithNoise(RefineScale::kProjector);
   const RigRefinement r = RefineRig(drifted, data, o);
   ASSERT_TRUE(r.summary.ok()) << r.summary.BriefReport();
   const double err = AngleDeg(r.rig.right_from_left, truth.right_from_left);
@@ -164,10 +170,7 @@ TEST(RefineRig, AChangeWithinItsOwnUncertaintyIsNotAccepted) {
   const StereoRig truth = sim::ScaledRig(StereoRig::Reference(), 0.5);
   const StereoRig drifted = Drifted(truth, 0.0002);
   const RigRefinementData data = MakeData(truth, 3, 30, 300, false, 7);
-  RigRefinementOptions o;
-  o.scale = RefineScale::kProjector;
-  o.marker_sigma_px = kMarkerNoisePx;
-  o.phase_sigma_px = kPhaseNoisePx;
+  const RigRefinementOptions o = WithNoise(RefineScale::kProjector);
   const RigRefinement r = RefineRig(drifted, data, o);
   EXPECT_EQ(r.summary.status, RefineStatus::kNotSignificant) << r.summary.BriefReport();
   EXPECT_FALSE(r.summary.ok());
@@ -221,10 +224,7 @@ TEST(RefineRig, BaselineHeldRecoversTheOrientation) {
   const StereoRig truth = sim::ScaledRig(StereoRig::Reference(), 0.5);
   const StereoRig drifted = Drifted(truth, 0.03);
   const RigRefinementData data = MakeData(truth, 3, 30, 300, false, 7);
-  RigRefinementOptions o;
-  o.scale = RefineScale::kBaseline;
-  o.marker_sigma_px = kMarkerNoisePx;
-  o.phase_sigma_px = kPhaseNoisePx;
+  const RigRefinementOptions o = WithNoise(RefineScale::kBaseline);
   const RigRefinement r = RefineRig(drifted, data, o);
   ASSERT_TRUE(r.summary.ok()) << r.summary.BriefReport();
   EXPECT_EQ(r.summary.scale, RefineScale::kBaseline);

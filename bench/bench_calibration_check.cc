@@ -407,7 +407,7 @@ json Refinement(int views, double scale, int vdi_positions, double calibration_s
          with_refined.Reconstruct(images.left.images, images.right.images).cloud,
          scan.simulator().view_poses()[static_cast<size_t>(v)]});
   }
-  const eval::MeshDistance mesh(scan.simulator().scene().CombinedMesh());
+  const MeshIndex mesh(scan.simulator().scene().CombinedMesh());
   const auto fused_rms = [&](const std::vector<fusion::FusionView>& v) {
     const fusion::FusionResult f = fusion::FuseViews(v);
     return f.summary.has_output() ? eval::DeviationFromMesh(f.fused, mesh).rms_mm : NAN;

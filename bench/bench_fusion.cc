@@ -204,7 +204,7 @@ Stats StatsOf(const std::vector<double>& d_all) {
 }
 
 std::vector<double> Distances(const std::vector<Eigen::Vector3d>& pts,
-                              const eval::MeshDistance& m) {
+                              const MeshIndex& m) {
   std::vector<double> d(pts.size());
   tbb::parallel_for(size_t{0}, pts.size(),
                     [&](size_t i) { d[i] = m.SignedDistance(pts[i], kMaxDistanceMm); });
@@ -253,7 +253,7 @@ open3d::geometry::PointCloud ToOpen3d(const std::vector<fusion::FusionView>& vie
 // separately for points in overlaps and outside them (the latter pass through fusion). Prints
 // count, RMS and share of the total squared error per bin to stderr.
 void Diagnose(const std::vector<fusion::FusionView>& views, const fusion::FusionResult& fused,
-              const eval::MeshDistance& truth) {
+              const MeshIndex& truth) {
   struct Bin {
     int64_t n = 0;
     double sq = 0;
@@ -532,7 +532,7 @@ int main(int argc, char** argv) {
   int64_t input_points = 0;
   for (const auto& v : views) input_points += static_cast<int64_t>(v.cloud.NumValid());
 
-  const eval::MeshDistance truth(simulator.scene().CombinedMesh());
+  const MeshIndex truth(simulator.scene().CombinedMesh());
 
   // Ours.
   options.registration_rms_mm = registration_rms_mm;
@@ -757,7 +757,7 @@ int main(int argc, char** argv) {
         j[prefix + "rms_mm"] = StatsOf(Distances(m.mesh.vertices, truth)).rms;
         j[prefix + "watertight"] = m.summary.watertight;
         j[prefix + "triangles"] = m.summary.triangles;
-        const eval::MeshDistance surface(m.mesh);
+        const MeshIndex surface(m.mesh);
         j[prefix + "truth_rms_mm"] = StatsOf(Distances(truth_pts, surface)).rms;
       }
       return m;

@@ -69,7 +69,7 @@ void MeshSweep(const fs::path& out, const fs::path& scan_dir,
   // Meshed in the scan's world frame (Poisson's cube is the cloud's bounding box there, as in
   // the scan), compared in the truth's.
   const PointCloud fused = io::ReadPly(out / "fused.ply").cloud;
-  const eval::MeshDistance truth(scan::ScanFolder::Open(scan_dir).ReadTruthMesh());
+  const MeshIndex truth(scan::ScanFolder::Open(scan_dir).ReadTruthMesh());
   std::vector<Eigen::Vector3d> measured;
   for (size_t i = 0; i < fused.size(); i += std::max<size_t>(1, fused.size() / 200000)) {
     measured.push_back(truth_from_world * fused.points[i]);

@@ -367,7 +367,7 @@ DemoFigures MeasureDemoPart(const Context& ctx, const stereo::ViewReconstructor&
   const PointCloud demo_cloud = fig.rec.cloud.Compact();
   TriangleMesh mesh = demo.CombinedMesh();
   mesh.Transform(demo_pose.Inverse());
-  const eval::MeshDistance mesh_distance(std::move(mesh));
+  const MeshIndex mesh_distance(std::move(mesh));
   fig.dev = eval::DeviationFromMesh(demo_cloud, mesh_distance);
   int lit = 0, covered = 0;
   fig.truth = demo_view.left.truth;

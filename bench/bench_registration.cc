@@ -545,7 +545,7 @@ int Run(int argc, char** argv) {
 
     // Registered points against the truth mesh.
     const Rigid3d g = Gauge(final_est, truth, clouds, placed);
-    const eval::MeshDistance mesh(simulator.scene().CombinedMesh());
+    const MeshIndex mesh(simulator.scene().CombinedMesh());
     double ss = 0;
     int64_t n = 0;
     for (int v = 0; v < views_n; ++v) {

@@ -116,7 +116,7 @@ void BindEval(py::module_& m) {
         eval::DeviationStats stats;
         {
           py::gil_scoped_release release;
-          const eval::MeshDistance distance(std::move(reference));
+          const MeshIndex distance(std::move(reference));
           stats = eval::DeviationFromMesh(cloud, distance, opts, &signed_mm);
         }
         // Signed distances in the input's shape (NaN for empty slots and unmatched points).

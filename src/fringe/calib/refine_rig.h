@@ -1,4 +1,4 @@
-// Refinement of a stereo rig from a scan's own correspondences (issue 26, item 4): a Ceres
+// Refinement of a stereo rig from a scan's own correspondences: a Ceres
 // bundle over the views' points and markers, refining the right camera's pose (and, when the
 // projector is calibrated, the projector's) and optionally the cameras' focal lengths
 // and k1 k2. The views' data come from pipeline/refine.h; this file is the

@@ -157,7 +157,7 @@ void AddEvaluateCommand(CLI::App& app) {
       if (!a->pose.empty()) mesh_from_cloud = io::RigidFromJson(io::ReadJson(a->pose), a->pose);
       if (a->align) {
         if (!a->align_pairs.empty()) mesh_from_cloud = ReadAlignPairs(a->align_pairs);
-        const eval::MeshDistance reference(mesh);  // mesh frame
+        const MeshIndex reference(mesh);  // mesh frame
         const registration::MeshAlignResult r =
             registration::AlignToMesh(cloud, reference, mesh_from_cloud, a->align_options);
         j["align"] = registration::SummaryToJson(r);
@@ -170,7 +170,7 @@ void AddEvaluateCommand(CLI::App& app) {
       }
       // Move the mesh into the cloud's frame (keeps the cloud's grid for the colour map).
       if (!a->pose.empty() || a->align) mesh.Transform(mesh_from_cloud.Inverse());
-      const eval::MeshDistance distance(std::move(mesh));
+      const MeshIndex distance(std::move(mesh));
       std::vector<double> d;
       const eval::DeviationStats s = eval::DeviationFromMesh(cloud, distance, a->deviation, &d);
       j["truth"] = mesh_path.string();

@@ -1,15 +1,10 @@
 // Deviation of a measured cloud from a reference surface (a triangle mesh): signed point-to-
 // surface distances and their statistics, and a colour-map picture.
 //
-// Closest points come from an Embree BVH point query (rtcPointQuery) with an exact closest-
-// point-on-triangle test in double precision (Ericson, "Real-Time Collision Detection", 5.1.5).
-// The sign is that of (p - q) . n with n the angle-weighted pseudo-normal of the closest
-// feature (face, edge or vertex; Baerentzen & Aanaes, "Signed distance computation using the
-// angle weighted pseudonormal", IEEE TVCG 2005): positive outside (on the side the counter-
-// clockwise triangles face), negative inside, correct at edges and corners too.
+// Closest points and their signs come from fringe::MeshIndex (geometry/mesh_index.h: exact
+// closest point on the triangles, angle-weighted pseudo-normals; positive outside).
 //
-// Units: millimetres; cloud and mesh must be in the same frame. Thread safety: a MeshDistance
-// is immutable after construction and may be queried concurrently.
+// Units: millimetres; cloud and mesh must be in the same frame.
 #pragma once
 
 #include <Eigen/Core>
@@ -21,29 +16,11 @@
 #include <string>
 #include <vector>
 
+#include "fringe/geometry/mesh_index.h"
 #include "fringe/geometry/point_cloud.h"
 #include "fringe/geometry/triangle_mesh.h"
 
 namespace fringe::eval {
-
-class MeshDistance {
- public:
-  // Throws fringe::Error for an empty mesh, out-of-range indices or non-finite vertices. Only
-  // vertices and triangles are used (normals come from the triangle order).
-  explicit MeshDistance(TriangleMesh mesh);
-  ~MeshDistance();
-  MeshDistance(const MeshDistance&) = delete;
-  MeshDistance& operator=(const MeshDistance&) = delete;
-
-  // Signed distance of p to the surface (mm); the closest surface point in *closest when given.
-  // NaN when no surface point is within max_distance_mm.
-  double SignedDistance(const Eigen::Vector3d& p, double max_distance_mm = 1e30,
-                        Eigen::Vector3d* closest = nullptr) const;
-
- private:
-  struct Impl;
-  std::unique_ptr<Impl> impl_;
-};
 
 struct DeviationOptions {
   // Points farther than this from the surface are counted as unmatched and left out of the
@@ -65,7 +42,7 @@ struct DeviationStats {
 nlohmann::json ToJson(const DeviationStats& s);
 
 // Signed distance of every point (NaN for unmatched and non-finite points) and the statistics.
-DeviationStats DeviationFromMesh(const PointCloud& cloud, const MeshDistance& mesh,
+DeviationStats DeviationFromMesh(const PointCloud& cloud, const MeshIndex& mesh,
                                  const DeviationOptions& options = {},
                                  std::vector<double>* signed_mm = nullptr);
 

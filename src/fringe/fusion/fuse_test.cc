@@ -7,7 +7,7 @@
 #include <cmath>
 #include <limits>
 
-#include "fringe/eval/deviation.h"
+#include "fringe/geometry/mesh_index.h"
 #include "fringe/sim/poses.h"
 #include "fringe/sim/renderer.h"
 #include "fringe/sim/scene.h"
@@ -159,7 +159,7 @@ TEST(Fusion, SharpEdgeStaysSharp) {
   const FusionResult r = FuseViews(views);
   SCOPED_TRACE(r.summary.BriefReport());
   ASSERT_EQ(r.summary.status, FusionStatus::kOk);
-  const eval::MeshDistance truth(box.mesh);
+  const MeshIndex truth(box.mesh);
   auto near_edge = [&](const Eigen::Vector3d& p) {
     return std::hypot(p.x() - 40, p.z()) < kEdgeBandMm && std::abs(p.y()) < 30;
   };
@@ -226,7 +226,7 @@ TEST(Fusion, SingleCoveragePointsAreSmoothedAlongTheirNormalOnly) {
   // of the normal).
   constexpr double kNoiseTolerance = 0.2;
   EXPECT_NEAR(r.summary.single_coverage_noise_mm, kNoiseMm, kNoiseTolerance * kNoiseMm);
-  const eval::MeshDistance truth(sim::MakePlaneScene(1000).CombinedMesh());
+  const MeshIndex truth(sim::MakePlaneScene(1000).CombinedMesh());
   std::vector<double> before, after;
   size_t k = 0;
   for (const FusionView& v : views) {

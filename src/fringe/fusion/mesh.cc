@@ -17,7 +17,7 @@
 #include <memory>
 #include <tuple>
 
-#include "fringe/eval/deviation.h"
+#include "fringe/geometry/mesh_index.h"
 #include "fringe/fusion/mesh_cgal.h"
 #include "fringe/geometry/point_index.h"
 #include "fringe/io/mesh_io.h"
@@ -679,7 +679,7 @@ MeshResult MeshPoisson(const PointCloud& cloud, const MeshOptions& options) {
       TriangleMesh decimated_mesh;
       decimated_mesh.vertices = decimated->vertices_;
       decimated_mesh.triangles = Triangles(*decimated);
-      const eval::MeshDistance surface(std::move(decimated_mesh));
+      const MeshIndex surface(std::move(decimated_mesh));
       std::vector<double> d(mesh->vertices_.size());
       tbb::parallel_for(size_t{0}, d.size(), [&](size_t v) {
         d[v] = std::abs(surface.SignedDistance(mesh->vertices_[v]));

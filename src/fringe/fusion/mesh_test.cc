@@ -7,7 +7,7 @@
 #include <functional>
 #include <vector>
 
-#include "fringe/eval/deviation.h"
+#include "fringe/geometry/mesh_index.h"
 #include "fringe/fusion/fuse.h"
 #include "fringe/io/mesh_io.h"
 #include "fringe/sim/poses.h"
@@ -153,7 +153,7 @@ TEST(Mesh, WatertightClosesTheMeshOfAnOpenScan) {
   EXPECT_EQ(m.summary.non_manifold_vertices, 0);
   // Closing adds surface and changes none: every vertex of the trimmed mesh (the measured
   // part) lies on the closed one.
-  const eval::MeshDistance closed(m.mesh);
+  const MeshIndex closed(m.mesh);
   double max_off_mm = 0;
   for (const auto& p : open.mesh.vertices) {
     max_off_mm = std::max(max_off_mm, std::abs(closed.SignedDistance(p)));

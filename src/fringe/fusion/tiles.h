@@ -1,4 +1,4 @@
-// Fusion in spatial tiles, for scans whose views do not fit in memory together (issue 32).
+// Fusion in spatial tiles, for scans whose views do not fit in memory together.
 //
 // The registered bounding box of all views is cut into cubic tiles of tile_size_mm. Each tile
 // is fused on its own (FuseViews) from the parts of the views that reach its core plus a margin

@@ -11,6 +11,7 @@
 
 #include "fringe/io/json.h"
 #include "fringe/util/error.h"
+#include "fringe/util/files.h"
 #include "fringe_test.h"
 
 namespace fringe::pipeline {
@@ -45,9 +46,21 @@ TEST(Demo, WholeScannerMeetsAccuracyTargets) {
   EXPECT_LT(std::abs(s.PS_mm), kMaxSizeErrorMm);
   EXPECT_LT(std::abs(s.SD_mm), kMaxSizeErrorMm);
   for (const char* f : {"report.json", "report.txt", "vdi_artefacts.ply", "scan/report.html",
-                        "scan/mesh.stl", "scan/fused.ply", "scan/poses.json"}) {
+                        "scan/mesh.stl", "scan/fused.ply", "scan/poses.json",
+                        "scan/calibration/report.html", "scan/calibration/summary.json"}) {
     EXPECT_TRUE(std::filesystem::exists(dir / "demo" / f)) << f;
   }
+  // The scan calibrated its rig from the board images: the calibration's own report is beside
+  // the scan's, which points to it, and its diagnostics are those `fringe calibrate` writes.
+  EXPECT_EQ(s.scan.calibration_report, "calibration/report.html");
+  EXPECT_NE(
+      util::ReadTextFile(dir / "demo" / "scan" / "report.html").find("calibration/report.html"),
+      std::string::npos);
+  const auto cal = io::ReadJson(dir / "demo" / "scan" / "calibration" / "summary.json");
+  EXPECT_TRUE(cal.contains("calibration") && cal.contains("diagnostics"));
+  const auto scan_summary = io::ReadJson(dir / "demo" / "scan" / "summary.json");
+  EXPECT_EQ(scan_summary.at("calibration_report").get<std::string>(), "calibration/report.html");
+  EXPECT_TRUE(scan_summary.at("calibration_warnings").is_array());
   // --json: every key the issue lists, as numbers.
   const auto j = io::ReadJson(dir / "demo" / "report.json");
   for (const char* key :

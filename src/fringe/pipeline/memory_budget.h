@@ -1,4 +1,4 @@
-// The scanner's memory budget (issue 32: scans larger than memory): what the stages need,
+// The scanner's memory budget: what the stages need,
 // estimated from the data's sizes, against ScanOptions::memory_limit_gib.
 //
 // What grows with the number of views and what does not:

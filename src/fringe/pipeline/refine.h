@@ -1,4 +1,4 @@
-// `fringe refine PROJECT --out RIG` and `fringe scan --refine` (issue 26, item 4): the rig refined
+// `fringe refine PROJECT --out RIG` and `fringe scan --refine`: the rig refined
 // from a scan's own data. Every view of the scan folder is decoded and reconstructed with the
 // given rig; its points (sampled on the left grid, each with its left phase and the right
 // camera's phase map) and its markers seen by both cameras (matched with a wider epipolar

@@ -9,15 +9,15 @@
 #include <tbb/parallel_for.h>
 
 #include "fringe/fusion/mesh.h"
+#include "fringe/geometry/mesh_index.h"
 #include "fringe/geometry/point_index.h"
-#include "fringe/sim/ray_caster.h"
-#include "fringe/sim/scene.h"
 #include "fringe/util/error.h"
 
 namespace fringe::pipeline {
 
 struct MeshRenderer::Impl {
-  std::unique_ptr<sim::RayCaster> caster;  // null for an empty mesh
+  // kHigh: a picture casts a ray per pixel, where spatial splits pay for their longer build.
+  std::unique_ptr<MeshIndex> caster;  // null for an empty mesh
   Eigen::Vector3d centre = Eigen::Vector3d::Zero();
   double radius = 1;
 };
@@ -25,15 +25,12 @@ struct MeshRenderer::Impl {
 MeshRenderer::MeshRenderer(const TriangleMesh& mesh)
     : mesh_(mesh), impl_(std::make_unique<Impl>()) {
   if (mesh.vertices.empty() || mesh.triangles.empty()) return;
-  sim::SceneObject object;
-  object.name = "mesh";
-  object.mesh.vertices = mesh.vertices;
-  object.mesh.triangles = mesh.triangles;
-  sim::Scene scene;
-  scene.AddObject(std::move(object));
-  impl_->caster = std::make_unique<sim::RayCaster>(scene);
+  TriangleMesh surface;
+  surface.vertices = mesh.vertices;
+  surface.triangles = mesh.triangles;
+  impl_->caster = std::make_unique<MeshIndex>(std::move(surface), BvhQuality::kHigh);
   Eigen::Vector3d lo, hi;
-  scene.Bounds(&lo, &hi);
+  mesh.Bounds(&lo, &hi);
   impl_->centre = 0.5 * (lo + hi);
   impl_->radius = std::max(1e-9, 0.5 * (hi - lo).norm());
 }
@@ -48,7 +45,7 @@ template <typename Paint>
 void MeshRenderer::Cast(const Eigen::Vector3d& view_dir, int width_px, int height_px,
                         Paint paint) const {
   if (!impl_->caster) return;
-  const sim::RayCaster& caster = *impl_->caster;
+  const MeshIndex& caster = *impl_->caster;
   const Eigen::Vector3d& centre = impl_->centre;
   const double radius = impl_->radius;
   // Camera frame: d forward, u right, v down (image rows), with the mesh frame's z up on the
@@ -78,7 +75,7 @@ void MeshRenderer::Cast(const Eigen::Vector3d& view_dir, int width_px, int heigh
 cv::Mat MeshRenderer::Render(const Eigen::Vector3d& view_dir, int width_px, int height_px) const {
   CV_Assert(width_px > 0 && height_px > 0);
   cv::Mat image(height_px, width_px, CV_8U, cv::Scalar(0));
-  Cast(view_dir, width_px, height_px, [&](int r, int c, const sim::Hit&, double shade) {
+  Cast(view_dir, width_px, height_px, [&](int r, int c, const MeshHit&, double shade) {
     image.at<uint8_t>(r, c) = static_cast<uint8_t>(std::lround(40 + 215 * shade));
   });
   return image;
@@ -98,7 +95,7 @@ cv::Mat MeshRenderer::RenderColoured(const std::vector<double>& vertex_values, d
   cv::Mat ramp(1, 256, CV_8U), lut;
   for (int i = 0; i < 256; ++i) ramp.at<uint8_t>(0, i) = static_cast<uint8_t>(i);
   cv::applyColorMap(ramp, lut, cv::COLORMAP_TURBO);
-  Cast(view_dir, width_px, height_px, [&](int r, int c, const sim::Hit& hit, double shade) {
+  Cast(view_dir, width_px, height_px, [&](int r, int c, const MeshHit& hit, double shade) {
     // Barycentric interpolation of the hit triangle's vertex values.
     const auto& t = mesh.triangles[static_cast<size_t>(hit.triangle)];
     const Eigen::Vector3d &a = mesh.vertices[t[0]], &b = mesh.vertices[t[1]],

@@ -1,5 +1,5 @@
-// The scan report's pictures of meshes: shaded renderings of a triangle mesh cast with Embree
-// (sim::RayCaster, the virtual scanner's ray caster), and its interactive 3D view (ScanScene).
+// The scan report's pictures of meshes: shaded renderings of a triangle mesh
+// (fringe::MeshIndex, an Embree ray caster), and its interactive 3D view (ScanScene).
 // The page itself and the other picture helpers (colour maps, colour bars, histograms) are
 // io/report.h.
 //
@@ -64,7 +64,7 @@ class MeshRenderer {
 // Lambert-shaded rendering of a triangle mesh seen from `view_dir` (unit vector from the eye
 // toward the mesh, the mesh's frame; the frame's z is up on the picture unless the view looks
 // along z), orthographic, fitted to the mesh's bounding sphere, on a width_px x height_px image
-// (CV_8UC1; background black). Embree ray casting (sim::RayCaster).
+// (CV_8UC1; background black). Embree ray casting (fringe::MeshIndex).
 cv::Mat RenderMesh(const TriangleMesh& mesh, const Eigen::Vector3d& view_dir, int width_px = 480,
                    int height_px = 360);
 // The same rendering coloured by a per-vertex value (turbo colour map from lo to hi, shaded;

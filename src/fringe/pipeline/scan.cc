@@ -18,6 +18,7 @@
 #include <sstream>
 
 #include "fringe/calib/calibrate_folder.h"
+#include "fringe/calib/diagnostics.h"
 #include "fringe/calib/projector_folder.h"
 #include "fringe/eval/deviation.h"
 #include "fringe/fusion/tiles.h"
@@ -578,7 +579,7 @@ struct Model {
 // `compact` lists the valid slots of the grid (`valid`, grid_size) in grid order.
 cv::Mat ViewDeviationMap(const PointCloud& compact, const std::vector<uint8_t>& valid,
                          cv::Size grid_size, const Rigid3d& world_from_sensor,
-                         const eval::MeshDistance& distance, int max_width_px) {
+                         const MeshIndex& distance, int max_width_px) {
   const int step = std::max(1, (grid_size.width + max_width_px - 1) / max_width_px);
   const int w = (grid_size.width + step - 1) / step, h = (grid_size.height + step - 1) / step;
   cv::Mat out(h, w, CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
@@ -748,7 +749,7 @@ void EvaluateAgainstTruth(const scan::ScanFolder& folder, Model* m, ScanSummary*
   if (!gauge.ok()) throw Error("scan: truth comparison: no gauge: " + gauge.message);
   const Rigid3d& true_from_est = gauge.b_from_a;
   m->display_from_world = true_from_est;  // the truth's world has z up
-  const eval::MeshDistance distance(folder.ReadTruthMesh());
+  const MeshIndex distance(folder.ReadTruthMesh());
   s->pose_rot_err_deg = s->pose_trans_err_mm = 0;
   std::vector<double> single_all, single_overlap, single_overlap_placed;
   for (size_t k = 0; k < n; ++k) {
@@ -1159,6 +1160,15 @@ Report BuildReport(const fs::path& project, const ScanSummary& s, const Calibrat
     ReportSection sec;
     sec.title = "Calibration";
     sec.paragraphs.push_back("Rig from " + cal.source + ".");
+    if (!s.calibration_report.empty()) {
+      sec.paragraphs.push_back(StrCat(
+          "Calibrated from this scan folder's board images: the calibration's own report, with its "
+          "residuals per pose, coverage and predicted depth uncertainty, is ",
+          s.calibration_report, " in this folder."));
+    }
+    for (const std::string& w : s.calibration_warnings) {
+      sec.paragraphs.push_back("Calibration warning: " + w);
+    }
     sec.paragraphs.push_back(DriftParagraph(s));
     ReportTable t;
     // The second device: the right camera, or in a camera + projector scan the projector.
@@ -1221,7 +1231,7 @@ Report BuildReport(const fs::path& project, const ScanSummary& s, const Calibrat
 
 MeshTruthFigures CompareMeshWithTruth(const TriangleMesh& mesh_in_truth,
                                       const std::vector<Eigen::Vector3d>& measured_in_truth,
-                                      const eval::MeshDistance& truth) {
+                                      const MeshIndex& truth) {
   MeshTruthFigures f;
   PointCloud vertices;
   vertices.points = mesh_in_truth.vertices;
@@ -1238,7 +1248,7 @@ MeshTruthFigures CompareMeshWithTruth(const TriangleMesh& mesh_in_truth,
   for (const Eigen::Vector3d& q : closest) {
     if (q.allFinite()) surface.points.push_back(q);
   }
-  const eval::MeshDistance mesh(mesh_in_truth);
+  const MeshIndex mesh(mesh_in_truth);
   f.truth_rms_mm = eval::DeviationFromMesh(surface, mesh).rms_mm;
   return f;
 }
@@ -1387,6 +1397,8 @@ json ScanSummary::ToJson() const {
                 {"max_projector_systematic_px", drift_options.max_projector_systematic_px},
                 {"min_projector_points", drift_options.min_projector_points},
                 {"max_two_direction_rms_px", drift_options.max_two_direction_rms_px}};
+  j["calibration_warnings"] = calibration_warnings;
+  if (!calibration_report.empty()) j["calibration_report"] = calibration_report;
   if (calibration_rms_left_px > 0) {
     j["calibration_rms_left_px"] = calibration_rms_left_px;
     if (stereo) {
@@ -1494,6 +1506,27 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
         WriteRigOf(cal, dir / "rig.json");
       }
     });
+    // A rig calibrated here gets what `fringe calibrate --report` gives: its plausibility
+    // warnings in the summary and OUT/calibration/ (summary.json, report.html) beside the scan's
+    // report, since a scan is only as good as the calibration it was measured with.
+    if (cal.folder || cal.projector_folder) {
+      const CalibrationTarget target = folder.ReadTarget();
+      const calib::CalibrationDiagnosis diagnosis =
+          cal.folder ? calib::DiagnoseFolderCalibration(*cal.folder, target)
+                     : calib::DiagnoseProjectorCalibration(*cal.projector_folder, target);
+      s.calibration_warnings = diagnosis.diagnostics.warnings;
+      for (const std::string& w : s.calibration_warnings) {
+        util::LogWarning("scan: calibration: " + w);
+      }
+      if (options.write_report) {
+        WriteOutput("calibration report", out, [&] {
+          calib::WriteCalibrationReport(dir / "calibration", diagnosis,
+                                        cal.folder ? calib::CalibrationToJson(*cal.folder)
+                                                   : cal.projector_folder->CalibrationJson());
+        });
+        s.calibration_report = "calibration/report.html";
+      }
+    }
     s.calibrate_s = timer.ElapsedSeconds();
     s.calibrate_cpu_s = cpu.ElapsedSeconds();
 

@@ -174,6 +174,10 @@ struct ScanSummary {
   // 0 unless calibrated here; one camera: left = the camera, and the projector's.
   double calibration_rms_left_px = 0, calibration_rms_right_px = 0;
   double calibration_rms_projector_px = 0;
+  // Calibrated here: the calibration's plausibility warnings (calib/diagnostics.h) and, with
+  // ScanOptions::write_report, its report's path relative to OUT ("calibration/report.html").
+  std::vector<std::string> calibration_warnings;
+  std::string calibration_report;
   // Drift (pipeline/drift.h): true when any view drifted; the epipolar RMS pooled over the
   // views (NaN without evidence); the views with a verdict; what the verdicts rest on.
   bool calibration_drift = false;
@@ -279,7 +283,7 @@ struct MeshTruthFigures {
 };
 MeshTruthFigures CompareMeshWithTruth(const TriangleMesh& mesh_in_truth,
                                       const std::vector<Eigen::Vector3d>& measured_in_truth,
-                                      const eval::MeshDistance& truth);
+                                      const MeshIndex& truth);
 
 // Runs the scan of `project` into `out`. Throws fringe::Error for bad input or options, an
 // unwritable or foreign `out`, or (without keep_going) any failed view; `out` is then left as

@@ -191,7 +191,7 @@ TEST_F(ScanTest, WholeChainMatchesTheTruth) {
   // Every view against the truth: its cloud, placed by the true pose, lies on the truth mesh.
   const scan::ScanFolder folder = scan::ScanFolder::Open(Scan());
   const scan::TruthPoses truth = folder.ReadTruthPoses();
-  const eval::MeshDistance distance(folder.ReadTruthMesh());
+  const MeshIndex distance(folder.ReadTruthMesh());
   int64_t points = 0;
   for (int v = 0; v < 3; ++v) {
     const std::string name = s.views[v].name;
@@ -289,6 +289,10 @@ TEST_F(ScanTest, WholeChainMatchesTheTruth) {
   const auto summary = io::ReadJson(out / "summary.json");
   EXPECT_EQ(summary["views_ok"].get<int>(), 3);
   EXPECT_FALSE(summary["calibration_drift"].get<bool>());
+  // A rig given, not calibrated here: no calibration report, no calibration warnings.
+  EXPECT_FALSE(fs::exists(out / "calibration"));
+  EXPECT_FALSE(summary.contains("calibration_report"));
+  EXPECT_TRUE(summary["calibration_warnings"].empty());
   EXPECT_TRUE(summary["epipolar_rms_px"].is_number());
   for (const auto& v : summary["view_results"]) {
     EXPECT_TRUE(v["epipolar_rms_px"].is_number());
@@ -444,7 +448,7 @@ TEST_F(ScanTest, CameraProjectorScanMatchesTheTruth) {
   const scan::ScanFolder folder = scan::ScanFolder::Open(scan);
   EXPECT_FALSE(folder.stereo());
   const scan::TruthPoses truth = folder.ReadTruthPoses();
-  const eval::MeshDistance distance(folder.ReadTruthMesh());
+  const MeshIndex distance(folder.ReadTruthMesh());
   for (const ScanViewSummary& v : s.views) {
     EXPECT_TRUE(v.ok) << v.message;
     EXPECT_GT(v.valid_fraction, kMinValidFraction) << v.name;
@@ -497,6 +501,9 @@ TEST_F(ScanTest, CameraProjectorScanCalibratesFromItsBoardPoseFolders) {
   EXPECT_LT(s.pose_rot_err_deg, kMaxRotErrDeg);
   EXPECT_LT(s.pose_trans_err_mm, kMaxTransErrMmCameraProjector);
   EXPECT_LT(s.fused_rms_mm, kMaxFusedRmsMm);
+  // --no-report: no calibration report either.
+  EXPECT_TRUE(s.calibration_report.empty());
+  EXPECT_FALSE(fs::exists(out / "calibration"));
 }
 
 TEST_F(ScanTest, CameraProjectorScanWithoutProjectorCalibrationFailsNamingTheRig) {

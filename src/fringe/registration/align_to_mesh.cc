@@ -46,7 +46,7 @@ struct Sample {
 
 }  // namespace
 
-MeshAlignResult AlignToMesh(const PointCloud& cloud, const eval::MeshDistance& mesh,
+MeshAlignResult AlignToMesh(const PointCloud& cloud, const MeshIndex& mesh,
                             const Rigid3d& mesh_from_cloud_start, const MeshAlignOptions& options) {
   options.Check();
   util::Timer timer;

@@ -3,7 +3,7 @@
 //
 // Every iteration moves a sample of the cloud (normal-space order when the cloud has normals,
 // icp.h; else seeded random) by the current mesh_from_cloud,
-// finds each sample's closest surface point q (eval::MeshDistance: exact closest point on the
+// finds each sample's closest surface point q (MeshIndex: exact closest point on the
 // triangles, not a vertex), and takes the direction from q to the point as the plane normal
 // (the gradient of the distance to the surface: the face normal inside a face, the right one
 // at edges and corners too, and no normals are needed on the cloud). Correspondences farther
@@ -20,7 +20,7 @@
 #include <string>
 #include <vector>
 
-#include "fringe/eval/deviation.h"
+#include "fringe/geometry/mesh_index.h"
 #include "fringe/geometry/point_cloud.h"
 #include "fringe/geometry/rigid3.h"
 #include "fringe/registration/icp.h"
@@ -61,7 +61,7 @@ struct MeshAlignResult {
 
 // Throws fringe::Error for bad options. An empty cloud, or one whose samples find no surface
 // within the threshold, gives kNoOverlap with a message.
-MeshAlignResult AlignToMesh(const PointCloud& cloud, const eval::MeshDistance& mesh,
+MeshAlignResult AlignToMesh(const PointCloud& cloud, const MeshIndex& mesh,
                             const Rigid3d& mesh_from_cloud_start,
                             const MeshAlignOptions& options = {});
 

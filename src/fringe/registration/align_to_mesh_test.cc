@@ -35,7 +35,7 @@ TEST(AlignToMesh, SimulatedViewMovedByTwoDegreesAndTwoMillimetresComesBack) {
   const Rigid3d start = Rigid3d(turn.rotation(), cw - turn.RotateDirection(cw) +
                                                      2 * Eigen::Vector3d(1, 1, -0.5).normalized()) *
                         truth;
-  const eval::MeshDistance mesh(scene.CombinedMesh());
+  const MeshIndex mesh(scene.CombinedMesh());
   MeshAlignOptions o;
   o.initial_threshold_mm = 8;  // 2 deg at the ~100 mm lever plus 2 mm
   const MeshAlignResult r = AlignToMesh(cloud, mesh, start, o);
@@ -51,7 +51,7 @@ TEST(AlignToMesh, SimulatedViewMovedByTwoDegreesAndTwoMillimetresComesBack) {
 }
 
 TEST(AlignToMesh, EmptyCloudIsNoOverlap) {
-  const eval::MeshDistance mesh(sim::MakeBoxMesh({0, 0, 0}, {10, 10, 10}));
+  const MeshIndex mesh(sim::MakeBoxMesh({0, 0, 0}, {10, 10, 10}));
   const MeshAlignResult r = AlignToMesh(PointCloud(), mesh, Rigid3d());
   EXPECT_EQ(r.status, IcpStatus::kNoOverlap);
   EXPECT_NE(r.message.find("finite points"), std::string::npos);

@@ -3,7 +3,7 @@
 // (RefineMultiView and AlignPointToPlane in icp.h, used by fringe register and the marker-free
 // placement; AlignToMesh in align_to_mesh.h, used by fringe evaluate --align). The callers
 // differ only in how they find correspondences (view to view through a k-d tree, cloud to mesh
-// through eval::MeshDistance) and in how many poses they move.
+// through MeshIndex) and in how many poses they move.
 //
 // Levels: coarse to fine, level l uses points_per_level[l] samples. The correspondence
 // threshold starts at initial_threshold_mm and shrinks by the thesis' dynamic rule, MeshLab

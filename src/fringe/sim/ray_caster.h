@@ -1,8 +1,7 @@
-// Ray casting against a Scene with Embree 3, refined in double precision.
-//
-// Embree intersects the float-precision triangles; the hit is then recomputed in double
-// precision on the hit triangle's plane, or on the exact sphere of sphere objects, so points lie
-// on the ray to ~1e-12 mm and on the true surface. Frames: world (the scene's), millimetres.
+// Ray casting against a Scene: the objects' tessellations in one fringe::MeshIndex (Embree,
+// hits recomputed in double precision on the hit triangle's plane), and sphere objects' hits
+// moved onto their exact sphere, so points lie on the ray to ~1e-12 mm and on the true surface;
+// the albedo at a hit, markers included. Frames: world (the scene's), millimetres.
 // Thread safety: immutable after construction; all methods may run concurrently.
 #pragma once
 

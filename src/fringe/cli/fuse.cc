@@ -11,6 +11,8 @@
 #include "fringe/fusion/mesh.h"
 #include "fringe/io/calibration_io.h"
 #include "fringe/io/ply.h"
+#include "fringe/pipeline/result_layout.h"
+#include "fringe/registration/registration_io.h"
 #include "fringe/scan/truth.h"
 #include "fringe/util/error.h"
 #include "fringe/util/files.h"
@@ -100,23 +102,17 @@ void AddFuseCommand(CLI::App& app) {
       // frames by the inverse poses, so that no pose is applied twice and the viewing angles
       // are known.
       const fs::path dir(a->inputs[0]);
-      const fs::path poses_path = a->poses.empty() ? dir / "poses.json" : fs::path(a->poses);
+      const pipeline::ResultLayout layout{dir};
+      const fs::path poses_path = a->poses.empty() ? layout.Poses() : fs::path(a->poses);
       util::RequireFile(poses_path, "poses file");
       for (const auto& [name, world_from_sensor] : ReadPoses(poses_path)) {
-        const fs::path cloud = dir / "registered" / (name + ".ply");
+        const fs::path cloud = layout.RegisteredCloud(name);
         if (!fs::exists(cloud)) {
           throw Error(util::StrCat("fuse: ", poses_path.string(), " names view '", name, "' but ",
                                    cloud.string(), " does not exist"));
         }
         fusion::FusionView v{name, io::ReadOrganizedPly(cloud), world_from_sensor};
-        const Rigid3d sensor_from_world = world_from_sensor.Inverse();
-        for (size_t i = 0; i < v.cloud.valid.size(); ++i) {
-          if (!v.cloud.valid[i]) continue;
-          v.cloud.cloud.points[i] = sensor_from_world * v.cloud.cloud.points[i];
-          if (v.cloud.cloud.has_normals()) {
-            v.cloud.cloud.normals[i] = sensor_from_world.RotateDirection(v.cloud.cloud.normals[i]);
-          }
-        }
+        registration::TransformGrid(world_from_sensor.Inverse(), &v.cloud);
         views.push_back(std::move(v));
         read.push_back(cloud);
       }

@@ -10,6 +10,7 @@
 #include "fringe/cli/cli.h"
 #include "fringe/io/calibration_io.h"
 #include "fringe/io/ply.h"
+#include "fringe/pipeline/result_layout.h"
 #include "fringe/registration/markers.h"
 #include "fringe/registration/register_views.h"
 #include "fringe/registration/registration_io.h"
@@ -113,14 +114,15 @@ void AddRegisterCommand(CLI::App& app) {
       placed_poses.push_back(v.world_from_sensor);
     }
     util::WriteFolderAtomically(out_dir, output, [&](const fs::path& tmp) {
-      registration::WritePoses(tmp / "poses.json", placed_names, placed_poses);
-      registration::WriteMarkerMap(tmp / "markers.json", r, views);
-      io::WriteJson(tmp / "summary.json", registration::SummaryToJson(r));
-      fs::create_directories(tmp / "registered");
+      const pipeline::ResultLayout layout{tmp};
+      registration::WritePoses(layout.Poses(), placed_names, placed_poses);
+      registration::WriteMarkerMap(layout.MarkerMap(), r, views);
+      io::WriteJson(layout.Summary(), registration::SummaryToJson(r));
+      fs::create_directories(layout.RegisteredDir());
       for (size_t i = 0; i < views.size(); ++i) {
         if (!r.views[i].placed()) continue;
         registration::WriteRegisteredView(
-            tmp / "registered" / (views[i].name + ".ply"), inputs[i], scale, views[i],
+            layout.RegisteredCloud(views[i].name), inputs[i], scale, views[i],
             r.views[i].world_from_sensor,
             "fringe register: world frame (first view's sensor frame), mm");
       }

@@ -195,6 +195,14 @@ void FillRayHit(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double t_min
   rh->hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
 }
 
+// The context of a ray stream whose rays are coherent (one origin, or one target).
+RTCIntersectContext CoherentContext() {
+  RTCIntersectContext ctx;
+  rtcInitIntersectContext(&ctx);
+  ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+  return ctx;
+}
+
 }  // namespace
 
 struct MeshIndex::Impl {
@@ -338,9 +346,7 @@ void MeshIndex::CastBatch(const Eigen::Vector3d& origin, const std::vector<Eigen
   thread_local std::vector<RTCRayHit> rays;
   rays.resize(dirs.size());
   for (size_t i = 0; i < dirs.size(); ++i) FillRayHit(origin, dirs[i], 0.0, &rays[i]);
-  RTCIntersectContext ctx;
-  rtcInitIntersectContext(&ctx);
-  ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+  RTCIntersectContext ctx = CoherentContext();
   if (!rays.empty()) {
     rtcIntersect1M(impl_->scene, &ctx, rays.data(), static_cast<unsigned>(rays.size()),
                    sizeof(RTCRayHit));
@@ -358,9 +364,7 @@ void MeshIndex::OccludedBatch(const std::vector<Eigen::Vector3d>& from, const Ei
     const double dist = delta.norm();
     FillRay(from[i], delta / dist, 0.0, dist, &rays[i]);
   }
-  RTCIntersectContext ctx;
-  rtcInitIntersectContext(&ctx);
-  ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+  RTCIntersectContext ctx = CoherentContext();
   if (!rays.empty()) {
     rtcOccluded1M(impl_->scene, &ctx, rays.data(), static_cast<unsigned>(rays.size()),
                   sizeof(RTCRay));

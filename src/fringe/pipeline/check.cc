@@ -4,6 +4,7 @@
 
 #include "fringe/io/calibration_io.h"
 #include "fringe/io/ply.h"
+#include "fringe/pipeline/result_layout.h"
 #include "fringe/scan/scan_folder.h"
 #include "fringe/stereo/camera_projector.h"
 #include "fringe/util/error.h"
@@ -24,7 +25,7 @@ void ReconstructScanViews(const fs::path& root, const CheckInputOptions& options
   if (!folder.has_views()) throw Error(StrCat(root.string(), ": the scan folder has no views"));
   fs::path rig_path = options.calib;
   if (rig_path.empty()) {
-    rig_path = root / "rig.json";
+    rig_path = folder.layout().Rig();
     if (!fs::exists(rig_path)) {
       throw Error(StrCat(root.string(),
                          ": no rig to reconstruct the views with (give --calib RIG, or put "
@@ -68,10 +69,10 @@ std::vector<eval::CheckInput> ReadCheckInputs(const std::vector<fs::path>& input
       out.push_back({in.filename().string(), io::ReadPly(in).cloud});
     } else if (fs::is_directory(in) && scan::ScanFolder::IsScanFolder(in)) {
       ReconstructScanViews(in, options, &out);
-    } else if (fs::is_directory(in / "views")) {
+    } else if (fs::is_directory(ResultLayout{in}.ViewsDir())) {
       // The output of `fringe scan`: one cloud per view.
       std::vector<fs::path> clouds;
-      for (const auto& e : fs::directory_iterator(in / "views")) {
+      for (const auto& e : fs::directory_iterator(ResultLayout{in}.ViewsDir())) {
         if (e.is_regular_file() && e.path().extension() == ".ply") clouds.push_back(e.path());
       }
       if (clouds.empty()) {

@@ -33,6 +33,7 @@
 #include "fringe/phase/pattern_scheme.h"
 #include "fringe/pipeline/memory_budget.h"
 #include "fringe/pipeline/report.h"
+#include "fringe/pipeline/result_layout.h"
 #include "fringe/pipeline/view_checkpoint.h"
 #include "fringe/registration/markers.h"
 #include "fringe/registration/registration_io.h"
@@ -163,9 +164,9 @@ Calibration ResolveCalibration(const scan::ScanFolder& folder, const phase::Patt
     RequireProjector(folder, c);
     return c;
   }
-  if (fs::exists(project / "rig.json")) {
-    c.rig = io::ReadRig(project / "rig.json");
-    c.source = (project / "rig.json").string();
+  if (fs::exists(folder.layout().Rig())) {
+    c.rig = io::ReadRig(folder.layout().Rig());
+    c.source = folder.layout().Rig().string();
     RequireProjector(folder, c);
     return c;
   }
@@ -299,7 +300,7 @@ void WriteViewCloud(const fs::path& out_dir, ViewResult* v) {
   ScanViewSummary& s = v->summary;
   if (!s.ok) return;
   try {
-    io::WritePly(out_dir / "views" / (s.name + ".ply"), v->cloud,
+    io::WritePly(ResultLayout{out_dir}.ViewCloud(s.name), v->cloud,
                  io::PlyFormat::kBinaryLittleEndian,
                  {StrCat("fringe scan: view ", s.name,
                          ", left camera (sensor) frame, mm; quality = fringe modulation (DN)")});
@@ -310,7 +311,7 @@ void WriteViewCloud(const fs::path& out_dir, ViewResult* v) {
   } catch (const cv::Exception& e) {
     s.ok = false;
     s.failed_stage = "write";
-    s.message = StrCat((out_dir / "views" / (s.name + ".ply")).string(), ": ", e.what());
+    s.message = StrCat(ResultLayout{out_dir}.ViewCloud(s.name).string(), ": ", e.what());
   }
 }
 
@@ -393,7 +394,7 @@ ViewResult ProcessView(const scan::ScanFolder& folder, const std::string& name,
          TextureWithMarkers(rec.texture_left, v.markers, rig, 480)});
     stage = "write";
     if (options.detect_markers) {
-      registration::WriteViewMarkers(out_dir / "views" / (name + ".markers.json"), v.markers);
+      registration::WriteViewMarkers(ResultLayout{out_dir}.ViewMarkers(name), v.markers);
     }
     v.cloud = std::move(rec.cloud);
     s.ok = true;
@@ -1465,7 +1466,8 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
   output.resume = options.resume;
   util::CheckOutputFolder(out, output);
   util::WriteFolderAtomically(out, output, [&](const fs::path& dir) {
-    fs::create_directories(dir / "views");
+    const ResultLayout result{dir};
+    fs::create_directories(result.ViewsDir());
     // 1. Calibration (its time is reported apart: a rig is calibrated once, not per scan).
     util::Timer timer;
     util::CpuTimer cpu;
@@ -1501,9 +1503,9 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
     }
     WriteOutput("calibrate", out, [&] {
       if (s.rig_refined) {
-        io::WriteRig(dir / "rig.json", cal.rig, {{"refinement", s.refinement}});
+        io::WriteRig(result.Rig(), cal.rig, {{"refinement", s.refinement}});
       } else {
-        WriteRigOf(cal, dir / "rig.json");
+        WriteRigOf(cal, result.Rig());
       }
     });
     // A rig calibrated here gets what `fringe calibrate --report` gives: its plausibility
@@ -1520,7 +1522,7 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
       }
       if (options.write_report) {
         WriteOutput("calibration report", out, [&] {
-          calib::WriteCalibrationReport(dir / "calibration", diagnosis,
+          calib::WriteCalibrationReport(result.CalibrationDir(), diagnosis,
                                         cal.folder ? calib::CalibrationToJson(*cal.folder)
                                                    : cal.projector_folder->CalibrationJson());
         });
@@ -1578,7 +1580,7 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
                   ++resumed;
                   // The view's files, as ProcessView writes them.
                   if (options.detect_markers) {
-                    registration::WriteViewMarkers(dir / "views" / (names[i] + ".markers.json"),
+                    registration::WriteViewMarkers(result.ViewMarkers(names[i]),
                                                    results[i].markers);
                   }
                   if (!check_columns) WriteViewCloud(dir, &results[i]);
@@ -1701,7 +1703,7 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
         fusion_views.push_back({r.name, std::move(v.cloud), r.world_from_sensor});
         continue;
       }
-      const fs::path file = dir / "views" / (r.name + ".ply");
+      const fs::path file = result.ViewCloud(r.name);
       tiled_views.push_back(fusion::DescribeTiledView(
           r.name, v.cloud, r.world_from_sensor, [file] { return io::ReadOrganizedPly(file); }));
       const PointCloud& compact = m.inputs[k].cloud;
@@ -1712,8 +1714,8 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
       v.phase_left.release();
     }
     WriteOutput("register", out, [&] {
-      registration::WritePoses(dir / "poses.json", placed_names, placed_poses);
-      registration::WriteMarkerMap(dir / "markers.json", m.registration, m.inputs);
+      registration::WritePoses(result.Poses(), placed_names, placed_poses);
+      registration::WriteMarkerMap(result.MarkerMap(), m.registration, m.inputs);
     });
     s.register_s = timer.ElapsedSeconds();
     s.register_cpu_s = cpu.ElapsedSeconds();
@@ -1827,27 +1829,26 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
         m.mesh = fusion::MeshPoisson(m.fused.fused, options.mesh);
         if (!m.mesh.summary.ok()) return;
         WriteOutput("mesh", out, [&] {
-          tbb::parallel_invoke([&] { fusion::WriteMeshFile(dir / "mesh.ply", m.mesh); },
-                               [&] { fusion::WriteMeshFile(dir / "mesh.stl", m.mesh); });
+          tbb::parallel_invoke([&] { fusion::WriteMeshFile(result.Mesh(), m.mesh); },
+                               [&] { fusion::WriteMeshFile(result.MeshStl(), m.mesh); });
         });
       });
       std::exception_ptr failure;
       try {
         WriteOutput("fuse", out, [&] {
-          io::WritePly(dir / "fused.ply", m.fused.fused, io::PlyFormat::kBinaryLittleEndian,
+          io::WritePly(result.Fused(), m.fused.fused, io::PlyFormat::kBinaryLittleEndian,
                        {"fringe scan: fused views, world frame (the first view's sensor frame), "
                         "mm; intensity = texture, quality = weighted modulation"});
         });
-        fs::create_directories(dir / "registered");
+        fs::create_directories(result.RegisteredDir());
         // Tiled: the grids are read back from OUT/views/ one view per task.
         tbb::parallel_for(size_t{0}, placed.size(), [&](size_t f) {
           const std::string& name = placed_names[f];
           OrganizedPointCloud world =
-              tiled ? io::ReadOrganizedPly(dir / "views" / (name + ".ply")) : fusion_views[f].cloud;
+              tiled ? io::ReadOrganizedPly(result.ViewCloud(name)) : fusion_views[f].cloud;
           registration::TransformGrid(placed_poses[f], &world);
           WriteOutput("register", out, [&] {
-            io::WritePly(dir / "registered" / (name + ".ply"), world,
-                         io::PlyFormat::kBinaryLittleEndian,
+            io::WritePly(result.RegisteredCloud(name), world, io::PlyFormat::kBinaryLittleEndian,
                          {StrCat("fringe scan: view ", name,
                                  " registered, world frame (the first view's sensor frame), mm")});
           });
@@ -1913,14 +1914,14 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
       timer.Restart();
       cpu.Restart();
       const Report report = BuildReport(project, s, cal, results, m);
-      WriteOutput("report", out, [&] { report.Write(dir / "report.html"); });
+      WriteOutput("report", out, [&] { report.Write(result.Report()); });
       const double report_s = timer.ElapsedSeconds(), report_cpu_s = cpu.ElapsedSeconds();
       s.report_s += report_s;
       s.report_cpu_s += report_cpu_s;
       s.total_s += report_s;
       s.total_cpu_s += report_cpu_s;
     }
-    WriteOutput("summary", out, [&] { io::WriteJson(dir / "summary.json", s.ToJson()); });
+    WriteOutput("summary", out, [&] { io::WriteJson(result.Summary(), s.ToJson()); });
     // The views' checkpoints are a cache of this run, not an output.
     std::error_code ec;
     fs::remove_all(dir / kCheckpointFolder, ec);

@@ -48,6 +48,8 @@ struct ScanLayout {
   std::string left_folder = "left", right_folder = "right";
 
   std::filesystem::path Manifest() const { return root / "scan.json"; }
+  // The folder's own rig, when it has one (else it is calibrated from CalibrationDir()).
+  std::filesystem::path Rig() const { return root / "rig.json"; }
   std::filesystem::path Scheme() const { return root / "scheme.json"; }
   // The horizontal-fringe scheme of a one-camera scan with both directions.
   std::filesystem::path HorizontalScheme() const { return root / "scheme_horizontal.json"; }

@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 
-#include "fringe/geometry/mesh_index.h"
 #include "fringe/util/error.h"
 
 namespace fringe::sim {
@@ -170,9 +169,7 @@ std::optional<Hit> RayCaster::Cast(const Eigen::Vector3d& origin, const Eigen::V
   return impl_->OnSurface(origin, dir, impl_->index.Cast(origin, dir, t_min));
 }
 
-bool RayCaster::Occluded(const Eigen::Vector3d& from, const Eigen::Vector3d& to) const {
-  return impl_->index.Occluded(from, to);
-}
+const MeshIndex& RayCaster::index() const { return impl_->index; }
 
 double RayCaster::Albedo(const Hit& hit) const { return impl_->Albedo(hit); }
 
@@ -184,11 +181,6 @@ void RayCaster::CastBatch(const Eigen::Vector3d& origin, const std::vector<Eigen
   for (size_t i = 0; i < dirs.size(); ++i) {
     (*hits)[i] = impl_->OnSurface(origin, dirs[i], mesh_hits[i]);
   }
-}
-
-void RayCaster::OccludedBatch(const std::vector<Eigen::Vector3d>& from, const Eigen::Vector3d& to,
-                              std::vector<uint8_t>* occluded) const {
-  impl_->index.OccludedBatch(from, to, occluded);
 }
 
 }  // namespace fringe::sim

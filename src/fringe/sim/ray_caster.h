@@ -10,6 +10,7 @@
 #include <optional>
 #include <vector>
 
+#include "fringe/geometry/mesh_index.h"
 #include "fringe/sim/scene.h"
 
 namespace fringe::sim {
@@ -36,17 +37,16 @@ class RayCaster {
   // First hit from `origin` along the UNIT direction `dir` beyond t_min (mm).
   std::optional<Hit> Cast(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir,
                           double t_min = 0) const;
-  // True when a surface lies strictly between `from` and `to`.
-  bool Occluded(const Eigen::Vector3d& from, const Eigen::Vector3d& to) const;
   // Albedo at a hit, markers included.
   double Albedo(const Hit& hit) const;
 
-  // Batches (Embree ray streams, faster for coherent rays): rays from one origin along unit
-  // directions; shadow rays from many points toward one point (1 = occluded).
+  // Rays from one origin along unit directions as one Embree ray stream (faster for coherent
+  // rays).
   void CastBatch(const Eigen::Vector3d& origin, const std::vector<Eigen::Vector3d>& dirs,
                  std::vector<std::optional<Hit>>* hits) const;
-  void OccludedBatch(const std::vector<Eigen::Vector3d>& from, const Eigen::Vector3d& to,
-                     std::vector<uint8_t>* occluded) const;
+  // The objects' tessellations (mesh i = object i), for occlusion (shadow rays need no exact
+  // surface) and closest points.
+  const MeshIndex& index() const;
 
  private:
   struct Impl;

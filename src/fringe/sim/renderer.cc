@@ -346,7 +346,7 @@ CameraImages Renderer::RenderCamera(const CameraModel& camera, const Rigid3d& wo
     double weight = 0;
     Eigen::Vector3d from;
     if (!illuminate(hit, d_world, albedo, &s->uv, &weight, &from)) return;
-    if (impl_->caster.Occluded(from, projector_centre)) return;
+    if (impl_->caster.index().Occluded(from, projector_centre)) return;
     s->lit = true;
     s->weight = weight;
   };
@@ -434,7 +434,7 @@ CameraImages Renderer::RenderCamera(const CameraModel& camera, const Rigid3d& wo
           shadow_from.push_back(from);
           shadow_index.push_back(j);
         }
-        impl_->caster.OccludedBatch(shadow_from, projector_centre, &occluded);
+        impl_->caster.index().OccludedBatch(shadow_from, projector_centre, &occluded);
         for (size_t q = 0; q < shadow_index.size(); ++q) {
           if (occluded[q]) continue;
           const size_t j = shadow_index[q];

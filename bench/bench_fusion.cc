@@ -203,8 +203,7 @@ Stats StatsOf(const std::vector<double>& d_all) {
   return s;
 }
 
-std::vector<double> Distances(const std::vector<Eigen::Vector3d>& pts,
-                              const MeshIndex& m) {
+std::vector<double> Distances(const std::vector<Eigen::Vector3d>& pts, const MeshIndex& m) {
   std::vector<double> d(pts.size());
   tbb::parallel_for(size_t{0}, pts.size(),
                     [&](size_t i) { d[i] = m.SignedDistance(pts[i], kMaxDistanceMm); });

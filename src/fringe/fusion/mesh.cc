@@ -17,8 +17,8 @@
 #include <memory>
 #include <tuple>
 
-#include "fringe/geometry/mesh_index.h"
 #include "fringe/fusion/mesh_cgal.h"
+#include "fringe/geometry/mesh_index.h"
 #include "fringe/geometry/point_index.h"
 #include "fringe/io/mesh_io.h"
 #include "fringe/util/error.h"

@@ -7,8 +7,8 @@
 #include <functional>
 #include <vector>
 
-#include "fringe/geometry/mesh_index.h"
 #include "fringe/fusion/fuse.h"
+#include "fringe/geometry/mesh_index.h"
 #include "fringe/io/mesh_io.h"
 #include "fringe/sim/poses.h"
 #include "fringe/sim/scene.h"

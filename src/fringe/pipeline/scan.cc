@@ -60,6 +60,7 @@ struct Calibration {
   std::optional<calib::FolderCalibration> folder;  // when calibrated from board images here
   // One camera + projector, calibrated here from the board pose folders.
   std::optional<calib::ProjectorFolderCalibration> projector_folder;
+  CalibrationTarget target;  // the board, when calibrated here (for the diagnostics)
 };
 
 constexpr int kPictureWidthPx = 480;
@@ -176,7 +177,8 @@ Calibration ResolveCalibration(const scan::ScanFolder& folder, const phase::Patt
                        ": no calibration: give --calib, or put rig.json or calibration/ board "
                        "images (with target.json) in the scan folder"));
   }
-  const CalibrationTarget target = folder.ReadTarget();
+  c.target = folder.ReadTarget();
+  const CalibrationTarget& target = c.target;
   util::LogInfo("scan: calibrating from " + cal_dir.string());
   if (!folder.stereo()) {
     calib::ProjectorFolderCalibration cal =
@@ -1512,10 +1514,9 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
     // warnings in the summary and OUT/calibration/ (summary.json, report.html) beside the scan's
     // report, since a scan is only as good as the calibration it was measured with.
     if (cal.folder || cal.projector_folder) {
-      const CalibrationTarget target = folder.ReadTarget();
       const calib::CalibrationDiagnosis diagnosis =
-          cal.folder ? calib::DiagnoseFolderCalibration(*cal.folder, target)
-                     : calib::DiagnoseProjectorCalibration(*cal.projector_folder, target);
+          cal.folder ? calib::DiagnoseFolderCalibration(*cal.folder, cal.target)
+                     : calib::DiagnoseProjectorCalibration(*cal.projector_folder, cal.target);
       s.calibration_warnings = diagnosis.diagnostics.warnings;
       for (const std::string& w : s.calibration_warnings) {
         util::LogWarning("scan: calibration: " + w);

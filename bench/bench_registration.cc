@@ -266,7 +266,7 @@ std::pair<double, int64_t> PooledPairRms(const std::vector<PointCloud>& clouds,
         if (d2 > 1.0) continue;
         const Vector3d nu = poses[u].RotateDirection(clouds[u].normals[k]);
         if (!nu.allFinite()) continue;
-        const double r = nu.dot(p - index[u].points()[k]);
+        const double r = nu.dot(p - index[u].point(k));
         ss += r * r;
         ++n;
       }

@@ -213,7 +213,6 @@ RansacResult Ransac(const std::vector<Eigen::Vector3d>& source, const PointIndex
     Eigen::Matrix4d t;
     Score score;
   };
-  const std::vector<Eigen::Vector3d>& tp = target.points();
   std::vector<Hypothesis> best;  // the rescored_hypotheses best by subsample score, best first
   constexpr int kBlock = 1024;
   std::vector<Hypothesis> block(kBlock);
@@ -231,7 +230,7 @@ RansacResult Ransac(const std::vector<Eigen::Vector3d>& source, const PointIndex
       Eigen::Matrix3d ps, pt;
       for (int m = 0; m < 3; ++m) {
         ps.col(m) = source[corres[c[m]](0)];
-        pt.col(m) = tp[corres[c[m]](1)];
+        pt.col(m) = target.point(corres[c[m]](1));
       }
       for (int a = 0; a < 3; ++a) {
         const int b = (a + 1) % 3;

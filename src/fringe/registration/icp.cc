@@ -8,10 +8,10 @@
 #include <cmath>
 #include <limits>
 #include <memory>
-#include <nanoflann.hpp>
 #include <numeric>
 #include <random>
 
+#include "fringe/geometry/point_index.h"
 #include "fringe/util/error.h"
 #include "fringe/util/timer.h"
 
@@ -85,44 +85,14 @@ std::string IcpSummary::BriefReport() const {
 
 namespace {
 
-// nanoflann adaptor over a list of points (usable ones only).
-struct PointsAdaptor {
+// A list of points (usable ones only), in the view's cloud or in PreparedView's own copy.
+struct PointsView {
   const Vector3d* pts = nullptr;
   size_t n = 0;
-  size_t kdtree_get_point_count() const { return n; }
-  double kdtree_get_pt(size_t i, size_t d) const { return pts[i][static_cast<int>(d)]; }
-  template <class B>
-  bool kdtree_get_bbox(B&) const {
-    return false;
-  }
-};
-using KdTree =
-    nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, PointsAdaptor>,
-                                        PointsAdaptor, 3, uint32_t>;
-
-// Nearest neighbour within a radius, for nanoflann: the search starts with the radius as its
-// worst distance, so branches beyond it are pruned (samples outside the overlap of two views,
-// most of them, cost a few node visits instead of a full descent).
-struct NearestWithin {
-  explicit NearestWithin(double radius_sq) : d2(radius_sq) {}
-  double d2;
-  uint32_t index = 0;
-  bool found = false;
-  size_t size() const { return found ? 1 : 0; }
-  bool full() const { return found; }
-  bool addPoint(double dist, uint32_t i) {
-    if (dist < d2) {
-      d2 = dist;
-      index = i;
-      found = true;
-    }
-    return true;
-  }
-  double worstDist() const { return d2; }
 };
 
 struct PreparedView {
-  PointsAdaptor data;                 // usable points, sensor frame
+  PointsView data;                    // usable points, sensor frame
   const Vector3d* normals = nullptr;  // unit, sensor frame
   // The usable points and normals when some of the cloud's are not; when all are, data and
   // normals point into the cloud (no copy of 48 bytes per point and view).
@@ -131,8 +101,8 @@ struct PreparedView {
     data = {own_pts.data(), own_pts.size()};
     normals = own_normals.data();
   }
-  std::vector<uint32_t> order;   // seeded random order of the usable points
-  std::unique_ptr<KdTree> tree;  // built when some level searches this view by k-d tree
+  std::vector<uint32_t> order;       // seeded random order of the usable points
+  std::unique_ptr<PointIndex> tree;  // built when some level searches this view by k-d tree
   // Projective association (a grid that fits): per slot in grid order, its usable point's
   // coordinates (float, relative to slot_origin; NaN: no point) and index (-1: none), 16 bytes:
   // the window search reads a few contiguous bytes per row instead of an index and then a
@@ -150,9 +120,7 @@ struct PreparedView {
 
   // Index of the usable point nearest to q (sensor frame) within sqrt(radius_sq): exact, k-d.
   int32_t NearestByTree(const Vector3d& q, double radius_sq) const {
-    NearestWithin rs(radius_sq);
-    tree->findNeighbors(rs, q.data(), nanoflann::SearchParams());
-    return rs.found ? static_cast<int32_t>(rs.index) : -1;
+    return static_cast<int32_t>(tree->NearestWithin(q, radius_sq));
   }
   // The same among the points of the (2w + 1)^2 slots around q's projection (row by row, the
   // first of equal distances: deterministic).
@@ -338,17 +306,16 @@ IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& o
     // The points samples may come from (see IcpOptions::sample_max_normal_spread_deg).
     std::vector<uint32_t> candidates;
     if (options.sample_max_normal_spread_deg > 0 && pv.data.n > 0) {
-      pv.tree = std::make_unique<KdTree>(3, pv.data, nanoflann::KDTreeSingleIndexAdaptorParams(16));
+      pv.tree = std::make_unique<PointIndex>(pv.data.pts, pv.data.n);
       const double cos_spread = std::cos(options.sample_max_normal_spread_deg * M_PI / 180);
       const size_t k = std::min<size_t>(options.sample_spread_neighbours + 1, pv.data.n);
       std::vector<uint8_t> smooth(pv.data.n, 0);
       tbb::parallel_for(tbb::blocked_range<size_t>(0, pv.data.n, 4096),
                         [&](const tbb::blocked_range<size_t>& rg) {
-                          std::vector<uint32_t> idx(k);
+                          std::vector<size_t> idx(k);
                           std::vector<double> d2(k);
                           for (size_t p = rg.begin(); p != rg.end(); ++p) {
-                            const size_t found =
-                                pv.tree->knnSearch(pv.data.pts[p].data(), k, idx.data(), d2.data());
+                            const size_t found = pv.tree->Nearest(pv.data.pts[p], k, &idx, &d2);
                             bool ok = true;
                             for (size_t m = 0; m < found && ok; ++m) {
                               ok = pv.normals[idx[m]].dot(pv.normals[p]) >= cos_spread;
@@ -388,7 +355,7 @@ IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& o
     const bool needs_tree =
         !projective || (options.projective_from_level > 0 && !pv.projective_from_start);
     if (needs_tree && pv.data.n > 0 && !pv.tree) {
-      pv.tree = std::make_unique<KdTree>(3, pv.data, nanoflann::KDTreeSingleIndexAdaptorParams(16));
+      pv.tree = std::make_unique<PointIndex>(pv.data.pts, pv.data.n);
     }
   });
   for (int i = 0; i < nv; ++i) {
@@ -690,7 +657,7 @@ std::vector<SurfaceAgreement> MeasureAgreement(const PointCloud& source, const P
     std::shuffle(order.begin(), order.end(), rng);
   }
   const int ns = std::min<int>(samples, static_cast<int>(order.size()));
-  const KdTree tree(3, tgt.data, nanoflann::KDTreeSingleIndexAdaptorParams(16));
+  const PointIndex tree(tgt.data.pts, tgt.data.n);
   const double cos_max = std::cos(max_normal_angle_deg * M_PI / 180);
   for (size_t h = 0; h < target_from_source.size(); ++h) {
     const Rigid3d& t = target_from_source[h];
@@ -700,15 +667,14 @@ std::vector<SurfaceAgreement> MeasureAgreement(const PointCloud& source, const P
     tbb::parallel_for(0, ns, [&](int s) {
       const uint32_t k = order[s];
       const Vector3d q = t * src.data.pts[k];
-      NearestWithin rs(overlap_radius_mm * overlap_radius_mm);
-      tree.findNeighbors(rs, q.data(), nanoflann::SearchParams());
-      if (!rs.found) return;
-      const Vector3d& pt = tgt.data.pts[rs.index];
+      const int64_t nearest = tree.NearestWithin(q, overlap_radius_mm * overlap_radius_mm);
+      if (nearest < 0) return;
+      const Vector3d& pt = tgt.data.pts[nearest];
       if ((q - pt).squaredNorm() > close_sq) {
         state[s] = 1;
         return;
       }
-      const Vector3d& nt = tgt.normals[rs.index];
+      const Vector3d& nt = tgt.normals[nearest];
       const bool ok = std::abs(nt.dot(q - pt)) <= tolerance_mm &&
                       t.RotateDirection(src.normals[k]).dot(nt) >= cos_max;
       state[s] = ok ? 2 : 3;

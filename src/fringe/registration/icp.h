@@ -21,9 +21,9 @@
 // project runs (AlignToMesh too).
 //
 // Association: a sample is matched with the target view's point nearest to it, either exactly
-// through a nanoflann k-d tree over the target (any cloud), or projectively on the target's
-// organized grid (a view that carries its grid, IcpView::grid): the sample is projected into the
-// target's pixel grid with the projection fitted from the grid itself
+// through a k-d tree over the target (geometry/point_index.h; any cloud), or projectively on the
+// target's organized grid (a view that carries its grid, IcpView::grid): the sample is projected
+// into the target's pixel grid with the projection fitted from the grid itself
 // (geometry/grid_projection.h: no camera model needed) and the nearest of the valid points in
 // the (2w + 1)^2 slots around that position is taken (w = projective_window_px). Projection
 // costs a fixed few slot reads instead of a tree descent and needs no tree; it finds the nearest

@@ -34,13 +34,13 @@ double EstimateSurfaceNoiseMm(const PointCloud& cloud, int samples, int neighbou
   tbb::parallel_for(0, samples, [&](int s) {
     std::vector<size_t> idx;
     std::vector<double> d2;
-    const size_t k = index.Nearest(index.points()[at[s]], neighbours, &idx, &d2);
+    const size_t k = index.Nearest(index.point(at[s]), neighbours, &idx, &d2);
     Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-    for (size_t i = 0; i < k; ++i) mean += index.points()[idx[i]];
+    for (size_t i = 0; i < k; ++i) mean += index.point(idx[i]);
     mean /= static_cast<double>(k);
     Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
     for (size_t i = 0; i < k; ++i) {
-      const Eigen::Vector3d d = index.points()[idx[i]] - mean;
+      const Eigen::Vector3d d = index.point(idx[i]) - mean;
       cov += d * d.transpose();
     }
     const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(cov);

@@ -382,6 +382,9 @@ int Run(int argc, char** argv) {
                  "Marker-free RANSAC scores each hypothesis on this many source samples (a "
                  "number above the samples: all, as Open3D)")
       ->capture_default_str();
+  app.add_option("--icp-max-iterations", options.icp.max_iterations_per_level,
+                 "ICP iterations per level at most")
+      ->capture_default_str();
   app.add_option("--icp-trim", options.icp.trim_fraction,
                  "ICP keeps this fraction of each view pair's correspondences (the closest)")
       ->capture_default_str();

@@ -48,6 +48,7 @@ void RegistrationOptions::Check() const {
   adjustment.Check();
   coarse.Check();
   icp.Check();
+  marker_free_icp.Check();
 }
 
 const char* ToString(ViewPath p) {
@@ -589,7 +590,7 @@ class Registrar {
         start = std::max(start, bound);
         misalignment = std::max(misalignment, bound);
       } else if (vr.path != ViewPath::kWorld) {
-        start = std::max(start, o_.icp.initial_threshold_mm);
+        start = std::max(start, o_.marker_free_icp.initial_threshold_mm);
         markers_only = false;
       }
     }
@@ -607,7 +608,7 @@ class Registrar {
       x.fixed = v == world_;
       iv.push_back(x);
     }
-    IcpOptions io = o_.icp;
+    IcpOptions io = markers_only ? o_.icp : o_.marker_free_icp;
     io.initial_threshold_mm = start;
     io.min_threshold_mm = std::min(io.min_threshold_mm, start);
     io.start_misalignment_mm = markers_only ? misalignment : 0.0;

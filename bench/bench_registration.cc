@@ -382,6 +382,23 @@ int Run(int argc, char** argv) {
                  "Marker-free RANSAC scores each hypothesis on this many source samples (a "
                  "number above the samples: all, as Open3D)")
       ->capture_default_str();
+  app.add_option("--icp-max-iterations", options.icp.max_iterations_per_level,
+                 "ICP iterations per level at most")
+      ->capture_default_str();
+  app.add_option("--free-icp-trim", options.marker_free_icp.trim_fraction,
+                 "The marker-free refinement keeps this fraction of each view pair's "
+                 "correspondences")
+      ->capture_default_str();
+  app.add_option("--free-icp-normal-deg", options.marker_free_icp.max_normal_angle_deg,
+                 "The marker-free refinement pairs normals within this angle")
+      ->capture_default_str();
+  app.add_option("--free-icp-spread-deg", options.marker_free_icp.sample_max_normal_spread_deg,
+                 "The marker-free refinement samples points whose neighbours' normals are within "
+                 "this angle (0: every point)")
+      ->capture_default_str();
+  app.add_option("--free-icp-tangential", options.marker_free_icp.max_tangential_spacings,
+                 "The marker-free refinement's coverage test, in target spacings (0: off)")
+      ->capture_default_str();
   app.add_option("--icp-trim", options.icp.trim_fraction,
                  "ICP keeps this fraction of each view pair's correspondences (the closest)")
       ->capture_default_str();
@@ -743,6 +760,7 @@ int Run(int argc, char** argv) {
     bo.use_markers = false;
     bo.coarse = options.coarse;  // the marker-free flags apply to the bunny too
     bo.coarse_icp_normal_spread_deg = options.coarse_icp_normal_spread_deg;
+    bo.marker_free_icp = options.marker_free_icp;
     util::Timer free_timer;
     const registration::RegistrationResult bfree = registration::RegisterViews(bv, bo);
     const double free_s = free_timer.ElapsedSeconds();

@@ -35,6 +35,10 @@ void IcpOptions::Check() const {
                     "must be in [0, 180)");
   util::CheckOption(sample_spread_neighbours >= 1, o, "sample_spread_neighbours",
                     sample_spread_neighbours, "must be >= 1");
+  util::CheckOption(max_incidence_deg >= 0 && max_incidence_deg <= 90, o, "max_incidence_deg",
+                    max_incidence_deg, "must be in [0, 90]");
+  util::CheckOption(max_tangential_spacings >= 0, o, "max_tangential_spacings",
+                    max_tangential_spacings, "must be >= 0");
   util::CheckOption(projective_from_level >= 0, o, "projective_from_level", projective_from_level,
                     "must be >= 0");
   util::CheckOption(projective_window_px >= 0, o, "projective_window_px", projective_window_px,
@@ -117,6 +121,9 @@ struct PreparedView {
   bool projective_from_start = false;  // see IcpOptions::start_misalignment_mm
   std::vector<Slot> slots;
   Vector3d slot_origin = Vector3d::Zero();
+  // Squared tangential distance bound of correspondences onto this view (IcpOptions::
+  // max_tangential_spacings), infinite when off.
+  double max_tangential_sq = std::numeric_limits<double>::infinity();
 
   // Index of the usable point nearest to q (sensor frame) within sqrt(radius_sq): exact, k-d.
   int32_t NearestByTree(const Vector3d& q, double radius_sq) const {
@@ -269,10 +276,15 @@ IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& o
     const bool projective = projective_view(views[i]);
     if (projective) pv.projection = &views[i].grid->projection;
     const size_t cn = std::min(c->size(), c->normals.size());
+    // Grid views only: their sensor is known to sit at the origin (see max_incidence_deg).
+    const double cos_incidence = options.max_incidence_deg > 0 && views[i].grid != nullptr
+                                     ? std::cos(options.max_incidence_deg * M_PI / 180)
+                                     : -2.0;
     const auto usable = [&](size_t k) {
       const Vector3d& p = c->points[k];
       const Vector3d& n = c->normals[k];
-      return p.allFinite() && n.allFinite() && std::abs(n.norm() - 1) <= 1e-3;
+      return p.allFinite() && n.allFinite() && std::abs(n.norm() - 1) <= 1e-3 &&
+             -n.dot(p) >= cos_incidence * p.norm();
     };
     std::vector<uint8_t> use(cn);
     size_t n_usable = 0;
@@ -352,10 +364,26 @@ IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& o
             d.radius_px <= reach;
       }
     }
-    const bool needs_tree =
-        !projective || (options.projective_from_level > 0 && !pv.projective_from_start);
+    const bool needs_tree = !projective ||
+                            (options.projective_from_level > 0 && !pv.projective_from_start) ||
+                            options.max_tangential_spacings > 0;
     if (needs_tree && pv.data.n > 0 && !pv.tree) {
       pv.tree = std::make_unique<PointIndex>(pv.data.pts, pv.data.n);
+    }
+    if (options.max_tangential_spacings > 0 && pv.data.n > 1) {
+      // The point spacing: the median nearest-neighbour distance of a seeded subset.
+      std::vector<double> nn;
+      const size_t stride = std::max<size_t>(1, pv.data.n / 1000);
+      for (size_t p = 0; p < pv.data.n; p += stride) {
+        uint32_t idx[2];
+        double d2[2];
+        if (pv.tree->knnSearch(pv.data.pts[p].data(), 2, idx, d2) == 2) nn.push_back(d2[1]);
+      }
+      if (!nn.empty()) {
+        std::nth_element(nn.begin(), nn.begin() + nn.size() / 2, nn.end());
+        const double t = options.max_tangential_spacings * std::sqrt(nn[nn.size() / 2]);
+        pv.max_tangential_sq = t * t;
+      }
     }
   });
   for (int i = 0; i < nv; ++i) {
@@ -477,6 +505,7 @@ IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& o
                 const Vector3d& pt = tv.data.pts[idx];
                 const double r = nt.dot(q - pt);
                 if (std::abs(r) > threshold) continue;
+                if ((q - pt - r * nt).squaredNorm() > tv.max_tangential_sq) continue;
                 m.k = static_cast<int32_t>(sample[s]);
                 m.idx = idx;
                 m.r = r;

@@ -67,6 +67,18 @@ struct IcpOptions : IcpSchedule {
   // rest ~1.5 mm along the plate from its true pose (bench_registration --start-slide-mm 0).
   double sample_max_normal_spread_deg = 0;
   int sample_spread_neighbours = 8;  // >= 1
+  // Points of a view with a grid whose normal turns more than this from the direction to the
+  // sensor (the sensor frame's origin) are neither samples nor targets (deg, (0, 90]; 0: every
+  // point). Walls seen at grazing incidence are measured worst, and on a plate scene they are
+  // what fixes the sliding directions (bench_registration --no-markers --start-slide-mm 0, all
+  // directions free: 0.080 mm with them left out beyond 70 deg, 0.086 mm with them).
+  double max_incidence_deg = 0;
+  // A correspondence whose target point lies farther from the sample than this many target point
+  // spacings ALONG the target's tangent plane is rejected (0: never). Such a sample lies beyond
+  // the target's coverage and is matched with its border point, whose plane does not continue
+  // there: on curved surfaces the residual is biased and pushes the view sideways. A slid but
+  // covered sample has its nearest point within about one spacing along the plane. >= 0.
+  double max_tangential_spacings = 0;
   // Samples are drawn from every view (true) or from the free views only (false): a fixed
   // view's samples only repeat, in reverse, the constraints the free views' samples already put
   // on the pair; without them pairwise ICP does half the work (bunny pair: 0.22 CPU s instead

@@ -398,6 +398,52 @@ TEST(RegisterViews, MarkerFreePlacesFourPartialViews) {
   }
 }
 
+// A plate with one turned block (30 x 20 x 15 mm; its walls ~6 % of the points, less than the
+// ICP trims, and the only constraint on the slides and the turn in the plate's plane), seen
+// twice; the second view placed without markers, by an initial pose slid 1 mm along the plate,
+// as a marker-free pairwise alignment can leave it. The refinement must remove the slide. With
+// the marker settings (`icp`: uniform samples, weak directions held) the walls are trimmed and
+// the view stays 1 mm off. The turn about the plate's normal rests on the block's walls alone
+// (lever ~15 mm), hence a rotation tolerance of the quarter-rig fixture's kRotTolDeg.
+TEST(RegisterViews, RefinementWithoutMarkersRemovesASlideAlongAPlate) {
+  const Eigen::Vector3d block_centre(20, -10, 0);
+  PointCloud world;
+  for (double x = -89.5; x < 90; x += 1) {
+    for (double y = -89.5; y < 90; y += 1) {
+      if (x * x + y * y > 90 * 90) continue;
+      if (std::hypot(x - block_centre.x(), y - block_centre.y()) < 19) continue;  // under it
+      world.points.emplace_back(x, y, 0);
+      world.normals.push_back(Eigen::Vector3d::UnitZ());
+    }
+  }
+  AddBox(block_centre, 30, 20, 15, 0.4, &world);
+  const Rigid3d pose0 =
+      Rigid3d::FromAxisAngle(Eigen::Vector3d(1, 0, 0), M_PI * 0.9, Eigen::Vector3d(0, 20, 450));
+  const Rigid3d pose1 = Rigid3d::FromAxisAngle(Eigen::Vector3d(0.9, 0.3, 0.1).normalized(),
+                                               M_PI * 0.8, Eigen::Vector3d(25, -10, 430));
+  const Rigid3d truth = pose0.Inverse() * pose1;  // world = view 0's sensor frame
+  std::vector<RegistrationView> views = {SeeSynthetic(world, pose0, "a", 1),
+                                         SeeSynthetic(world, pose1, "b", 2)};
+  // 1 mm along the plate, in view 0's frame.
+  const Eigen::Vector3d slide =
+      pose0.Inverse().RotateDirection(Eigen::Vector3d(0.6, 0.8, 0).normalized());
+  views[1].initial_world_from_sensor = Rigid3d(Eigen::Quaterniond::Identity(), slide) * truth;
+  Eigen::Vector3d c = Eigen::Vector3d::Zero();
+  for (const auto& p : views[1].cloud.points) c += p;
+  c /= static_cast<double>(views[1].cloud.size());
+  RegistrationOptions o;
+  o.use_markers = false;
+  o.coarse_fallback = false;
+  const RegistrationResult r = RegisterViews(views, o);
+  ASSERT_TRUE(r.summary.ok()) << r.summary.BriefReport();
+  const ViewRegistration& b = r.views[1];
+  EXPECT_EQ(b.path, ViewPath::kInitial) << b.message;
+  const RigidDifference d = Difference(b.world_from_sensor, truth);
+  EXPECT_LT(d.angle_rad * 180 / M_PI, kRotTolDeg) << r.summary.icp.BriefReport();
+  EXPECT_LT((b.world_from_sensor * c - truth * c).norm(), kMarkerFreeCentroidTolMm)
+      << r.summary.icp.BriefReport();
+}
+
 // A featureless plate (a disc, nothing on it) seen twice: every slide and turn in its plane
 // fits, so the second view must be refused, not placed.
 TEST(RegisterViews, MarkerFreeRefusesAFeaturelessPlate) {

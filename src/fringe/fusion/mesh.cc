@@ -332,7 +332,7 @@ Projection ProjectOntoPoints(const PointIndex& tree, const std::vector<Eigen::Ve
         if (normals[idx[j]].dot(n) <= 0) continue;  // the other side of a thin wall
         const double w = std::exp(-d2[j] / h2);
         w_sum += w;
-        mean += w * tree.points()[idx[j]];
+        mean += w * tree.point(idx[j]);
         ++used;
       }
       if (2 * used < found || used < 4) continue;
@@ -340,7 +340,7 @@ Projection ProjectOntoPoints(const PointIndex& tree, const std::vector<Eigen::Ve
       Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
       for (size_t j = 0; j < found; ++j) {
         if (normals[idx[j]].dot(n) <= 0) continue;
-        const Eigen::Vector3d q = tree.points()[idx[j]] - mean;
+        const Eigen::Vector3d q = tree.point(idx[j]) - mean;
         cov += std::exp(-d2[j] / h2) * q * q.transpose();
       }
       const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(cov);
@@ -355,13 +355,13 @@ Projection ProjectOntoPoints(const PointIndex& tree, const std::vector<Eigen::Ve
       Eigen::Matrix<double, 6, 1> atb = Eigen::Matrix<double, 6, 1>::Zero();
       for (size_t j = 0; j < found; ++j) {
         if (normals[idx[j]].dot(n) <= 0) continue;
-        const Eigen::Vector3d q = tree.points()[idx[j]] - p;
+        const Eigen::Vector3d q = tree.point(idx[j]) - p;
         const double u = q.dot(e1), w = q.dot(e2);
         Eigen::Matrix<double, 6, 1> row;
         row << 1, u, w, u * u, u * w, w * w;
         const double wt = std::exp(-d2[j] / h2);
         ata.noalias() += wt * row * row.transpose();
-        atb.noalias() += wt * row * (tree.points()[idx[j]] - mean).dot(plane_n);
+        atb.noalias() += wt * row * (tree.point(idx[j]) - mean).dot(plane_n);
       }
       double height = 0;  // of the surface over the plane at the vertex's foot
       if (used >= 10) {

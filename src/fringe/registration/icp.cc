@@ -373,11 +373,11 @@ IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& o
     if (options.max_tangential_spacings > 0 && pv.data.n > 1) {
       // The point spacing: the median nearest-neighbour distance of a seeded subset.
       std::vector<double> nn;
+      std::vector<size_t> idx;
+      std::vector<double> d2;
       const size_t stride = std::max<size_t>(1, pv.data.n / 1000);
       for (size_t p = 0; p < pv.data.n; p += stride) {
-        uint32_t idx[2];
-        double d2[2];
-        if (pv.tree->knnSearch(pv.data.pts[p].data(), 2, idx, d2) == 2) nn.push_back(d2[1]);
+        if (pv.tree->Nearest(pv.data.pts[p], 2, &idx, &d2) == 2) nn.push_back(d2[1]);
       }
       if (!nn.empty()) {
         std::nth_element(nn.begin(), nn.begin() + nn.size() / 2, nn.end());

@@ -10,6 +10,8 @@
 #include <limits>
 #include <memory>
 #include <opencv2/imgproc.hpp>
+#include <optional>
+#include <string>
 
 #include "fringe/geometry/grid_projection.h"
 #include "fringe/util/error.h"
@@ -711,21 +713,38 @@ nlohmann::json SummaryToJson(const FusionSummary& s) {
           {"output_s", s.output_s}};
 }
 
-FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions& options) {
-  options.Check();
-  util::Timer timer;
-  FusionResult result;
-  FusionSummary& s = result.summary;
-  s.views = static_cast<int>(views.size());
-  if (views.empty()) return Fail(std::move(result), FusionStatus::kEmptyInput, "no views");
-  if (views.size() > 65535) {
-    return Fail(std::move(result), FusionStatus::kBadView, "more than 65535 views");
-  }
+namespace {
 
-  // Validate the views and find their spacing; the units check compares median spacings.
-  std::vector<std::vector<float>> spacing(views.size());
-  std::vector<std::vector<uint16_t>> border(views.size());
-  std::vector<double> median_spacing(views.size(), 0);
+// Point flags of the overlap search (FindOverlap). kOutranked: a compatible point of another
+// view within the radius outranks this one.
+constexpr uint8_t kOverlap = 1, kSeed = 2, kAbsorbed = 4, kOutranked = 8;
+
+// What a stage refuses its input with: FuseViews returns it as the result's status.
+struct Refusal {
+  FusionStatus status;
+  std::string message;
+};
+
+// The registration term of every radius (FusionOptions::registration_factor).
+double RegistrationTerm(const FusionOptions& options) {
+  return options.registration_factor * options.registration_rms_mm;
+}
+
+// Stage "prepare", 1: each view's sizes, pose and normals checked, its grid spacing and border
+// distances; the units check compares median spacings.
+struct ViewMeasures {
+  std::vector<std::vector<float>> spacing;
+  std::vector<std::vector<uint16_t>> border;
+  std::vector<double> median_spacing;
+  int64_t total = 0;  // valid points of all views
+};
+
+std::optional<Refusal> MeasureViews(const std::vector<FusionView>& views,
+                                    const FusionOptions& options, ViewMeasures* m,
+                                    FusionSummary* s) {
+  m->spacing.resize(views.size());
+  m->border.resize(views.size());
+  m->median_spacing.assign(views.size(), 0);
   int64_t total = 0;
   for (size_t v = 0; v < views.size(); ++v) {
     const FusionView& fv = views[v];
@@ -735,51 +754,55 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
     auto sized = [n](const auto& a) { return a.empty() || a.size() == n; };
     if (g.cloud.size() != n || g.valid.size() != n || !sized(c.normals) || !sized(c.intensity) ||
         !sized(c.quality) || !sized(c.residual_px) || !sized(c.colors)) {
-      return Fail(std::move(result), FusionStatus::kBadView,
-                  util::StrCat("view '", fv.name, "': grid ", g.width, "x", g.height,
-                               " disagrees with its attribute sizes"));
+      return Refusal{FusionStatus::kBadView,
+                     util::StrCat("view '", fv.name, "': grid ", g.width, "x", g.height,
+                                  " disagrees with its attribute sizes")};
     }
-    const Eigen::Matrix<double, 3, 4> m = fv.world_from_sensor.ToMatrix3x4();
-    if (!m.allFinite()) {
-      return Fail(std::move(result), FusionStatus::kBadView,
-                  util::StrCat("view '", fv.name, "': non-finite pose"));
+    const Eigen::Matrix<double, 3, 4> pose = fv.world_from_sensor.ToMatrix3x4();
+    if (!pose.allFinite()) {
+      return Refusal{FusionStatus::kBadView, util::StrCat("view '", fv.name, "': non-finite pose")};
     }
     const size_t valid = g.NumValid();
     if (valid > 0 && !c.has_normals()) {
-      return Fail(std::move(result), FusionStatus::kMissingNormals,
-                  util::StrCat("view '", fv.name,
-                               "' has no normals (reconstruct with normals, or estimate them)"));
+      return Refusal{FusionStatus::kMissingNormals,
+                     util::StrCat("view '", fv.name,
+                                  "' has no normals (reconstruct with normals, or estimate them)")};
     }
     total += static_cast<int64_t>(valid);
   }
   // Per view, independent: in parallel (the border transform is serial within a view).
   tbb::parallel_for(size_t{0}, views.size(), [&](size_t v) {
-    spacing[v] = GridSpacing(views[v].cloud);
-    border[v] = BorderDistancePx(views[v].cloud, options.min_border_hole_px);
-    median_spacing[v] = Median(spacing[v]);
+    m->spacing[v] = GridSpacing(views[v].cloud);
+    m->border[v] = BorderDistancePx(views[v].cloud, options.min_border_hole_px);
+    m->median_spacing[v] = Median(m->spacing[v]);
   });
-  s.input_points = total;
-  if (total == 0) {
-    return Fail(std::move(result), FusionStatus::kEmptyInput, "no valid point in any view");
+  m->total = total;
+  s->input_points = total;
+  if (total == 0) return Refusal{FusionStatus::kEmptyInput, "no valid point in any view"};
+  const std::vector<double>& median_spacing = m->median_spacing;
+  size_t lo = views.size(), hi = views.size();
+  for (size_t v = 0; v < views.size(); ++v) {
+    if (!std::isfinite(median_spacing[v])) continue;
+    if (lo == views.size() || median_spacing[v] < median_spacing[lo]) lo = v;
+    if (hi == views.size() || median_spacing[v] > median_spacing[hi]) hi = v;
   }
-  {
-    size_t lo = views.size(), hi = views.size();
-    for (size_t v = 0; v < views.size(); ++v) {
-      if (!std::isfinite(median_spacing[v])) continue;
-      if (lo == views.size() || median_spacing[v] < median_spacing[lo]) lo = v;
-      if (hi == views.size() || median_spacing[v] > median_spacing[hi]) hi = v;
-    }
-    if (lo != views.size() && median_spacing[hi] > options.max_spacing_ratio * median_spacing[lo]) {
-      return Fail(
-          std::move(result), FusionStatus::kUnitsMismatch,
-          util::StrCat("view '", views[hi].name, "' has a point spacing of ", median_spacing[hi],
-                       " and view '", views[lo].name, "' of ", median_spacing[lo],
-                       " (different units? all clouds must be in millimetres)"));
-    }
+  if (lo != views.size() && median_spacing[hi] > options.max_spacing_ratio * median_spacing[lo]) {
+    return Refusal{
+        FusionStatus::kUnitsMismatch,
+        util::StrCat("view '", views[hi].name, "' has a point spacing of ", median_spacing[hi],
+                     " and view '", views[lo].name, "' of ", median_spacing[lo],
+                     " (different units? all clouds must be in millimetres)")};
   }
+  return std::nullopt;
+}
 
-  // Gather the points in the world frame with weight and adaptive radius.
-  Points pts;
+// Stage "prepare", 2: the valid points in the world frame with weight and adaptive radius, in
+// view order.
+std::optional<Refusal> GatherPoints(const std::vector<FusionView>& views,
+                                    const FusionOptions& options, const ViewMeasures& m,
+                                    Points* out, FusionSummary* s) {
+  Points& pts = *out;
+  const int64_t total = m.total;
   pts.pos.resize(total);
   pts.nrm.resize(total);
   pts.weight.resize(total);
@@ -792,7 +815,6 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
   pts.grid.resize(total);
   pts.border.resize(total);
   pts.usable.resize(total);
-  std::vector<float> all_spacing;
   {
     size_t k = 0;
     for (size_t v = 0; v < views.size(); ++v) {
@@ -804,15 +826,16 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
         ++k;
       }
     }
+    std::vector<float> all_spacing;
     all_spacing.reserve(total);
     for (size_t v = 0; v < views.size(); ++v) {
-      for (float x : spacing[v]) {
+      for (float x : m.spacing[v]) {
         if (std::isfinite(x)) all_spacing.push_back(x);
       }
     }
-    s.median_spacing_mm = Median(std::move(all_spacing));
+    s->median_spacing_mm = Median(std::move(all_spacing));
   }
-  const double reg_term = options.registration_factor * options.registration_rms_mm;
+  const double reg_term = RegistrationTerm(options);
   std::atomic<bool> nonfinite{false};
   tbb::parallel_for(
       tbb::blocked_range<size_t>(0, static_cast<size_t>(total)),
@@ -838,13 +861,13 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
             const double q = c.residual_px[i] / options.residual_half_px;
             w *= 1 / (1 + q * q);
           }
-          pts.border[k] = border[pts.view[k]][i];
+          pts.border[k] = m.border[pts.view[k]][i];
           w *= BorderWeight(pts.border[k], options.border_ramp_px);
           pts.weight[k] = static_cast<float>(std::isfinite(w) ? w : 0);
           // Isolated points take the view's median spacing; grazing ones at most 4 times it
           // (the radius sets the pixel windows of the neighbour search).
-          const float median = static_cast<float>(median_spacing[pts.view[k]]);
-          float sp = spacing[pts.view[k]][i];
+          const float median = static_cast<float>(m.median_spacing[pts.view[k]]);
+          float sp = m.spacing[pts.view[k]][i];
           sp = std::isfinite(sp) ? std::min(sp, 4 * median) : median;
           pts.spacing_mm[k] = sp;
           pts.radius_mm[k] = static_cast<float>(options.spacing_factor * sp + reg_term);
@@ -858,71 +881,86 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
         }
       });
   if (nonfinite) {
-    return Fail(std::move(result), FusionStatus::kBadView,
-                "a valid point has a non-finite position");
+    return Refusal{FusionStatus::kBadView, "a valid point has a non-finite position"};
   }
   for (size_t k = 0; k < pts.size(); ++k) {
     if (!std::isfinite(pts.radius_mm[k])) pts.usable[k] = 0;
   }
-  // The views' grids for the neighbour search.
-  std::vector<ViewGrid> grids(views.size());
-  // The points are in view order: view v's are [view_start[v], view_start[v + 1]).
-  std::vector<size_t> view_start(views.size() + 1, 0);
+  return std::nullopt;
+}
+
+// Stage "prepare", 3: the views' grids for the neighbour search, each with its fitted
+// projection; view_start[v] .. view_start[v + 1]: view v's points.
+std::optional<Refusal> BuildGrids(const std::vector<FusionView>& views,
+                                  const FusionOptions& options, const Points& pts,
+                                  std::vector<size_t>* view_start_out,
+                                  std::vector<ViewGrid>* grids_out, FusionSummary* s) {
+  std::vector<ViewGrid>& grids = *grids_out;
+  grids.assign(views.size(), ViewGrid());
+  std::vector<size_t>& view_start = *view_start_out;
+  view_start.assign(views.size() + 1, 0);
   for (size_t k = 0; k < pts.size(); ++k) ++view_start[pts.view[k] + 1];
   for (size_t v = 0; v < views.size(); ++v) view_start[v + 1] += view_start[v];
-  {
-    tbb::parallel_for(size_t{0}, views.size(), [&](size_t v) {
-      const OrganizedPointCloud& g = views[v].cloud;
-      ViewGrid& grid = grids[v];
-      grid.width = g.width;
-      grid.height = g.height;
-      grid.point.assign(g.valid.size(), kNone);
-      grid.pos.assign(g.valid.size(),
-                      Eigen::Vector3f::Constant(std::numeric_limits<float>::quiet_NaN()));
-      grid.nrm.assign(g.valid.size(), Eigen::Vector3f::Zero());
-      grid.weight.assign(g.valid.size(), 0.f);
-      for (size_t k = view_start[v]; k < view_start[v + 1]; ++k) {
-        if (!pts.usable[k]) continue;
-        grid.point[pts.grid[k]] = static_cast<int32_t>(k);
-        grid.pos[pts.grid[k]] = pts.pos[k];
-        grid.nrm[pts.grid[k]] = pts.nrm[k];
-        grid.weight[pts.grid[k]] = pts.weight[k];
-        grid.usable_slots.push_back(pts.grid[k]);
-      }
-      const Rigid3d sensor_from_world = views[v].world_from_sensor.Inverse();
-      grid.sensor_from_world_r = sensor_from_world.rotation_matrix().cast<float>();
-      grid.sensor_from_world_t = sensor_from_world.translation().cast<float>();
-      grid.origin_in_world = views[v].world_from_sensor.translation().cast<float>();
-      grid.projection = GridProjection::Fit(g);
-      grid.fitted = grid.projection.fitted();
-      FillTileDepths(&grid);
-    });
-    for (size_t v = 0; v < views.size(); ++v) {
-      const double fit_err_px = grids[v].projection.fit_error_px();
-      if (fit_err_px > options.max_fit_error_px) {
-        return Fail(std::move(result), FusionStatus::kBadView,
-                    util::StrCat("view '", views[v].name,
-                                 "': its grid is not a camera's pixel grid (the points project "
-                                 "to their slots with errors up to ",
-                                 fit_err_px,
-                                 " px; fusion needs the organized cloud as "
-                                 "reconstructed, in its sensor frame)"));
-      }
-      s.max_fit_error_px =
-          std::max(s.max_fit_error_px,
-                   grids[v].fitted ? static_cast<double>(static_cast<float>(fit_err_px)) : 0.0);
+  tbb::parallel_for(size_t{0}, views.size(), [&](size_t v) {
+    const OrganizedPointCloud& g = views[v].cloud;
+    ViewGrid& grid = grids[v];
+    grid.width = g.width;
+    grid.height = g.height;
+    grid.point.assign(g.valid.size(), kNone);
+    grid.pos.assign(g.valid.size(),
+                    Eigen::Vector3f::Constant(std::numeric_limits<float>::quiet_NaN()));
+    grid.nrm.assign(g.valid.size(), Eigen::Vector3f::Zero());
+    grid.weight.assign(g.valid.size(), 0.f);
+    for (size_t k = view_start[v]; k < view_start[v + 1]; ++k) {
+      if (!pts.usable[k]) continue;
+      grid.point[pts.grid[k]] = static_cast<int32_t>(k);
+      grid.pos[pts.grid[k]] = pts.pos[k];
+      grid.nrm[pts.grid[k]] = pts.nrm[k];
+      grid.weight[pts.grid[k]] = pts.weight[k];
+      grid.usable_slots.push_back(pts.grid[k]);
     }
+    const Rigid3d sensor_from_world = views[v].world_from_sensor.Inverse();
+    grid.sensor_from_world_r = sensor_from_world.rotation_matrix().cast<float>();
+    grid.sensor_from_world_t = sensor_from_world.translation().cast<float>();
+    grid.origin_in_world = views[v].world_from_sensor.translation().cast<float>();
+    grid.projection = GridProjection::Fit(g);
+    grid.fitted = grid.projection.fitted();
+    FillTileDepths(&grid);
+  });
+  for (size_t v = 0; v < views.size(); ++v) {
+    const double fit_err_px = grids[v].projection.fit_error_px();
+    if (fit_err_px > options.max_fit_error_px) {
+      return Refusal{FusionStatus::kBadView,
+                     util::StrCat("view '", views[v].name,
+                                  "': its grid is not a camera's pixel grid (the points project "
+                                  "to their slots with errors up to ",
+                                  fit_err_px,
+                                  " px; fusion needs the organized cloud as "
+                                  "reconstructed, in its sensor frame)")};
+    }
+    s->max_fit_error_px =
+        std::max(s->max_fit_error_px,
+                 grids[v].fitted ? static_cast<double>(static_cast<float>(fit_err_px)) : 0.0);
   }
-  s.prepare_s = timer.ElapsedSeconds();
+  return std::nullopt;
+}
 
-  util::Timer stage;
+// The normal compatibility test: cos and sin of FusionOptions::max_normal_angle_deg.
+float CosMax(const FusionOptions& o) {
+  return static_cast<float>(std::cos(o.max_normal_angle_deg * kPi / 180));
+}
+float SinMax(const FusionOptions& o) {
+  return static_cast<float>(std::sin(o.max_normal_angle_deg * kPi / 180));
+}
 
-  // 1 + 2: overlap and initial centres: each point against the other views' points in the
-  // pixel windows around its projections.
-  const float cos_max = static_cast<float>(std::cos(options.max_normal_angle_deg * kPi / 180));
-  const float sin_max = static_cast<float>(std::sin(options.max_normal_angle_deg * kPi / 180));
-  // kOutranked: a compatible point of another view within the radius outranks this one.
-  constexpr uint8_t kOverlap = 1, kSeed = 2, kAbsorbed = 4, kOutranked = 8;
+// Stage "overlap" (steps 1 + 2: overlap and initial centres): each point against the other
+// views' points in the pixel windows around its projections; per point its flags (kOverlap,
+// kSeed, kAbsorbed, kOutranked).
+std::vector<uint8_t> FindOverlap(const Points& pts, const std::vector<ViewGrid>& grids,
+                                 const std::vector<size_t>& view_start,
+                                 const FusionOptions& options) {
+  const float cos_max = CosMax(options);
+  const float sin_max = SinMax(options);
   std::vector<uint8_t> flags(pts.size(), 0);
   // Blocks of consecutive points, and within a block view by view: the windows of a block's
   // points in one other view cover a few of its grid rows, which stay in the cache while the
@@ -939,9 +977,9 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
   // Beside it the largest weight of that view's points there (+inf where no bound was taken):
   // a point with a larger weight (or an equal one and a smaller view index) has no point of
   // that view that outranks it.
-  std::vector<std::vector<uint8_t>> far_view(views.size());
-  std::vector<std::vector<float>> near_wmax(views.size());
-  tbb::parallel_for(size_t{0}, views.size(), [&](size_t u) {
+  std::vector<std::vector<uint8_t>> far_view(grids.size());
+  std::vector<std::vector<float>> near_wmax(grids.size());
+  tbb::parallel_for(size_t{0}, grids.size(), [&](size_t u) {
     const ViewGrid& gu = grids[u];
     const size_t n_tiles = static_cast<size_t>(gu.tiles_w) * static_cast<size_t>(gu.tiles_h);
     std::vector<Eigen::AlignedBox3f> box(n_tiles);
@@ -953,14 +991,14 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
       reach[t] = std::max(reach[t], pts.radius_mm[k]);
     }
     std::vector<uint8_t>& far = far_view[u];
-    far.assign(n_tiles * views.size(), 0);
+    far.assign(n_tiles * grids.size(), 0);
     std::vector<float>& wmax = near_wmax[u];
-    wmax.assign(n_tiles * views.size(), std::numeric_limits<float>::infinity());
+    wmax.assign(n_tiles * grids.size(), std::numeric_limits<float>::infinity());
     for (size_t t = 0; t < n_tiles; ++t) {
       if (box[t].isEmpty()) continue;
       const Eigen::Vector3f centre = box[t].center();
       const float rho = 0.5f * box[t].diagonal().norm() + reach[t];
-      for (size_t v = 0; v < views.size(); ++v) {
+      for (size_t v = 0; v < grids.size(); ++v) {
         const ViewGrid& g = grids[v];
         if (v == u || !g.fitted) continue;
         GridProjection::Disc d;
@@ -970,9 +1008,9 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
         // The disc's bound is taken at its centre: over a tile-sized disc it is widened by 10 %
         // and a pixel so that the skip never depends on the Jacobian's change across it.
         const SlotWindow window = WindowAround(g, d.row, d.col, 1.1f * d.radius_px + 1);
-        far[t * views.size() + v] = window.empty() || !AnyTileNear(g, window, depth, rho);
-        if (!far[t * views.size() + v])
-          wmax[t * views.size() + v] = MaxWeightNear(g, window, depth, rho);
+        far[t * grids.size() + v] = window.empty() || !AnyTileNear(g, window, depth, rho);
+        if (!far[t * grids.size() + v])
+          wmax[t * grids.size() + v] = MaxWeightNear(g, window, depth, rho);
       }
     }
   });
@@ -996,12 +1034,12 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
         std::vector<const uint8_t*> far_of(range.size());
         std::vector<const float*> wmax_of(range.size());
         for (size_t i = range.begin(); i != range.end(); ++i) {
-          const size_t t = TileOf(grids[pts.view[i]], pts.grid[i]) * views.size();
+          const size_t t = TileOf(grids[pts.view[i]], pts.grid[i]) * grids.size();
           far_of[i - range.begin()] = &far_view[pts.view[i]][t];
           wmax_of[i - range.begin()] = &near_wmax[pts.view[i]][t];
         }
         for (int pass = 0; pass < 2; ++pass) {
-          for (size_t v = 0; v < views.size(); ++v) {
+          for (size_t v = 0; v < grids.size(); ++v) {
             const ViewGrid& grid = grids[v];
             for (size_t i = range.begin(); i != range.end(); ++i) {
               if (!pts.usable[i] || v == pts.view[i]) continue;
@@ -1057,65 +1095,141 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
         }
       });
 
-  std::vector<uint32_t> seeds;
-  std::vector<uint8_t> in_overlap(pts.size(), 0);
-  for (size_t k = 0; k < pts.size(); ++k) {
-    in_overlap[k] = (flags[k] & kOverlap) != 0;
-    s.overlap_points += in_overlap[k];
-    if (flags[k] & kSeed) seeds.push_back(static_cast<uint32_t>(k));
-  }
-  result.overlap.resize(views.size());
-  for (size_t v = 0; v < views.size(); ++v)
-    result.overlap[v].assign(views[v].cloud.valid.size(), 0);
-  for (size_t k = 0; k < pts.size(); ++k) result.overlap[pts.view[k]][pts.grid[k]] = in_overlap[k];
-  s.overlap_s = stage.ElapsedSeconds();
+  return flags;
+}
 
-  stage.Restart();
+// Candidate centres per overlap point (stage "candidates", FindCandidates).
+constexpr int kCandidates = 8;
 
-  // 3: clustering. Centres start at the seeds and move along their normals only.
-  const size_t nc = seeds.size();
-  std::vector<Eigen::Vector3f> centre(nc), centre_n(nc);
-  // Each centre's position and normal side by side (a copy, kept with them): the assignment
-  // reads both for eight candidates per point, at scattered centres — one cache line each.
+// The clusters' centres: position and normal, the same side by side for the assignment (it
+// reads both for eight candidates per point, at scattered centres: one cache line each), the
+// seed's spacing and how far the centre may travel from its seed.
+struct Centres {
   struct Placed {
     Eigen::Vector3f pos, nrm;
   };
-  std::vector<Placed> placed(nc);
-  std::vector<float> centre_spacing(nc);
-  for (size_t c = 0; c < nc; ++c) {
-    centre[c] = pts.pos[seeds[c]];
-    centre_n[c] = pts.nrm[seeds[c]];
-    placed[c] = {centre[c], centre_n[c]};
-    centre_spacing[c] = pts.spacing_mm[seeds[c]];
-  }
-  std::vector<int32_t> assign(pts.size(), kNone);
-  std::vector<uint8_t> keep_own(nc, 0);
-  std::vector<uint32_t> member_start(nc + 1, 0), members, member_count;
-  // Candidate centres of every overlap point, found once: centres move along their normals by
-  // noise and registration error, a fraction of a spacing; each centre's total travel from its
-  // seed is bounded (half a median spacing + the registration term, at most the seed radius: a
-  // cluster that would travel farther is no surface estimate anymore), so the centres within a
-  // point's radius at any iteration are among those whose seeds lie within radius + the largest
-  // travel. Of those the kCandidates nearest are kept (ordered by seed distance, then index:
-  // deterministic); the iterations then assign among them without a search.
-  constexpr int kCandidates = 8;
-  // Travel: noise and registration error (half a median spacing + the registration term is
-  // several noise sigmas on every rig measured), at most the seed radius.
-  const float travel_limit_mm = static_cast<float>(0.5 * s.median_spacing_mm + reg_term);
+  std::vector<Eigen::Vector3f> pos, nrm;
+  std::vector<Placed> placed;
+  std::vector<float> spacing, travel_mm;
   double max_travel_mm = 0;
-  std::vector<float> travel_mm(nc);
-  for (size_t c = 0; c < nc; ++c) {
-    travel_mm[c] = std::min(pts.seed_radius_mm[seeds[c]], travel_limit_mm);
-    max_travel_mm = std::max(max_travel_mm, static_cast<double>(travel_mm[c]));
-  }
-  // Not initialized: only the overlap points' rows are written and read (the pages are first
-  // touched by the parallel search, not cleared by one thread beforehand).
-  const std::unique_ptr<int32_t[]> candidates(new int32_t[pts.size() * kCandidates]);
-  FindCandidates(pts, grids, in_overlap, seeds, static_cast<float>(max_travel_mm), kCandidates,
-                 candidates.get());
-  s.candidates_s = stage.ElapsedSeconds();
+  size_t size() const { return pos.size(); }
+};
 
-  stage.Restart();
+// Per point its centre (kNone: none); the members of centre c, in ascending point order, are
+// members[start[c] .. start[c + 1]) (SortMembers; count: its scratch).
+struct Membership {
+  std::vector<int32_t> assign;
+  std::vector<uint32_t> start, members, count;
+};
+
+// Stage "candidates", 1: a centre at every seed. Centres start at the seeds and move along their
+// normals only. Each centre's total travel from its seed is bounded (half a median spacing + the
+// registration term, at most the seed radius: a cluster that would travel farther is no surface
+// estimate anymore).
+Centres SeedCentres(const Points& pts, const std::vector<uint32_t>& seeds, double travel_limit_mm) {
+  const size_t nc = seeds.size();
+  Centres c;
+  c.pos.resize(nc);
+  c.nrm.resize(nc);
+  c.placed.resize(nc);
+  c.spacing.resize(nc);
+  c.travel_mm.resize(nc);
+  for (size_t k = 0; k < nc; ++k) {
+    c.pos[k] = pts.pos[seeds[k]];
+    c.nrm[k] = pts.nrm[seeds[k]];
+    c.placed[k] = {c.pos[k], c.nrm[k]};
+    c.spacing[k] = pts.spacing_mm[seeds[k]];
+    c.travel_mm[k] = std::min(pts.seed_radius_mm[seeds[k]], static_cast<float>(travel_limit_mm));
+    c.max_travel_mm = std::max(c.max_travel_mm, static_cast<double>(c.travel_mm[k]));
+  }
+  return c;
+}
+
+// Stage "cluster": one centre's step along its normal from its members, the step by its seed
+// view's members alone, the spread of the views' steps (NaN with one view) and the members'
+// combined normal (the centre's own where they give none).
+struct CentreStep {
+  double step = 0, own_step = 0, disagreement = kNaN;
+  Eigen::Vector3f normal;
+};
+
+CentreStep EvaluateCentre(const Points& pts, const Centres& centres, const Membership& members,
+                          size_t c, uint16_t seed_view, const FusionOptions& options) {
+  CentreStep r;
+  r.normal = centres.nrm[c];
+  // Each view's surface is evaluated on the centre's normal line: every member gives the
+  // point where its tangent plane crosses that line (exact for a member on the same plane
+  // however far it lies sideways); within a view, members close beside the line count
+  // most (curvature and normal errors near edges grow with the sideways distance). Views
+  // then combine by their points' weights, however many members each has, so that a view
+  // with two members does not pull twice as hard.
+  struct PerView {
+    uint16_t view;
+    double lw = 0, lw_along = 0, lateral = 0;
+  };
+  PerView per_view[8];
+  int n_views = 0;
+  Eigen::Vector3d sn = Eigen::Vector3d::Zero();
+  const Eigen::Vector3d n = centres.nrm[c].cast<double>();
+  const double lateral_sigma = options.lateral_sigma * centres.spacing[c];
+  for (uint32_t m = members.start[c]; m < members.start[c + 1]; ++m) {
+    const uint32_t i = members.members[m];
+    const Eigen::Vector3d d = (pts.pos[i] - centres.pos[c]).cast<double>();
+    const Eigen::Vector3d ni = pts.nrm[i].cast<double>();
+    const double along = ni.dot(d) / std::max(ni.dot(n), 0.7);
+    const double lateral_sq = (d - n.dot(d) * n).squaredNorm();
+    const double lat = std::exp(-0.5 * lateral_sq / (lateral_sigma * lateral_sigma));
+    const double lw = std::max(pts.weight[i], 1e-12f) * lat;
+    int k = 0;
+    while (k < n_views && per_view[k].view != pts.view[i]) ++k;
+    if (k == n_views) {
+      if (n_views == 8) continue;  // more than 8 views in one cluster: the rest add nothing
+      per_view[n_views++] = PerView{pts.view[i]};
+    }
+    per_view[k].lw += lw;
+    per_view[k].lw_along += lw * along;
+    per_view[k].lateral += lat;
+    sn += lw * ni;
+  }
+  double sw = 0, sd = 0;
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+  int used = 0;
+  for (int k = 0; k < n_views; ++k) {
+    if (per_view[k].lw <= 0) continue;
+    const double view_weight = per_view[k].lw / per_view[k].lateral;  // mean point weight
+    const double e = per_view[k].lw_along / per_view[k].lw;
+    sw += view_weight;
+    sd += view_weight * e;
+    lo = std::min(lo, e);
+    hi = std::max(hi, e);
+    ++used;
+    if (per_view[k].view == seed_view) r.own_step = e;
+  }
+  if (sw <= 0) return r;
+  r.step = sd / sw;
+  if (used >= 2) r.disagreement = hi - lo;
+  if (sn.norm() > 0) r.normal = sn.normalized().cast<float>();
+  return r;
+}
+
+// Stage "cluster": the centres move along their normals to their members' surface, the
+// members are reassigned to their nearest compatible candidate centre, until (almost) every
+// centre settles (FusionOptions::max_iterations, convergence_mm, max_moving_fraction).
+void ClusterPoints(const Points& pts, const std::vector<uint8_t>& in_overlap,
+                   const std::vector<uint32_t>& seeds, const int32_t* candidates,
+                   const FusionOptions& options, Centres* centres_io, Membership* membership_io,
+                   FusionSummary* summary) {
+  Centres& centres = *centres_io;
+  Membership& membership = *membership_io;
+  FusionSummary& s = *summary;
+  const size_t nc = centres.size();
+  const float cos_max = CosMax(options);
+  std::vector<Eigen::Vector3f>& centre = centres.pos;
+  std::vector<Eigen::Vector3f>& centre_n = centres.nrm;
+  std::vector<Centres::Placed>& placed = centres.placed;
+  const std::vector<float>& travel_mm = centres.travel_mm;
+  std::vector<int32_t>& assign = membership.assign;
+  std::vector<uint8_t> keep_own(nc, 0);
   // Iterations. A point's assignment can change only when one of its candidate centres moved
   // in the last iteration, a centre's update only when its membership changed or it moved: a
   // centre whose update would move it less than convergence_mm with unchanged membership
@@ -1178,66 +1292,17 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
       assign[k] = new_assign[k];
       any_change = true;
     }
-    if (any_change) SortMembers(assign, nc, &member_start, &members, &member_count);
+    if (any_change) {
+      SortMembers(assign, nc, &membership.start, &membership.members, &membership.count);
+    }
     tbb::parallel_for(size_t{0}, nc, [&](size_t c) {
       evaluate[c] = changed[c] || moved[c];
       if (!evaluate[c]) return;
-      // Each view's surface is evaluated on the centre's normal line: every member gives the
-      // point where its tangent plane crosses that line (exact for a member on the same plane
-      // however far it lies sideways); within a view, members close beside the line count
-      // most (curvature and normal errors near edges grow with the sideways distance). Views
-      // then combine by their points' weights, however many members each has, so that a view
-      // with two members does not pull twice as hard.
-      struct PerView {
-        uint16_t view;
-        double lw = 0, lw_along = 0, lateral = 0;
-      };
-      PerView per_view[8];
-      int n_views = 0;
-      Eigen::Vector3d sn = Eigen::Vector3d::Zero();
-      const Eigen::Vector3d n = centre_n[c].cast<double>();
-      const double lateral_sigma = options.lateral_sigma * centre_spacing[c];
-      step[c] = 0;
-      own_step[c] = 0;
-      disagreement[c] = kNaN;
-      for (uint32_t m = member_start[c]; m < member_start[c + 1]; ++m) {
-        const uint32_t i = members[m];
-        const Eigen::Vector3d d = (pts.pos[i] - centre[c]).cast<double>();
-        const Eigen::Vector3d ni = pts.nrm[i].cast<double>();
-        const double along = ni.dot(d) / std::max(ni.dot(n), 0.7);
-        const double lateral_sq = (d - n.dot(d) * n).squaredNorm();
-        const double lat = std::exp(-0.5 * lateral_sq / (lateral_sigma * lateral_sigma));
-        const double lw = std::max(pts.weight[i], 1e-12f) * lat;
-        int k = 0;
-        while (k < n_views && per_view[k].view != pts.view[i]) ++k;
-        if (k == n_views) {
-          if (n_views == 8) continue;  // more than 8 views in one cluster: the rest add nothing
-          per_view[n_views++] = PerView{pts.view[i]};
-        }
-        per_view[k].lw += lw;
-        per_view[k].lw_along += lw * along;
-        per_view[k].lateral += lat;
-        sn += lw * ni;
-      }
-      double sw = 0, sd = 0;
-      double lo = std::numeric_limits<double>::infinity(), hi = -lo;
-      int used = 0;
-      for (int k = 0; k < n_views; ++k) {
-        if (per_view[k].lw <= 0) continue;
-        const double view_weight = per_view[k].lw / per_view[k].lateral;  // mean point weight
-        const double e = per_view[k].lw_along / per_view[k].lw;
-        sw += view_weight;
-        sd += view_weight * e;
-        lo = std::min(lo, e);
-        hi = std::max(hi, e);
-        ++used;
-        if (per_view[k].view == pts.view[seeds[c]]) own_step[c] = e;
-      }
-      new_normal[c] = centre_n[c];
-      if (sw <= 0) return;
-      step[c] = sd / sw;
-      if (used >= 2) disagreement[c] = hi - lo;
-      if (sn.norm() > 0) new_normal[c] = sn.normalized().cast<float>();
+      const CentreStep r = EvaluateCentre(pts, centres, membership, c, pts.view[seeds[c]], options);
+      step[c] = r.step;
+      own_step[c] = r.own_step;
+      disagreement[c] = r.disagreement;
+      new_normal[c] = r.normal;
     });
     // Views that disagree far more than views usually do (robust scale of all clusters'
     // disagreements: noise + registration) do not see the same smooth surface there — an edge
@@ -1301,13 +1366,24 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
     if (s.converged) break;
     if (std::find(moved.begin(), moved.end(), 1) == moved.end()) break;
   }
-  // The last update moved the centres; the membership of that update defines the clusters.
-  s.cluster_s = stage.ElapsedSeconds();
+}
 
-  stage.Restart();
-
+// Stage "output": the kept centres (with their members' weighted intensity and quality), then
+// the points no other view covers (smoothed along their normals), absorbed, unassigned and
+// trimmed points counted.
+void WriteFused(const std::vector<FusionView>& views, const Points& pts,
+                const std::vector<ViewGrid>& grids, const std::vector<uint8_t>& flags,
+                const std::vector<uint8_t>& in_overlap, const std::vector<uint32_t>& seeds,
+                const Centres& centres, const Membership& membership, const FusionOptions& options,
+                FusionResult* result) {
   // Output: centres with members, then the passed-through points.
-  PointCloud& out = result.fused;
+  PointCloud& out = result->fused;
+  FusionSummary& s = result->summary;
+  const size_t nc = centres.size();
+  const std::vector<uint32_t>& member_start = membership.start;
+  const std::vector<uint32_t>& members = membership.members;
+  const std::vector<int32_t>& assign = membership.assign;
+  const float cos_max = CosMax(options);
   // Per centre (in parallel): its views, weighted intensity and quality, and whether it is kept.
   struct Cluster {
     float intensity = 0, quality = 0;
@@ -1351,16 +1427,16 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
   out.normals.reserve(static_cast<size_t>(s.clusters));
   out.intensity.reserve(static_cast<size_t>(s.clusters));
   out.quality.reserve(static_cast<size_t>(s.clusters));
-  result.support.reserve(static_cast<size_t>(s.clusters));
-  result.view.reserve(static_cast<size_t>(s.clusters));
+  result->support.reserve(static_cast<size_t>(s.clusters));
+  result->view.reserve(static_cast<size_t>(s.clusters));
   for (size_t c = 0; c < nc; ++c) {
     if (!cluster[c].keep) continue;
-    out.points.push_back(centre[c].cast<double>());
-    out.normals.push_back(centre_n[c].cast<double>());
+    out.points.push_back(centres.pos[c].cast<double>());
+    out.normals.push_back(centres.nrm[c].cast<double>());
     out.intensity.push_back(cluster[c].intensity);
     out.quality.push_back(cluster[c].quality);
-    result.support.push_back(cluster[c].distinct);
-    result.view.push_back(pts.view[seeds[c]]);
+    result->support.push_back(cluster[c].distinct);
+    result->view.push_back(pts.view[seeds[c]]);
   }
   std::vector<uint32_t> passed;
   for (size_t k = 0; k < pts.size(); ++k) {
@@ -1394,8 +1470,8 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
     out.normals.push_back(n);
     out.intensity.push_back(pts.intensity[k]);
     out.quality.push_back(pts.quality[k]);
-    result.support.push_back(1);
-    result.view.push_back(pts.view[k]);
+    result->support.push_back(1);
+    result->view.push_back(pts.view[k]);
   }
   out.colors.resize(out.size());
   for (size_t i = 0; i < out.size(); ++i) {
@@ -1410,6 +1486,75 @@ FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions
         s.trimmed > 0 ? util::StrCat(" except ", s.trimmed, " lone border points (trimmed)")
                       : std::string());
   }
+}
+
+}  // namespace
+
+FusionResult FuseViews(const std::vector<FusionView>& views, const FusionOptions& options) {
+  options.Check();
+  util::Timer timer;
+  FusionResult result;
+  FusionSummary& s = result.summary;
+  s.views = static_cast<int>(views.size());
+  if (views.empty()) return Fail(std::move(result), FusionStatus::kEmptyInput, "no views");
+  if (views.size() > 65535) {
+    return Fail(std::move(result), FusionStatus::kBadView, "more than 65535 views");
+  }
+
+  // Prepare: the views checked and measured, their points gathered, their grids indexed.
+  Points pts;
+  std::vector<ViewGrid> grids;
+  std::vector<size_t> view_start;
+  {
+    ViewMeasures measures;
+    std::optional<Refusal> refused = MeasureViews(views, options, &measures, &s);
+    if (!refused) refused = GatherPoints(views, options, measures, &pts, &s);
+    if (!refused) refused = BuildGrids(views, options, pts, &view_start, &grids, &s);
+    if (refused) return Fail(std::move(result), refused->status, std::move(refused->message));
+  }
+  s.prepare_s = timer.ElapsedSeconds();
+
+  util::Timer stage;
+  const std::vector<uint8_t> flags = FindOverlap(pts, grids, view_start, options);
+  std::vector<uint32_t> seeds;
+  std::vector<uint8_t> in_overlap(pts.size(), 0);
+  for (size_t k = 0; k < pts.size(); ++k) {
+    in_overlap[k] = (flags[k] & kOverlap) != 0;
+    s.overlap_points += in_overlap[k];
+    if (flags[k] & kSeed) seeds.push_back(static_cast<uint32_t>(k));
+  }
+  result.overlap.resize(views.size());
+  for (size_t v = 0; v < views.size(); ++v)
+    result.overlap[v].assign(views[v].cloud.valid.size(), 0);
+  for (size_t k = 0; k < pts.size(); ++k) result.overlap[pts.view[k]][pts.grid[k]] = in_overlap[k];
+  s.overlap_s = stage.ElapsedSeconds();
+
+  stage.Restart();
+  // Travel: noise and registration error (half a median spacing + the registration term is
+  // several noise sigmas on every rig measured), at most the seed radius.
+  Centres centres = SeedCentres(pts, seeds, 0.5 * s.median_spacing_mm + RegistrationTerm(options));
+  // Candidate centres of every overlap point, found once: centres move along their normals by
+  // noise and registration error, a fraction of a spacing, and at most their travel, so the
+  // centres within a point's radius at any iteration are among those whose seeds lie within
+  // radius + the largest travel. Of those the kCandidates nearest are kept (ordered by seed
+  // distance, then index: deterministic); the iterations then assign among them without a
+  // search. Not initialized: only the overlap points' rows are written and read (the pages are
+  // first touched by the parallel search, not cleared by one thread beforehand).
+  const std::unique_ptr<int32_t[]> candidates(new int32_t[pts.size() * kCandidates]);
+  FindCandidates(pts, grids, in_overlap, seeds, static_cast<float>(centres.max_travel_mm),
+                 kCandidates, candidates.get());
+  s.candidates_s = stage.ElapsedSeconds();
+
+  stage.Restart();
+  Membership membership;
+  membership.assign.assign(pts.size(), kNone);
+  membership.start.assign(seeds.size() + 1, 0);
+  ClusterPoints(pts, in_overlap, seeds, candidates.get(), options, &centres, &membership, &s);
+  // The last update moved the centres; the membership of that update defines the clusters.
+  s.cluster_s = stage.ElapsedSeconds();
+
+  stage.Restart();
+  WriteFused(views, pts, grids, flags, in_overlap, seeds, centres, membership, options, &result);
   s.output_s = stage.ElapsedSeconds();
 
   s.time_s = timer.ElapsedSeconds();

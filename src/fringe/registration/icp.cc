@@ -230,19 +230,11 @@ std::vector<uint32_t> NormalSpaceOrder(const std::vector<Vector3d>& normals, uin
 
 namespace {}  // namespace
 
-IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& options) {
-  options.Check();
-  util::Timer timer;
-  const int nv = static_cast<int>(views.size());
-  IcpResult result;
-  result.overlap.assign(nv, std::vector<double>(nv, 0.0));
-  for (const IcpView& v : views) result.world_from_sensor.push_back(v.world_from_sensor);
-  if (nv < 2) {
-    result.summary.status = IcpStatus::kNoOverlap;
-    result.summary.message = "fewer than two views";
-    return result;
-  }
-  for (int i = 0; i < nv; ++i) {
+namespace {
+
+// The views' clouds, normals and grids checked against each other (fringe::Error otherwise).
+void CheckIcpViews(const std::vector<IcpView>& views) {
+  for (int i = 0; i < static_cast<int>(views.size()); ++i) {
     const IcpView& v = views[i];
     if (v.cloud == nullptr) throw Error(StrCat("RefineMultiView: view ", i, " has no cloud"));
     if (!v.cloud->has_normals()) {
@@ -262,283 +254,180 @@ IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& o
       }
     }
   }
-  const int levels = static_cast<int>(options.points_per_level.size());
-  const auto projective_view = [&](const IcpView& v) {
-    return v.grid != nullptr && v.grid->projection.fitted() &&
-           v.grid->projection.fit_error_px() <= options.max_grid_fit_error_px &&
-           options.projective_from_level < levels;
+}
+
+// Prepare one view (RefineMultiView): its usable points, their seeded sampling order, its slot
+// table for projective association and the k-d tree where a level searches by tree; view i
+// seeds its order.
+void PrepareView(const IcpView& view, int i, const IcpOptions& options, bool projective,
+                 PreparedView* out) {
+  const PointCloud* c = view.cloud;
+  PreparedView& pv = *out;
+  if (projective) pv.projection = &view.grid->projection;
+  const size_t cn = std::min(c->size(), c->normals.size());
+  // Grid views only: their sensor is known to sit at the origin (see max_incidence_deg).
+  const double cos_incidence = options.max_incidence_deg > 0 && view.grid != nullptr
+                                   ? std::cos(options.max_incidence_deg * M_PI / 180)
+                                   : -2.0;
+  const auto usable = [&](size_t k) {
+    const Vector3d& p = c->points[k];
+    const Vector3d& n = c->normals[k];
+    return p.allFinite() && n.allFinite() && std::abs(n.norm() - 1) <= 1e-3 &&
+           -n.dot(p) >= cos_incidence * p.norm();
   };
-  // Prepare: usable points, seeded order, k-d trees where a level searches by tree.
-  std::vector<PreparedView> prep(nv);
-  tbb::parallel_for(0, nv, [&](int i) {
-    const PointCloud* c = views[i].cloud;
-    PreparedView& pv = prep[i];
-    const bool projective = projective_view(views[i]);
-    if (projective) pv.projection = &views[i].grid->projection;
-    const size_t cn = std::min(c->size(), c->normals.size());
-    // Grid views only: their sensor is known to sit at the origin (see max_incidence_deg).
-    const double cos_incidence = options.max_incidence_deg > 0 && views[i].grid != nullptr
-                                     ? std::cos(options.max_incidence_deg * M_PI / 180)
-                                     : -2.0;
-    const auto usable = [&](size_t k) {
-      const Vector3d& p = c->points[k];
-      const Vector3d& n = c->normals[k];
-      return p.allFinite() && n.allFinite() && std::abs(n.norm() - 1) <= 1e-3 &&
-             -n.dot(p) >= cos_incidence * p.norm();
-    };
-    std::vector<uint8_t> use(cn);
-    size_t n_usable = 0;
-    for (size_t k = 0; k < cn; ++k) n_usable += use[k] = usable(k);
-    if (n_usable == c->size()) {
-      pv.data = {c->points.data(), n_usable};
-      pv.normals = c->normals.data();
-    } else {
-      pv.own_pts.reserve(n_usable);
-      pv.own_normals.reserve(n_usable);
-      for (size_t k = 0; k < cn; ++k) {
-        if (!use[k]) continue;
-        pv.own_pts.push_back(c->points[k]);
-        pv.own_normals.push_back(c->normals[k]);
-      }
-      pv.Own();
+  std::vector<uint8_t> use(cn);
+  size_t n_usable = 0;
+  for (size_t k = 0; k < cn; ++k) n_usable += use[k] = usable(k);
+  if (n_usable == c->size()) {
+    pv.data = {c->points.data(), n_usable};
+    pv.normals = c->normals.data();
+  } else {
+    pv.own_pts.reserve(n_usable);
+    pv.own_normals.reserve(n_usable);
+    for (size_t k = 0; k < cn; ++k) {
+      if (!use[k]) continue;
+      pv.own_pts.push_back(c->points[k]);
+      pv.own_normals.push_back(c->normals[k]);
     }
-    if (projective && pv.data.n > 0) {
-      const float nan = std::numeric_limits<float>::quiet_NaN();
-      pv.slot_origin = pv.data.pts[0];
-      pv.slots.assign(static_cast<size_t>(pv.projection->width()) * pv.projection->height(),
-                      {nan, nan, nan, -1});
-      int32_t j = 0;
-      for (size_t k = 0; k < cn; ++k) {
-        if (!use[k]) continue;
-        const Eigen::Vector3f p = (pv.data.pts[j] - pv.slot_origin).cast<float>();
-        pv.slots[views[i].grid->slot_of_point[k]] = {p.x(), p.y(), p.z(), j++};
-      }
+    pv.Own();
+  }
+  if (projective && pv.data.n > 0) {
+    const float nan = std::numeric_limits<float>::quiet_NaN();
+    pv.slot_origin = pv.data.pts[0];
+    pv.slots.assign(static_cast<size_t>(pv.projection->width()) * pv.projection->height(),
+                    {nan, nan, nan, -1});
+    int32_t j = 0;
+    for (size_t k = 0; k < cn; ++k) {
+      if (!use[k]) continue;
+      const Eigen::Vector3f p = (pv.data.pts[j] - pv.slot_origin).cast<float>();
+      pv.slots[view.grid->slot_of_point[k]] = {p.x(), p.y(), p.z(), j++};
     }
-    const uint64_t order_seed = options.seed * 1000003u + static_cast<uint64_t>(i);
-    // The points samples may come from (see IcpOptions::sample_max_normal_spread_deg).
-    std::vector<uint32_t> candidates;
-    if (options.sample_max_normal_spread_deg > 0 && pv.data.n > 0) {
-      pv.tree = std::make_unique<PointIndex>(pv.data.pts, pv.data.n);
-      const double cos_spread = std::cos(options.sample_max_normal_spread_deg * M_PI / 180);
-      const size_t k = std::min<size_t>(options.sample_spread_neighbours + 1, pv.data.n);
-      std::vector<uint8_t> smooth(pv.data.n, 0);
-      tbb::parallel_for(tbb::blocked_range<size_t>(0, pv.data.n, 4096),
-                        [&](const tbb::blocked_range<size_t>& rg) {
-                          std::vector<size_t> idx(k);
-                          std::vector<double> d2(k);
-                          for (size_t p = rg.begin(); p != rg.end(); ++p) {
-                            const size_t found = pv.tree->Nearest(pv.data.pts[p], k, &idx, &d2);
-                            bool ok = true;
-                            for (size_t m = 0; m < found && ok; ++m) {
-                              ok = pv.normals[idx[m]].dot(pv.normals[p]) >= cos_spread;
-                            }
-                            smooth[p] = ok;
+  }
+  const uint64_t order_seed = options.seed * 1000003u + static_cast<uint64_t>(i);
+  // The points samples may come from (see IcpOptions::sample_max_normal_spread_deg).
+  std::vector<uint32_t> candidates;
+  if (options.sample_max_normal_spread_deg > 0 && pv.data.n > 0) {
+    pv.tree = std::make_unique<PointIndex>(pv.data.pts, pv.data.n);
+    const double cos_spread = std::cos(options.sample_max_normal_spread_deg * M_PI / 180);
+    const size_t k = std::min<size_t>(options.sample_spread_neighbours + 1, pv.data.n);
+    std::vector<uint8_t> smooth(pv.data.n, 0);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, pv.data.n, 4096),
+                      [&](const tbb::blocked_range<size_t>& rg) {
+                        std::vector<size_t> idx(k);
+                        std::vector<double> d2(k);
+                        for (size_t p = rg.begin(); p != rg.end(); ++p) {
+                          const size_t found = pv.tree->Nearest(pv.data.pts[p], k, &idx, &d2);
+                          bool ok = true;
+                          for (size_t m = 0; m < found && ok; ++m) {
+                            ok = pv.normals[idx[m]].dot(pv.normals[p]) >= cos_spread;
                           }
-                        });
-      for (size_t p = 0; p < pv.data.n; ++p) {
-        if (smooth[p]) candidates.push_back(static_cast<uint32_t>(p));
-      }
-    } else {
-      candidates.resize(pv.data.n);
-      std::iota(candidates.begin(), candidates.end(), 0u);
+                          smooth[p] = ok;
+                        }
+                      });
+    for (size_t p = 0; p < pv.data.n; ++p) {
+      if (smooth[p]) candidates.push_back(static_cast<uint32_t>(p));
     }
-    if (options.normal_space_sampling) {
-      std::vector<Vector3d> cn(candidates.size());
-      for (size_t m = 0; m < candidates.size(); ++m) cn[m] = pv.normals[candidates[m]];
-      pv.order = NormalSpaceOrder(cn, order_seed);
-      for (uint32_t& o : pv.order) o = candidates[o];
-    } else {
-      pv.order = std::move(candidates);
-      std::mt19937_64 rng(order_seed);
-      std::shuffle(pv.order.begin(), pv.order.end(), rng);
-    }
-    if (projective && options.start_misalignment_mm > 0 && pv.data.n > 0) {
-      // The window [round(c) - w, round(c) + w] holds every slot within w - 0.5 px of c.
-      const float reach = static_cast<float>(options.projective_window_px) - 0.5f;
-      pv.projective_from_start = true;
-      for (size_t k = 0; k < pv.data.n && pv.projective_from_start; k += 64) {
-        GridProjection::Disc d;
-        pv.projective_from_start =
-            pv.projection->DiscOf(pv.data.pts[k].cast<float>(),
-                                  static_cast<float>(options.start_misalignment_mm), &d) &&
-            d.radius_px <= reach;
-      }
-    }
-    const bool needs_tree = !projective ||
-                            (options.projective_from_level > 0 && !pv.projective_from_start) ||
-                            options.max_tangential_spacings > 0;
-    if (needs_tree && pv.data.n > 0 && !pv.tree) {
-      pv.tree = std::make_unique<PointIndex>(pv.data.pts, pv.data.n);
-    }
-    if (options.max_tangential_spacings > 0 && pv.data.n > 1) {
-      // The point spacing: the median nearest-neighbour distance of a seeded subset.
-      std::vector<double> nn;
-      std::vector<size_t> idx;
-      std::vector<double> d2;
-      const size_t stride = std::max<size_t>(1, pv.data.n / 1000);
-      for (size_t p = 0; p < pv.data.n; p += stride) {
-        if (pv.tree->Nearest(pv.data.pts[p], 2, &idx, &d2) == 2) nn.push_back(d2[1]);
-      }
-      if (!nn.empty()) {
-        std::nth_element(nn.begin(), nn.begin() + nn.size() / 2, nn.end());
-        const double t = options.max_tangential_spacings * std::sqrt(nn[nn.size() / 2]);
-        pv.max_tangential_sq = t * t;
-      }
-    }
-  });
-  for (int i = 0; i < nv; ++i) {
-    if (prep[i].data.n < 10) {
-      throw Error(StrCat("RefineMultiView: view ", i, " has ", prep[i].data.n,
-                         " points with normals; at least 10 are needed"));
+  } else {
+    candidates.resize(pv.data.n);
+    std::iota(candidates.begin(), candidates.end(), 0u);
+  }
+  if (options.normal_space_sampling) {
+    std::vector<Vector3d> cn(candidates.size());
+    for (size_t m = 0; m < candidates.size(); ++m) cn[m] = pv.normals[candidates[m]];
+    pv.order = NormalSpaceOrder(cn, order_seed);
+    for (uint32_t& o : pv.order) o = candidates[o];
+  } else {
+    pv.order = std::move(candidates);
+    std::mt19937_64 rng(order_seed);
+    std::shuffle(pv.order.begin(), pv.order.end(), rng);
+  }
+  if (projective && options.start_misalignment_mm > 0 && pv.data.n > 0) {
+    // The window [round(c) - w, round(c) + w] holds every slot within w - 0.5 px of c.
+    const float reach = static_cast<float>(options.projective_window_px) - 0.5f;
+    pv.projective_from_start = true;
+    for (size_t k = 0; k < pv.data.n && pv.projective_from_start; k += 64) {
+      GridProjection::Disc d;
+      pv.projective_from_start =
+          pv.projection->DiscOf(pv.data.pts[k].cast<float>(),
+                                static_cast<float>(options.start_misalignment_mm), &d) &&
+          d.radius_px <= reach;
     }
   }
-  // Free views and their unknown blocks; with none fixed, view 0 holds the gauge.
-  std::vector<int> block(nv, -1);
-  bool any_fixed = false;
-  for (const IcpView& v : views) any_fixed |= v.fixed;
+  const bool needs_tree = !projective ||
+                          (options.projective_from_level > 0 && !pv.projective_from_start) ||
+                          options.max_tangential_spacings > 0;
+  if (needs_tree && pv.data.n > 0 && !pv.tree) {
+    pv.tree = std::make_unique<PointIndex>(pv.data.pts, pv.data.n);
+  }
+  if (options.max_tangential_spacings > 0 && pv.data.n > 1) {
+    // The point spacing: the median nearest-neighbour distance of a seeded subset.
+    std::vector<double> nn;
+    std::vector<size_t> idx;
+    std::vector<double> d2;
+    const size_t stride = std::max<size_t>(1, pv.data.n / 1000);
+    for (size_t p = 0; p < pv.data.n; p += stride) {
+      if (pv.tree->Nearest(pv.data.pts[p], 2, &idx, &d2) == 2) nn.push_back(d2[1]);
+    }
+    if (!nn.empty()) {
+      std::nth_element(nn.begin(), nn.begin() + nn.size() / 2, nn.end());
+      const double t = options.max_tangential_spacings * std::sqrt(nn[nn.size() / 2]);
+      pv.max_tangential_sq = t * t;
+    }
+  }
+}
+
+// One multi-view ICP problem (RefineMultiView): the prepared views, their unknown blocks (-1:
+// fixed), the poses it moves, and the buffers every iteration reuses (a fresh vector per pair
+// and iteration was page faults).
+struct MultiViewIcp {
+  MultiViewIcp(const IcpOptions& o, const std::vector<PreparedView>& views,
+               const std::vector<int>& blocks, int free_views, std::vector<Rigid3d>* poses,
+               std::vector<std::vector<double>>* overlap)
+      : options(o),
+        prep(views),
+        block(blocks),
+        nfree(free_views),
+        pose(*poses),
+        overlap_out(overlap) {}
+  const IcpOptions& options;
+  const std::vector<PreparedView>& prep;
+  const std::vector<int>& block;
   int nfree = 0;
-  for (int i = 0; i < nv; ++i) {
-    if (views[i].fixed || (!any_fixed && i == 0)) continue;
-    block[i] = nfree++;
-  }
-  std::vector<Rigid3d>& pose = result.world_from_sensor;
-  const double cos_max = std::cos(options.max_normal_angle_deg * M_PI / 180);
-  // Buffers reused by every iteration (a fresh vector per pair and iteration was page faults).
+  std::vector<Rigid3d>& pose;
+  std::vector<std::vector<double>>* overlap_out;
+  int nv = static_cast<int>(prep.size());
+  double cos_max = std::cos(options.max_normal_angle_deg * M_PI / 180);
   std::vector<Match> found, kept;
   std::vector<int> row_of, row_start, visit;  // the search order of a pair's samples
   std::vector<PairMatches> pairs;
   std::vector<double> dist;
   // Per view, the samples of the current level in ascending point order (the grid order of a
   // compacted view): the association then walks both clouds nearly sequentially instead of
-  // missing the cache on every sample (the loop is memory-bound). Rebuilt when the level's
-  // sample count changes.
-  std::vector<std::vector<uint32_t>> samples(nv);
+  // missing the cache on every sample (the loop is memory-bound).
+  std::vector<std::vector<uint32_t>> samples = std::vector<std::vector<uint32_t>>(nv);
   // The samples' points and normals gathered in that order: the loop reads them sequentially.
-  std::vector<std::vector<Vector3d>> sample_pts(nv), sample_normals(nv);
+  std::vector<std::vector<Vector3d>> sample_pts = std::vector<std::vector<Vector3d>>(nv);
+  std::vector<std::vector<Vector3d>> sample_normals = std::vector<std::vector<Vector3d>>(nv);
   int samples_points = -1;
+
   // One iteration at the schedule's sample count and threshold: associate every view's samples
   // with every other view, one simultaneous step of all free views.
-  const auto iterate = [&](int points, double threshold, IcpLevelReport* rep) {
+  IcpIteration Iterate(int points, double threshold, IcpLevelReport* rep) {
     IcpIteration out;
     kept.clear();
     pairs.clear();
     int projective_pairs = 0;
     std::vector<std::vector<double>> overlap(nv, std::vector<double>(nv, 0.0));
     const bool projective_level = rep->level >= options.projective_from_level;
+    GatherSamples(points);
     for (int v = 0; v < nv; ++v) {
-      const PreparedView& sv = prep[v];
-      const int ns = std::min<int>(points, static_cast<int>(sv.order.size()));
-      if (samples_points != points) {
-        samples[v].assign(sv.order.begin(), sv.order.begin() + ns);
-        std::sort(samples[v].begin(), samples[v].end());
-        sample_pts[v].resize(ns);
-        sample_normals[v].resize(ns);
-        for (int s = 0; s < ns; ++s) {
-          sample_pts[v][s] = sv.data.pts[samples[v][s]];
-          sample_normals[v][s] = sv.normals[samples[v][s]];
-        }
-        if (v == nv - 1) samples_points = points;
-      }
-      const std::vector<uint32_t>& sample = samples[v];
-      const std::vector<Vector3d>&sp = sample_pts[v], &sn = sample_normals[v];
       for (int u = 0; u < nv; ++u) {
         if (u == v || (block[v] < 0 && block[u] < 0)) continue;
         if (block[v] < 0 && !options.sample_fixed_views) continue;
-        // Rotation matrices: a quaternion rotates a vector at several times the cost.
-        const Rigid3d u_from_v_pose = pose[u].Inverse() * pose[v];
-        const Matrix3d r_uv = u_from_v_pose.rotation_matrix();
-        const Vector3d t_uv = u_from_v_pose.translation();
-        const Matrix3d r_u = pose[u].rotation_matrix();
-        const Vector3d t_u = pose[u].translation();
-        // Neighbours are searched within the larger of the threshold and the first one: the
-        // threshold bounds the point-to-plane distance, which falls below the sampling
-        // spacing long before the Euclidean neighbour distance does.
-        const double search = std::max(threshold, options.initial_threshold_mm);
-        const double search_sq = search * search;
-        const PreparedView& tv = prep[u];
-        const bool projective =
-            tv.projection != nullptr && (projective_level || tv.projective_from_start);
-        const int w = options.projective_window_px;
-        found.resize(ns);
-        for (Match& m : found) m.idx = -1;
-        // Projectively, the samples are searched in the order of the target rows they fall on
-        // (a counting sort): the windows then slide down the target's grid, each row read
-        // from memory about once, instead of jumping across ~20 MB of slots per sample. Each
-        // sample's search is the same whatever the order; those that fall outside the grid
-        // are not searched at all.
-        int n_visit = ns;
-        if (projective) {
-          const int height = tv.projection->height();
-          row_of.resize(ns);
-          tbb::parallel_for(tbb::blocked_range<int>(0, ns, 1024),
-                            [&](const tbb::blocked_range<int>& rg) {
-                              for (int s = rg.begin(); s != rg.end(); ++s) {
-                                row_of[s] = tv.RowOf(r_uv * sp[s] + t_uv, w);
-                              }
-                            });
-          row_start.assign(height + 1, 0);
-          for (int s = 0; s < ns; ++s) {
-            if (row_of[s] >= 0) ++row_start[row_of[s] + 1];
-          }
-          for (int y = 0; y < height; ++y) row_start[y + 1] += row_start[y];
-          n_visit = row_start[height];
-          visit.resize(n_visit);
-          for (int s = 0; s < ns; ++s) {
-            if (row_of[s] >= 0) visit[row_start[row_of[s]]++] = s;
-          }
-        } else {
-          visit.resize(ns);
-          std::iota(visit.begin(), visit.end(), 0);
+        bool projective = false;
+        if (AssociatePair(v, u, threshold, projective_level, &overlap, &projective)) {
+          projective_pairs += projective;
         }
-        tbb::parallel_for(
-            tbb::blocked_range<int>(0, n_visit, 256), [&](const tbb::blocked_range<int>& rg) {
-              for (int t = rg.begin(); t != rg.end(); ++t) {
-                const int s = visit[t];
-                Match& m = found[s];
-                const Vector3d q = r_uv * sp[s] + t_uv;
-                const int32_t idx = projective ? tv.NearestByProjection(q, w, search_sq)
-                                               : tv.NearestByTree(q, search_sq);
-                if (idx < 0) continue;
-                const Vector3d& nt = tv.normals[idx];
-                if ((r_uv * sn[s]).dot(nt) < cos_max) continue;
-                // Point-to-plane distance in the target's frame (the same in the world's).
-                const Vector3d& pt = tv.data.pts[idx];
-                const double r = nt.dot(q - pt);
-                if (std::abs(r) > threshold) continue;
-                if ((q - pt - r * nt).squaredNorm() > tv.max_tangential_sq) continue;
-                m.k = static_cast<int32_t>(sample[s]);
-                m.idx = idx;
-                m.r = r;
-                m.p_world = r_u * q + t_u;
-                m.q_world = r_u * pt + t_u;
-                m.n_world = r_u * nt;
-              }
-            });
-        const size_t begin = kept.size();
-        for (const Match& m : found) {
-          if (m.idx >= 0) kept.push_back(m);
-        }
-        const size_t n_kept = kept.size() - begin;
-        if (n_kept < std::max<size_t>(3, options.min_overlap_fraction * ns)) {
-          kept.resize(begin);
-          continue;
-        }
-        // Trim the worst distances of this pair.
-        const size_t keep_n = std::max<size_t>(3, std::floor(options.trim_fraction * n_kept));
-        if (keep_n < n_kept) {
-          dist.clear();
-          for (size_t i = begin; i < kept.size(); ++i) dist.push_back(std::abs(kept[i].r));
-          std::nth_element(dist.begin(), dist.begin() + (keep_n - 1), dist.end());
-          const double cut = dist[keep_n - 1];
-          size_t out_i = begin;
-          for (size_t i = begin; i < kept.size(); ++i) {
-            if (std::abs(kept[i].r) <= cut && out_i - begin < keep_n) kept[out_i++] = kept[i];
-          }
-          kept.resize(out_i);
-        }
-        overlap[v][u] = static_cast<double>(kept.size() - begin) / ns;
-        projective_pairs += projective;
-        pairs.push_back({v, u, begin, kept.size()});
       }
     }
     if (kept.empty()) return out;
@@ -557,7 +446,139 @@ IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& o
     rep->correspondences = static_cast<int>(kept.size());
     rep->overlapping_pairs = static_cast<int>(pairs.size());
     rep->projective_pairs = projective_pairs;
-    result.overlap = overlap;
+    *overlap_out = overlap;
+    Step(centroid, &out, rep);
+    return out;
+  }
+
+  // The samples of `points` per view in ascending point order with their points and normals
+  // (rebuilt when the level's sample count changes).
+  void GatherSamples(int points) {
+    if (samples_points == points) return;
+    for (int v = 0; v < nv; ++v) {
+      const PreparedView& sv = prep[v];
+      const int ns = std::min<int>(points, static_cast<int>(sv.order.size()));
+      samples[v].assign(sv.order.begin(), sv.order.begin() + ns);
+      std::sort(samples[v].begin(), samples[v].end());
+      sample_pts[v].resize(ns);
+      sample_normals[v].resize(ns);
+      for (int s = 0; s < ns; ++s) {
+        sample_pts[v][s] = sv.data.pts[samples[v][s]];
+        sample_normals[v][s] = sv.normals[samples[v][s]];
+      }
+    }
+    samples_points = points;
+  }
+
+  // Associates view v's samples with view u (within the threshold, normals compatible,
+  // tangentially close, the worst trimmed) into kept and pairs; false when too few remain.
+  bool AssociatePair(int v, int u, double threshold, bool projective_level,
+                     std::vector<std::vector<double>>* overlap, bool* projective_out) {
+    const std::vector<uint32_t>& sample = samples[v];
+    const int ns = static_cast<int>(sample.size());
+    const std::vector<Vector3d>&sp = sample_pts[v], &sn = sample_normals[v];
+    // Rotation matrices: a quaternion rotates a vector at several times the cost.
+    const Rigid3d u_from_v_pose = pose[u].Inverse() * pose[v];
+    const Matrix3d r_uv = u_from_v_pose.rotation_matrix();
+    const Vector3d t_uv = u_from_v_pose.translation();
+    const Matrix3d r_u = pose[u].rotation_matrix();
+    const Vector3d t_u = pose[u].translation();
+    // Neighbours are searched within the larger of the threshold and the first one: the
+    // threshold bounds the point-to-plane distance, which falls below the sampling
+    // spacing long before the Euclidean neighbour distance does.
+    const double search = std::max(threshold, options.initial_threshold_mm);
+    const double search_sq = search * search;
+    const PreparedView& tv = prep[u];
+    const bool projective =
+        tv.projection != nullptr && (projective_level || tv.projective_from_start);
+    const int w = options.projective_window_px;
+    found.resize(ns);
+    for (Match& m : found) m.idx = -1;
+    // Projectively, the samples are searched in the order of the target rows they fall on
+    // (a counting sort): the windows then slide down the target's grid, each row read
+    // from memory about once, instead of jumping across ~20 MB of slots per sample. Each
+    // sample's search is the same whatever the order; those that fall outside the grid
+    // are not searched at all.
+    int n_visit = ns;
+    if (projective) {
+      const int height = tv.projection->height();
+      row_of.resize(ns);
+      tbb::parallel_for(tbb::blocked_range<int>(0, ns, 1024),
+                        [&](const tbb::blocked_range<int>& rg) {
+                          for (int s = rg.begin(); s != rg.end(); ++s) {
+                            row_of[s] = tv.RowOf(r_uv * sp[s] + t_uv, w);
+                          }
+                        });
+      row_start.assign(height + 1, 0);
+      for (int s = 0; s < ns; ++s) {
+        if (row_of[s] >= 0) ++row_start[row_of[s] + 1];
+      }
+      for (int y = 0; y < height; ++y) row_start[y + 1] += row_start[y];
+      n_visit = row_start[height];
+      visit.resize(n_visit);
+      for (int s = 0; s < ns; ++s) {
+        if (row_of[s] >= 0) visit[row_start[row_of[s]]++] = s;
+      }
+    } else {
+      visit.resize(ns);
+      std::iota(visit.begin(), visit.end(), 0);
+    }
+    tbb::parallel_for(tbb::blocked_range<int>(0, n_visit, 256),
+                      [&](const tbb::blocked_range<int>& rg) {
+                        for (int t = rg.begin(); t != rg.end(); ++t) {
+                          const int s = visit[t];
+                          Match& m = found[s];
+                          const Vector3d q = r_uv * sp[s] + t_uv;
+                          const int32_t idx = projective ? tv.NearestByProjection(q, w, search_sq)
+                                                         : tv.NearestByTree(q, search_sq);
+                          if (idx < 0) continue;
+                          const Vector3d& nt = tv.normals[idx];
+                          if ((r_uv * sn[s]).dot(nt) < cos_max) continue;
+                          // Point-to-plane distance in the target's frame (the same in the
+                          // world's).
+                          const Vector3d& pt = tv.data.pts[idx];
+                          const double r = nt.dot(q - pt);
+                          if (std::abs(r) > threshold) continue;
+                          if ((q - pt - r * nt).squaredNorm() > tv.max_tangential_sq) continue;
+                          m.k = static_cast<int32_t>(sample[s]);
+                          m.idx = idx;
+                          m.r = r;
+                          m.p_world = r_u * q + t_u;
+                          m.q_world = r_u * pt + t_u;
+                          m.n_world = r_u * nt;
+                        }
+                      });
+    const size_t begin = kept.size();
+    for (const Match& m : found) {
+      if (m.idx >= 0) kept.push_back(m);
+    }
+    const size_t n_kept = kept.size() - begin;
+    if (n_kept < std::max<size_t>(3, options.min_overlap_fraction * ns)) {
+      kept.resize(begin);
+      return false;
+    }
+    // Trim the worst distances of this pair.
+    const size_t keep_n = std::max<size_t>(3, std::floor(options.trim_fraction * n_kept));
+    if (keep_n < n_kept) {
+      dist.clear();
+      for (size_t i = begin; i < kept.size(); ++i) dist.push_back(std::abs(kept[i].r));
+      std::nth_element(dist.begin(), dist.begin() + (keep_n - 1), dist.end());
+      const double cut = dist[keep_n - 1];
+      size_t out_i = begin;
+      for (size_t i = begin; i < kept.size(); ++i) {
+        if (std::abs(kept[i].r) <= cut && out_i - begin < keep_n) kept[out_i++] = kept[i];
+      }
+      kept.resize(out_i);
+    }
+    (*overlap)[v][u] = static_cast<double>(kept.size() - begin) / ns;
+    *projective_out = projective;
+    pairs.push_back({v, u, begin, kept.size()});
+    return true;
+  }
+
+  // One simultaneous Gauss-Newton step of all free views over the kept correspondences, about
+  // their centroid (degeneracy-aware: directions the overlap does not constrain are held).
+  void Step(const Vector3d& centroid, IcpIteration* out, IcpLevelReport* rep) {
     // Normal equations over the free views, summed per view pair over fixed chunks in parallel,
     // the chunks added in order: the same sums for any thread count.
     const int dim = 6 * nfree;
@@ -616,9 +637,9 @@ IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& o
     // A plane with a sphere on it leaves rotations about the sphere's vertical unconstrained;
     // noise and edge points would otherwise slide the views along such directions.
     const double lever = std::max(1.0, std::sqrt(lever_sq / kept.size()));
-    const IcpStep step = DegeneracyAwareStep(H, g, lever, options.degeneracy_ratio, out.rms_mm);
+    const IcpStep step = DegeneracyAwareStep(H, g, lever, options.degeneracy_ratio, out->rms_mm);
     rep->degenerate_directions = step.degenerate;
-    out.step_sigmas = step.step_sigmas;
+    out->step_sigmas = step.step_sigmas;
     for (int i = 0; i < nv; ++i) {
       if (block[i] < 0) continue;
       const Vector3d w = step.delta.segment<3>(6 * block[i]);
@@ -628,11 +649,56 @@ IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& o
       // P' = R (P - c) + c + t
       const Rigid3d moved(rot.rotation(), centroid + t - rot.RotateDirection(centroid));
       pose[i] = moved * pose[i];
-      out.step_rotation_deg = std::max(out.step_rotation_deg, angle * 180 / M_PI);
-      out.step_translation_mm =
-          std::max(out.step_translation_mm, (moved * centroid - centroid).norm());
+      out->step_rotation_deg = std::max(out->step_rotation_deg, angle * 180 / M_PI);
+      out->step_translation_mm =
+          std::max(out->step_translation_mm, (moved * centroid - centroid).norm());
     }
-    return out;
+  }
+};
+
+}  // namespace
+
+IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& options) {
+  options.Check();
+  util::Timer timer;
+  const int nv = static_cast<int>(views.size());
+  IcpResult result;
+  result.overlap.assign(nv, std::vector<double>(nv, 0.0));
+  for (const IcpView& v : views) result.world_from_sensor.push_back(v.world_from_sensor);
+  if (nv < 2) {
+    result.summary.status = IcpStatus::kNoOverlap;
+    result.summary.message = "fewer than two views";
+    return result;
+  }
+  CheckIcpViews(views);
+  const int levels = static_cast<int>(options.points_per_level.size());
+  const auto projective_view = [&](const IcpView& v) {
+    return v.grid != nullptr && v.grid->projection.fitted() &&
+           v.grid->projection.fit_error_px() <= options.max_grid_fit_error_px &&
+           options.projective_from_level < levels;
+  };
+  std::vector<PreparedView> prep(nv);
+  tbb::parallel_for(0, nv, [&](int i) {
+    PrepareView(views[i], i, options, projective_view(views[i]), &prep[i]);
+  });
+  for (int i = 0; i < nv; ++i) {
+    if (prep[i].data.n < 10) {
+      throw Error(StrCat("RefineMultiView: view ", i, " has ", prep[i].data.n,
+                         " points with normals; at least 10 are needed"));
+    }
+  }
+  // Free views and their unknown blocks; with none fixed, view 0 holds the gauge.
+  std::vector<int> block(nv, -1);
+  bool any_fixed = false;
+  for (const IcpView& v : views) any_fixed |= v.fixed;
+  int nfree = 0;
+  for (int i = 0; i < nv; ++i) {
+    if (views[i].fixed || (!any_fixed && i == 0)) continue;
+    block[i] = nfree++;
+  }
+  MultiViewIcp problem(options, prep, block, nfree, &result.world_from_sensor, &result.overlap);
+  const auto iterate = [&](int points, double threshold, IcpLevelReport* rep) {
+    return problem.Iterate(points, threshold, rep);
   };
   const IcpScheduleOutcome outcome = RunIcpSchedule(options, iterate, &result.summary.levels);
   switch (outcome) {

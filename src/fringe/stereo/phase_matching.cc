@@ -273,69 +273,30 @@ struct RectifiedPhase {
   cv::Mat phase;
   cv::Mat envelope;
   RowRuns runs;
-  // The runs' phase ranges as flat arrays (row v's runs at [run_offset[v], run_offset[v + 1])),
-  // so that the per-pixel count of the runs containing phi is a branch-free loop the compiler
-  // vectorizes: sign = +1 (increasing) or -1 (decreasing) and key_first / key_last = sign times
-  // run.first / run.last. Negation is exact, so sign * phi > key_first && sign * phi <= key_last
-  // is exactly the increasing test (first < phi <= last) and the decreasing one
-  // (last <= phi < first).
-  std::vector<int> run_offset;
-  std::vector<float> sign, key_first, key_last;
 };
 
-void IndexRuns(RectifiedPhase* rp) {
-  rp->run_offset.assign(rp->runs.size() + 1, 0);
-  for (size_t v = 0; v < rp->runs.size(); ++v) {
-    rp->run_offset[v + 1] = rp->run_offset[v] + static_cast<int>(rp->runs[v].size());
-  }
-  const size_t n = static_cast<size_t>(rp->run_offset.back());
-  rp->sign.resize(n);
-  rp->key_first.resize(n);
-  rp->key_last.resize(n);
-  size_t k = 0;
-  for (const auto& row_runs : rp->runs) {
-    for (const Run& run : row_runs) {
-      const float sign = run.increasing ? 1.0f : -1.0f;
-      rp->sign[k] = sign;
-      rp->key_first[k] = sign * run.first;
-      rp->key_last[k] = sign * run.last;
-      ++k;
-    }
-  }
-}
-
-// phi is a float (the left phase sample) so that the run test compares floats: the same
-// result as comparing the float run bounds with phi widened to double.
-int FindCrossing(const RectifiedPhase& rp, int v, float phi, CrossingInterpolation interp,
+int FindCrossing(const RectifiedPhase& rp, int v, double phi, CrossingInterpolation interp,
                  double* u, int* hint) {
   if (v < 0 || v >= rp.phase.rows) return 0;
-  const int begin = rp.run_offset[v], end = rp.run_offset[v + 1];
-  const float* sign = rp.sign.data();
-  const float* key_first = rp.key_first.data();
-  const float* key_last = rp.key_last.data();
-  // Strict at the start so that a run beginning exactly at the previous run's turning point
-  // does not count that crossing twice.
+  const float* row = rp.phase.ptr<float>(v);
+  const float* env = rp.envelope.ptr<float>(v);
   int count = 0;
-  for (int k = begin; k < end; ++k) {
-    const float x = sign[k] * phi;
-    count += static_cast<int>(x > key_first[k]) & static_cast<int>(x <= key_last[k]);
+  for (const Run& run : rp.runs[v]) {
+    const double a = run.first, b = run.last;
+    // Strict at the start so that a run beginning exactly at the previous run's turning point
+    // does not count that crossing twice.
+    if (run.increasing ? (phi <= a || phi > b) : (phi >= a || phi < b)) continue;
+    if (++count > 1) return 2;
+    *u = CrossingInRun(row, env, run, phi, interp, hint);
   }
-  if (count != 1) return std::min(count, 2);
-  int k = begin;
-  for (;; ++k) {
-    const float x = sign[k] * phi;
-    if (x > key_first[k] && x <= key_last[k]) break;
-  }
-  *u = CrossingInRun(rp.phase.ptr<float>(v), rp.envelope.ptr<float>(v), rp.runs[v][k - begin], phi,
-                     interp, hint);
-  return 1;
+  return count;
 }
 
 enum class RowMatch { kOk, kNone, kAmbiguous, kDiscontinuity };
 
 // Crossing at fractional rectified row v: from rows floor(v) and floor(v)+1, interpolated.
 // hints: the caller's last crossing positions in the two rows (search start only; any value).
-RowMatch MatchAtRow(const RectifiedPhase& rp, double v, float phi, const MatchingOptions& options,
+RowMatch MatchAtRow(const RectifiedPhase& rp, double v, double phi, const MatchingOptions& options,
                     double* u, int* hints) {
   constexpr double kOnRow = 1e-3;  // closer than this to a row: that row alone decides
   const int v0 = static_cast<int>(std::floor(v));
@@ -465,8 +426,6 @@ MatchResult PhaseMatcher::Match(const PhaseImage& left, const PhaseImage& right)
                             options_.max_reversal_gradients, &rect_left.envelope);
   rect_right.runs = FindRuns(rect_right.phase, options_.max_step_gradients,
                              options_.max_reversal_gradients, &rect_right.envelope);
-  IndexRuns(&rect_left);
-  IndexRuns(&rect_right);
   cv::Mat texture;
   if (!left.texture.empty()) left.texture.convertTo(texture, CV_32F);
 
@@ -490,14 +449,13 @@ MatchResult PhaseMatcher::Match(const PhaseImage& left, const PhaseImage& right)
       float* err_row = result.reprojection_error_px.ptr<float>(r);
       int right_hints[2] = {-1, -1}, left_hints[2] = {-1, -1};
       for (int c = 0; c < w; ++c) {
-        const float phi_sample = phi_row[c];
-        const double phi = phi_sample;
+        const double phi = phi_row[c];
         if (!std::isfinite(phi)) continue;
         if (mod_row && mod_row[c] < options_.min_modulation) continue;
         ++s.left_valid;
         const double ul = rect_px[c][0], vl = rect_px[c][1];
         double ur = 0;
-        switch (MatchAtRow(rect_right, vl, phi_sample, options_, &ur, right_hints)) {
+        switch (MatchAtRow(rect_right, vl, phi, options_, &ur, right_hints)) {
           case RowMatch::kOk:
             break;
           case RowMatch::kNone:
@@ -511,8 +469,7 @@ MatchResult PhaseMatcher::Match(const PhaseImage& left, const PhaseImage& right)
             continue;
         }
         double ul_back = 0;
-        if (MatchAtRow(rect_left, vl, phi_sample, options_, &ul_back, left_hints) !=
-                RowMatch::kOk ||
+        if (MatchAtRow(rect_left, vl, phi, options_, &ul_back, left_hints) != RowMatch::kOk ||
             std::abs(ul_back - ul) > options_.max_lr_error_px) {
           ++s.lr_inconsistent;
           continue;

@@ -43,6 +43,47 @@ constexpr int kGradientBlock = 16;
 constexpr int kMinGradientSteps = 4;
 constexpr float kGradientFloor = 0.25f;
 
+// Sorts a[0..kGradientBlock) ascending: a bitonic network of min / max (no branches; the loops
+// have constant bounds and unroll). +inf pads the missing steps of a block to the end.
+void SortBlock(float* a) {
+  static_assert(kGradientBlock == 16, "the network is written for 16 samples");
+  for (int k = 2; k <= kGradientBlock; k *= 2) {
+    for (int j = k / 2; j > 0; j /= 2) {
+      for (int i = 0; i < kGradientBlock; ++i) {
+        const int l = i ^ j;
+        if (l <= i) continue;
+        const float lo = std::min(a[i], a[l]), hi = std::max(a[i], a[l]);
+        const bool up = (i & k) == 0;
+        a[i] = up ? lo : hi;
+        a[l] = up ? hi : lo;
+      }
+    }
+  }
+}
+
+// The element of rank k (0-based) of the union of the sorted x[0..nx) and y[0..ny), k < nx + ny:
+// a binary search for the number i of elements taken from x (x[i - 1] <= y[k - i + 1] ...),
+// O(log) instead of walking the merge. Only the value is returned, which does not depend on how
+// ties are split.
+float RankOfTwo(const float* x, int nx, const float* y, int ny, int k) {
+  // i elements from x and k + 1 - i from y make the first k + 1 of the merge when
+  // x[i - 1] <= y[k + 1 - i] and y[k - i] <= x[i] (absent elements: -inf before, +inf after).
+  int lo = std::max(0, k + 1 - ny), hi = std::min(k + 1, nx);
+  // The smallest i in [lo, hi] with i == nx or x[i] >= y[k - i] (too many from x beyond it).
+  while (lo < hi) {
+    const int i = (lo + hi) / 2;
+    if (x[i] < y[k - i]) {
+      lo = i + 1;
+    } else {
+      hi = i;
+    }
+  }
+  const int i = lo;
+  const float from_x = i > 0 ? x[i - 1] : -std::numeric_limits<float>::infinity();
+  const float from_y = k - i >= 0 ? y[k - i] : -std::numeric_limits<float>::infinity();
+  return std::max(from_x, from_y);
+}
+
 // The local phase gradient (projector pixels per rectified pixel) at every step u -> u + 1 of a
 // row: the median |step| around it. It includes the noise of the steps, which is what the
 // matcher's step and reversal thresholds must stay above. Multiplying the phase by a power of
@@ -55,30 +96,35 @@ void LocalGradient(const float* row, int cols, std::vector<float>* gradient,
   const int num_steps = cols - 1;
   const int num_blocks = (num_steps + kGradientBlock - 1) / kGradientBlock;
   // The finite |steps| of every block, each block sorted (block b at [b * kGradientBlock,
-  // + count[b])), then the row's steps for the row median. A window's median is the element
-  // size / 2 of the merge of its three sorted blocks: the value nth_element on the window gives,
-  // at a fraction of the cost (each block is sorted once, not once per window it is part of).
+  // + count[b]), +inf after), then the row's steps for the row median. A window's median is the
+  // element size / 2 of the merge of its three sorted blocks: the value nth_element on the
+  // window gives, at a fraction of the cost (each block is sorted once, not once per window it
+  // is part of). Then the 2 * kGradientBlock slots of the merge of two blocks.
   std::vector<float>& buf = *scratch;
-  buf.resize(static_cast<size_t>(num_blocks) * kGradientBlock + num_steps);
+  buf.resize(static_cast<size_t>(num_blocks) * kGradientBlock + num_steps + 2 * kGradientBlock);
   float* sorted = buf.data();
   float* all = sorted + static_cast<size_t>(num_blocks) * kGradientBlock;
+  float* pair = all + num_steps;
   static thread_local std::vector<int> block_counts;
   block_counts.resize(num_blocks);
   int* counts = block_counts.data();
   int num_all = 0;
+  constexpr float kInf = std::numeric_limits<float>::infinity();
   for (int b = 0; b < num_blocks; ++b) {
     float* block = sorted + static_cast<size_t>(b) * kGradientBlock;
     int n = 0;
-    const int end = std::min(num_steps, (b + 1) * kGradientBlock);
-    for (int u = b * kGradientBlock; u < end; ++u) {
-      const float d = row[u + 1] - row[u];
-      if (!std::isfinite(d)) continue;
+    const int begin = b * kGradientBlock;
+    const int end = std::min(num_steps, begin + kGradientBlock);
+    for (int u = begin; u < begin + kGradientBlock; ++u) {
+      const float d = u < end ? row[u + 1] - row[u] : kInf;
+      const bool finite = std::isfinite(d);
       const float a = std::abs(d);
-      all[num_all++] = a;
-      int k = n++;
-      for (; k > 0 && block[k - 1] > a; --k) block[k] = block[k - 1];  // insertion sort
-      block[k] = a;
+      all[num_all] = a;
+      num_all += finite;
+      n += finite;
+      block[u - begin] = finite ? a : kInf;
     }
+    SortBlock(block);
     counts[b] = n;
   }
   const float row_median =
@@ -86,31 +132,32 @@ void LocalGradient(const float* row, int cols, std::vector<float>* gradient,
                   : 0.0f;
   const float floor = kGradientFloor * row_median;
   for (int b = 0; b < num_blocks; ++b) {
-    // The window: blocks b - 1, b, b + 1 (those that exist).
-    const float* part[3];
-    int left[3], parts = 0, size = 0;
-    for (int k = std::max(b - 1, 0); k <= std::min(b + 1, num_blocks - 1); ++k) {
-      part[parts] = sorted + static_cast<size_t>(k) * kGradientBlock;
-      left[parts] = counts[k];
-      size += counts[k];
-      ++parts;
-    }
-    float g = row_median;
-    if (size >= kMinGradientSteps) {
-      // Walk the merge up to element size / 2.
-      for (int taken = 0;; ++taken) {
-        int best = -1;
-        for (int k = 0; k < parts; ++k) {
-          if (left[k] > 0 && (best < 0 || *part[k] < *part[best])) best = k;
-        }
-        if (taken == size / 2) {
-          g = *part[best];
-          break;
-        }
-        ++part[best];
-        --left[best];
+    // The window: blocks b - 1, b, b + 1 (those that exist); the two upper ones merged.
+    const float* mid = sorted + static_cast<size_t>(b) * kGradientBlock;
+    const int n_mid = counts[b];
+    const float* x = mid;
+    int nx = n_mid;
+    if (b + 1 < num_blocks) {
+      const float* up = mid + kGradientBlock;
+      const int n_up = counts[b + 1];
+      // Branch-free merge of the finite parts (the +inf after each block bounds the indices).
+      int i = 0, j = 0;
+      for (int t = 0; t < n_mid + n_up; ++t) {
+        const float p = mid[std::min(i, kGradientBlock - 1)];
+        const float q = up[std::min(j, kGradientBlock - 1)];
+        const bool take_mid = i < n_mid && (j >= n_up || p <= q);
+        pair[t] = take_mid ? p : q;
+        i += take_mid;
+        j += !take_mid;
       }
+      x = pair;
+      nx = n_mid + n_up;
     }
+    const float* y = b > 0 ? mid - kGradientBlock : nullptr;
+    const int ny = b > 0 ? counts[b - 1] : 0;
+    const int size = nx + ny;
+    float g = row_median;
+    if (size >= kMinGradientSteps) g = ny > 0 ? RankOfTwo(x, nx, y, ny, size / 2) : x[size / 2];
     const int end = std::min(num_steps, (b + 1) * kGradientBlock);
     for (int u = b * kGradientBlock; u < end; ++u) (*gradient)[u] = std::max(g, floor);
   }

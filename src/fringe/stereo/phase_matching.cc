@@ -29,6 +29,9 @@ struct Run {
   // contiguous array instead of two scattered samples per run.
   float first = 0;
   float last = 0;
+  // No other run of the row has a phase range sharing a value with this one's (closed ranges,
+  // so conservative): a phi inside this run has exactly one crossing in the row.
+  bool isolated = false;
 };
 
 using RowRuns = std::vector<std::vector<Run>>;
@@ -163,6 +166,23 @@ void LocalGradient(const float* row, int cols, std::vector<float>* gradient,
   }
 }
 
+// Sets Run::isolated: the runs sorted by the low end of their phase range; a run is isolated when
+// it starts above every earlier run's high end and the next run starts above its own.
+void MarkIsolated(std::vector<Run>* runs, std::vector<int>* order) {
+  auto lo = [&](int k) { return std::min((*runs)[k].first, (*runs)[k].last); };
+  auto hi = [&](int k) { return std::max((*runs)[k].first, (*runs)[k].last); };
+  const int n = static_cast<int>(runs->size());
+  order->resize(n);
+  for (int k = 0; k < n; ++k) (*order)[k] = k;
+  std::sort(order->begin(), order->end(), [&](int a, int b) { return lo(a) < lo(b); });
+  float max_hi = -std::numeric_limits<float>::infinity();
+  for (int t = 0; t < n; ++t) {
+    const int k = (*order)[t];
+    (*runs)[k].isolated = lo(k) > max_hi && (t + 1 == n || lo((*order)[t + 1]) > hi(k));
+    max_hi = std::max(max_hi, hi(k));
+  }
+}
+
 // Runs per row, and the envelope image (same size as rect_phase). A step larger than
 // max_step_gradients local gradients ends a run (a discontinuity). The direction of a run is
 // that of its first net change larger than max_reversal_gradients local gradients, and the run
@@ -178,6 +198,7 @@ RowRuns FindRuns(const cv::Mat& rect_phase, double max_step_gradients,
   const float reversal_ratio = static_cast<float>(max_reversal_gradients);
   tbb::parallel_for(tbb::blocked_range<int>(0, rect_phase.rows), [&](const auto& range) {
     std::vector<float> gradient, scratch;
+    std::vector<int> order;
     for (int v = range.begin(); v < range.end(); ++v) {
       const float* row = rect_phase.ptr<float>(v);
       float* env = envelope->ptr<float>(v);
@@ -254,6 +275,7 @@ RowRuns FindRuns(const cv::Mat& rect_phase, double max_step_gradients,
         run.first = row[run.begin];
         run.last = env[run.end];
       }
+      MarkIsolated(&out, &order);
     }
   });
   return runs;
@@ -322,19 +344,31 @@ struct RectifiedPhase {
   RowRuns runs;
 };
 
+// *run_hint: the run of the caller's last single crossing (any value): when that run is isolated
+// and holds phi, it is the only one and the scan over the row's runs is skipped.
 int FindCrossing(const RectifiedPhase& rp, int v, double phi, CrossingInterpolation interp,
-                 double* u, int* hint) {
+                 double* u, int* hint, int* run_hint) {
   if (v < 0 || v >= rp.phase.rows) return 0;
   const float* row = rp.phase.ptr<float>(v);
   const float* env = rp.envelope.ptr<float>(v);
-  int count = 0;
-  for (const Run& run : rp.runs[v]) {
+  const std::vector<Run>& runs = rp.runs[v];
+  // Strict at the start so that a run beginning exactly at the previous run's turning point
+  // does not count that crossing twice.
+  auto holds = [phi](const Run& run) {
     const double a = run.first, b = run.last;
-    // Strict at the start so that a run beginning exactly at the previous run's turning point
-    // does not count that crossing twice.
-    if (run.increasing ? (phi <= a || phi > b) : (phi >= a || phi < b)) continue;
+    return !(run.increasing ? (phi <= a || phi > b) : (phi >= a || phi < b));
+  };
+  const int h = *run_hint;
+  if (h >= 0 && h < static_cast<int>(runs.size()) && runs[h].isolated && holds(runs[h])) {
+    *u = CrossingInRun(row, env, runs[h], phi, interp, hint);
+    return 1;
+  }
+  int count = 0;
+  for (size_t k = 0; k < runs.size(); ++k) {
+    if (!holds(runs[k])) continue;
     if (++count > 1) return 2;
-    *u = CrossingInRun(row, env, run, phi, interp, hint);
+    *u = CrossingInRun(row, env, runs[k], phi, interp, hint);
+    *run_hint = static_cast<int>(k);
   }
   return count;
 }
@@ -342,7 +376,8 @@ int FindCrossing(const RectifiedPhase& rp, int v, double phi, CrossingInterpolat
 enum class RowMatch { kOk, kNone, kAmbiguous, kDiscontinuity };
 
 // Crossing at fractional rectified row v: from rows floor(v) and floor(v)+1, interpolated.
-// hints: the caller's last crossing positions in the two rows (search start only; any value).
+// hints: the caller's last crossing positions in the two rows (search start only; any value),
+// then the runs of those crossings (FindCrossing's run_hint).
 RowMatch MatchAtRow(const RectifiedPhase& rp, double v, double phi, const MatchingOptions& options,
                     double* u, int* hints) {
   constexpr double kOnRow = 1e-3;  // closer than this to a row: that row alone decides
@@ -350,8 +385,10 @@ RowMatch MatchAtRow(const RectifiedPhase& rp, double v, double phi, const Matchi
   const double w = v - v0;
   double u0 = 0, u1 = 0;
   int n0 = 1, n1 = 1;
-  if (w < 1 - kOnRow) n0 = FindCrossing(rp, v0, phi, options.interpolation, &u0, &hints[0]);
-  if (w > kOnRow) n1 = FindCrossing(rp, v0 + 1, phi, options.interpolation, &u1, &hints[1]);
+  if (w < 1 - kOnRow)
+    n0 = FindCrossing(rp, v0, phi, options.interpolation, &u0, &hints[0], &hints[2]);
+  if (w > kOnRow)
+    n1 = FindCrossing(rp, v0 + 1, phi, options.interpolation, &u1, &hints[1], &hints[3]);
   if (n0 == 0 || n1 == 0) return RowMatch::kNone;
   if (n0 > 1 || n1 > 1) return RowMatch::kAmbiguous;
   if (w <= kOnRow) {
@@ -474,7 +511,11 @@ MatchResult PhaseMatcher::Match(const PhaseImage& left, const PhaseImage& right)
   rect_right.runs = FindRuns(rect_right.phase, options_.max_step_gradients,
                              options_.max_reversal_gradients, &rect_right.envelope);
   cv::Mat texture;
-  if (!left.texture.empty()) left.texture.convertTo(texture, CV_32F);
+  if (left.texture.type() == CV_32FC1) {
+    texture = left.texture;  // read only: shared, not copied
+  } else if (!left.texture.empty()) {
+    left.texture.convertTo(texture, CV_32F);
+  }
 
   const int w = rig_.left.width, h = rig_.left.height;
   MatchResult result;
@@ -494,7 +535,7 @@ MatchResult PhaseMatcher::Match(const PhaseImage& left, const PhaseImage& right)
       const auto* rays = left_rays_.ptr<cv::Vec3f>(r);
       auto* right_px_row = result.right_px.ptr<cv::Vec2f>(r);
       float* err_row = result.reprojection_error_px.ptr<float>(r);
-      int right_hints[2] = {-1, -1}, left_hints[2] = {-1, -1};
+      int right_hints[4] = {-1, -1, -1, -1}, left_hints[4] = {-1, -1, -1, -1};
       for (int c = 0; c < w; ++c) {
         const double phi = phi_row[c];
         if (!std::isfinite(phi)) continue;

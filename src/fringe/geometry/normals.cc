@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <utility>
 #include <vector>
 
 #include "fringe/util/error.h"
@@ -249,20 +250,43 @@ GridNormalSummary EstimateGridNormals(OrganizedPointCloud* grid, const GridNorma
       return out;
     };
     double s[kChannels];
+    std::vector<std::pair<int, int>> spans;  // column ranges [begin, end) of this row's windows
     for (int r = rows.begin(); r < rows.end(); ++r) {
       GridNormalSummary& rs = per_row[r];
       // Column sums of radius k = previous radius' + rows r - k and r + k (rows outside the
       // image add nothing, as the integral image clipped them).
-      {
+      // Only over the columns some window of this row reads (spans [c - rad, c + rad] of its
+      // points with rad >= 1, merged): the same sums, none computed for holes and background.
+      spans.clear();
+      for (int c = 0; c < w; ++c) {
+        const size_t i = grid->index(c, r);
+        if (!valid[i]) continue;
+        const int rad = std::min<int>(max_rad, dist[i]);
+        if (rad < 1) continue;
+        const int c0 = std::max(c - rad, 0), c1 = std::min(c + rad + 1, w);
+        if (!spans.empty() && c0 <= spans.back().second) {
+          spans.back().second = std::max(spans.back().second, c1);
+        } else {
+          spans.emplace_back(c0, c1);
+        }
+      }
+      if (!spans.empty()) {
         const double* centre = products(r);
         for (int k = 1; k <= max_rad; ++k) {
           double* sum = column_sums + row_len * (k - 1);
           const double* prev = k == 1 ? centre : sum - row_len;
-          std::copy(prev, prev + row_len, sum);
+          const double* add[2] = {nullptr, nullptr};
+          int num_add = 0;
           for (const int rr : {r - k, r + k}) {
-            if (rr < 0 || rr >= h) continue;
-            const double* add = products(rr);
-            for (size_t e = 0; e < row_len; ++e) sum[e] += add[e];
+            if (rr >= 0 && rr < h) add[num_add++] = products(rr);
+          }
+          for (const auto& [c0, c1] : spans) {
+            const size_t e0 = static_cast<size_t>(c0) * kChannels;
+            const size_t e1 = static_cast<size_t>(c1) * kChannels;
+            std::copy(prev + e0, prev + e1, sum + e0);
+            for (int a = 0; a < num_add; ++a) {
+              for (size_t e = e0; e < e1; ++e) sum[e] += add[a][e];
+            }
           }
         }
       }

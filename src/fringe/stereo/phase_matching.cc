@@ -29,6 +29,9 @@ struct Run {
   // contiguous array instead of two scattered samples per run.
   float first = 0;
   float last = 0;
+  // No other run of the row has a phase range sharing a value with this one's (closed ranges,
+  // so conservative): a phi inside this run has exactly one crossing in the row.
+  bool isolated = false;
 };
 
 using RowRuns = std::vector<std::vector<Run>>;
@@ -43,6 +46,47 @@ constexpr int kGradientBlock = 16;
 constexpr int kMinGradientSteps = 4;
 constexpr float kGradientFloor = 0.25f;
 
+// Sorts a[0..kGradientBlock) ascending: a bitonic network of min / max (no branches; the loops
+// have constant bounds and unroll). +inf pads the missing steps of a block to the end.
+void SortBlock(float* a) {
+  static_assert(kGradientBlock == 16, "the network is written for 16 samples");
+  for (int k = 2; k <= kGradientBlock; k *= 2) {
+    for (int j = k / 2; j > 0; j /= 2) {
+      for (int i = 0; i < kGradientBlock; ++i) {
+        const int l = i ^ j;
+        if (l <= i) continue;
+        const float lo = std::min(a[i], a[l]), hi = std::max(a[i], a[l]);
+        const bool up = (i & k) == 0;
+        a[i] = up ? lo : hi;
+        a[l] = up ? hi : lo;
+      }
+    }
+  }
+}
+
+// The element of rank k (0-based) of the union of the sorted x[0..nx) and y[0..ny), k < nx + ny:
+// a binary search for the number i of elements taken from x (x[i - 1] <= y[k - i + 1] ...),
+// O(log) instead of walking the merge. Only the value is returned, which does not depend on how
+// ties are split.
+float RankOfTwo(const float* x, int nx, const float* y, int ny, int k) {
+  // i elements from x and k + 1 - i from y make the first k + 1 of the merge when
+  // x[i - 1] <= y[k + 1 - i] and y[k - i] <= x[i] (absent elements: -inf before, +inf after).
+  int lo = std::max(0, k + 1 - ny), hi = std::min(k + 1, nx);
+  // The smallest i in [lo, hi] with i == nx or x[i] >= y[k - i] (too many from x beyond it).
+  while (lo < hi) {
+    const int i = (lo + hi) / 2;
+    if (x[i] < y[k - i]) {
+      lo = i + 1;
+    } else {
+      hi = i;
+    }
+  }
+  const int i = lo;
+  const float from_x = i > 0 ? x[i - 1] : -std::numeric_limits<float>::infinity();
+  const float from_y = k - i >= 0 ? y[k - i] : -std::numeric_limits<float>::infinity();
+  return std::max(from_x, from_y);
+}
+
 // The local phase gradient (projector pixels per rectified pixel) at every step u -> u + 1 of a
 // row: the median |step| around it. It includes the noise of the steps, which is what the
 // matcher's step and reversal thresholds must stay above. Multiplying the phase by a power of
@@ -55,30 +99,35 @@ void LocalGradient(const float* row, int cols, std::vector<float>* gradient,
   const int num_steps = cols - 1;
   const int num_blocks = (num_steps + kGradientBlock - 1) / kGradientBlock;
   // The finite |steps| of every block, each block sorted (block b at [b * kGradientBlock,
-  // + count[b])), then the row's steps for the row median. A window's median is the element
-  // size / 2 of the merge of its three sorted blocks: the value nth_element on the window gives,
-  // at a fraction of the cost (each block is sorted once, not once per window it is part of).
+  // + count[b]), +inf after), then the row's steps for the row median. A window's median is the
+  // element size / 2 of the merge of its three sorted blocks: the value nth_element on the
+  // window gives, at a fraction of the cost (each block is sorted once, not once per window it
+  // is part of). Then the 2 * kGradientBlock slots of the merge of two blocks.
   std::vector<float>& buf = *scratch;
-  buf.resize(static_cast<size_t>(num_blocks) * kGradientBlock + num_steps);
+  buf.resize(static_cast<size_t>(num_blocks) * kGradientBlock + num_steps + 2 * kGradientBlock);
   float* sorted = buf.data();
   float* all = sorted + static_cast<size_t>(num_blocks) * kGradientBlock;
+  float* pair = all + num_steps;
   static thread_local std::vector<int> block_counts;
   block_counts.resize(num_blocks);
   int* counts = block_counts.data();
   int num_all = 0;
+  constexpr float kInf = std::numeric_limits<float>::infinity();
   for (int b = 0; b < num_blocks; ++b) {
     float* block = sorted + static_cast<size_t>(b) * kGradientBlock;
     int n = 0;
-    const int end = std::min(num_steps, (b + 1) * kGradientBlock);
-    for (int u = b * kGradientBlock; u < end; ++u) {
-      const float d = row[u + 1] - row[u];
-      if (!std::isfinite(d)) continue;
+    const int begin = b * kGradientBlock;
+    const int end = std::min(num_steps, begin + kGradientBlock);
+    for (int u = begin; u < begin + kGradientBlock; ++u) {
+      const float d = u < end ? row[u + 1] - row[u] : kInf;
+      const bool finite = std::isfinite(d);
       const float a = std::abs(d);
-      all[num_all++] = a;
-      int k = n++;
-      for (; k > 0 && block[k - 1] > a; --k) block[k] = block[k - 1];  // insertion sort
-      block[k] = a;
+      all[num_all] = a;
+      num_all += finite;
+      n += finite;
+      block[u - begin] = finite ? a : kInf;
     }
+    SortBlock(block);
     counts[b] = n;
   }
   const float row_median =
@@ -86,33 +135,51 @@ void LocalGradient(const float* row, int cols, std::vector<float>* gradient,
                   : 0.0f;
   const float floor = kGradientFloor * row_median;
   for (int b = 0; b < num_blocks; ++b) {
-    // The window: blocks b - 1, b, b + 1 (those that exist).
-    const float* part[3];
-    int left[3], parts = 0, size = 0;
-    for (int k = std::max(b - 1, 0); k <= std::min(b + 1, num_blocks - 1); ++k) {
-      part[parts] = sorted + static_cast<size_t>(k) * kGradientBlock;
-      left[parts] = counts[k];
-      size += counts[k];
-      ++parts;
-    }
-    float g = row_median;
-    if (size >= kMinGradientSteps) {
-      // Walk the merge up to element size / 2.
-      for (int taken = 0;; ++taken) {
-        int best = -1;
-        for (int k = 0; k < parts; ++k) {
-          if (left[k] > 0 && (best < 0 || *part[k] < *part[best])) best = k;
-        }
-        if (taken == size / 2) {
-          g = *part[best];
-          break;
-        }
-        ++part[best];
-        --left[best];
+    // The window: blocks b - 1, b, b + 1 (those that exist); the two upper ones merged.
+    const float* mid = sorted + static_cast<size_t>(b) * kGradientBlock;
+    const int n_mid = counts[b];
+    const float* x = mid;
+    int nx = n_mid;
+    if (b + 1 < num_blocks) {
+      const float* up = mid + kGradientBlock;
+      const int n_up = counts[b + 1];
+      // Branch-free merge of the finite parts (the +inf after each block bounds the indices).
+      int i = 0, j = 0;
+      for (int t = 0; t < n_mid + n_up; ++t) {
+        const float p = mid[std::min(i, kGradientBlock - 1)];
+        const float q = up[std::min(j, kGradientBlock - 1)];
+        const bool take_mid = i < n_mid && (j >= n_up || p <= q);
+        pair[t] = take_mid ? p : q;
+        i += take_mid;
+        j += !take_mid;
       }
+      x = pair;
+      nx = n_mid + n_up;
     }
+    const float* y = b > 0 ? mid - kGradientBlock : nullptr;
+    const int ny = b > 0 ? counts[b - 1] : 0;
+    const int size = nx + ny;
+    float g = row_median;
+    if (size >= kMinGradientSteps) g = ny > 0 ? RankOfTwo(x, nx, y, ny, size / 2) : x[size / 2];
     const int end = std::min(num_steps, (b + 1) * kGradientBlock);
     for (int u = b * kGradientBlock; u < end; ++u) (*gradient)[u] = std::max(g, floor);
+  }
+}
+
+// Sets Run::isolated: the runs sorted by the low end of their phase range; a run is isolated when
+// it starts above every earlier run's high end and the next run starts above its own.
+void MarkIsolated(std::vector<Run>* runs, std::vector<int>* order) {
+  auto lo = [&](int k) { return std::min((*runs)[k].first, (*runs)[k].last); };
+  auto hi = [&](int k) { return std::max((*runs)[k].first, (*runs)[k].last); };
+  const int n = static_cast<int>(runs->size());
+  order->resize(n);
+  for (int k = 0; k < n; ++k) (*order)[k] = k;
+  std::sort(order->begin(), order->end(), [&](int a, int b) { return lo(a) < lo(b); });
+  float max_hi = -std::numeric_limits<float>::infinity();
+  for (int t = 0; t < n; ++t) {
+    const int k = (*order)[t];
+    (*runs)[k].isolated = lo(k) > max_hi && (t + 1 == n || lo((*order)[t + 1]) > hi(k));
+    max_hi = std::max(max_hi, hi(k));
   }
 }
 
@@ -131,6 +198,7 @@ RowRuns FindRuns(const cv::Mat& rect_phase, double max_step_gradients,
   const float reversal_ratio = static_cast<float>(max_reversal_gradients);
   tbb::parallel_for(tbb::blocked_range<int>(0, rect_phase.rows), [&](const auto& range) {
     std::vector<float> gradient, scratch;
+    std::vector<int> order;
     for (int v = range.begin(); v < range.end(); ++v) {
       const float* row = rect_phase.ptr<float>(v);
       float* env = envelope->ptr<float>(v);
@@ -207,6 +275,7 @@ RowRuns FindRuns(const cv::Mat& rect_phase, double max_step_gradients,
         run.first = row[run.begin];
         run.last = env[run.end];
       }
+      MarkIsolated(&out, &order);
     }
   });
   return runs;
@@ -275,19 +344,31 @@ struct RectifiedPhase {
   RowRuns runs;
 };
 
+// *run_hint: the run of the caller's last single crossing (any value): when that run is isolated
+// and holds phi, it is the only one and the scan over the row's runs is skipped.
 int FindCrossing(const RectifiedPhase& rp, int v, double phi, CrossingInterpolation interp,
-                 double* u, int* hint) {
+                 double* u, int* hint, int* run_hint) {
   if (v < 0 || v >= rp.phase.rows) return 0;
   const float* row = rp.phase.ptr<float>(v);
   const float* env = rp.envelope.ptr<float>(v);
-  int count = 0;
-  for (const Run& run : rp.runs[v]) {
+  const std::vector<Run>& runs = rp.runs[v];
+  // Strict at the start so that a run beginning exactly at the previous run's turning point
+  // does not count that crossing twice.
+  auto holds = [phi](const Run& run) {
     const double a = run.first, b = run.last;
-    // Strict at the start so that a run beginning exactly at the previous run's turning point
-    // does not count that crossing twice.
-    if (run.increasing ? (phi <= a || phi > b) : (phi >= a || phi < b)) continue;
+    return !(run.increasing ? (phi <= a || phi > b) : (phi >= a || phi < b));
+  };
+  const int h = *run_hint;
+  if (h >= 0 && h < static_cast<int>(runs.size()) && runs[h].isolated && holds(runs[h])) {
+    *u = CrossingInRun(row, env, runs[h], phi, interp, hint);
+    return 1;
+  }
+  int count = 0;
+  for (size_t k = 0; k < runs.size(); ++k) {
+    if (!holds(runs[k])) continue;
     if (++count > 1) return 2;
-    *u = CrossingInRun(row, env, run, phi, interp, hint);
+    *u = CrossingInRun(row, env, runs[k], phi, interp, hint);
+    *run_hint = static_cast<int>(k);
   }
   return count;
 }
@@ -295,7 +376,8 @@ int FindCrossing(const RectifiedPhase& rp, int v, double phi, CrossingInterpolat
 enum class RowMatch { kOk, kNone, kAmbiguous, kDiscontinuity };
 
 // Crossing at fractional rectified row v: from rows floor(v) and floor(v)+1, interpolated.
-// hints: the caller's last crossing positions in the two rows (search start only; any value).
+// hints: the caller's last crossing positions in the two rows (search start only; any value),
+// then the runs of those crossings (FindCrossing's run_hint).
 RowMatch MatchAtRow(const RectifiedPhase& rp, double v, double phi, const MatchingOptions& options,
                     double* u, int* hints) {
   constexpr double kOnRow = 1e-3;  // closer than this to a row: that row alone decides
@@ -303,8 +385,10 @@ RowMatch MatchAtRow(const RectifiedPhase& rp, double v, double phi, const Matchi
   const double w = v - v0;
   double u0 = 0, u1 = 0;
   int n0 = 1, n1 = 1;
-  if (w < 1 - kOnRow) n0 = FindCrossing(rp, v0, phi, options.interpolation, &u0, &hints[0]);
-  if (w > kOnRow) n1 = FindCrossing(rp, v0 + 1, phi, options.interpolation, &u1, &hints[1]);
+  if (w < 1 - kOnRow)
+    n0 = FindCrossing(rp, v0, phi, options.interpolation, &u0, &hints[0], &hints[2]);
+  if (w > kOnRow)
+    n1 = FindCrossing(rp, v0 + 1, phi, options.interpolation, &u1, &hints[1], &hints[3]);
   if (n0 == 0 || n1 == 0) return RowMatch::kNone;
   if (n0 > 1 || n1 > 1) return RowMatch::kAmbiguous;
   if (w <= kOnRow) {
@@ -392,7 +476,10 @@ std::string MatchingSummary::BriefReport() const {
 }
 
 PhaseMatcher::PhaseMatcher(const StereoRig& rig, const MatchingOptions& options)
-    : rig_(rig), options_(options), rect_((options.Check(), rig), options.rectification) {
+    : rig_(rig),
+      options_(options),
+      rect_((options.Check(), rig), options.rectification),
+      triangulator_(rig_, options_.triangulation) {
   const CameraModel& cam = rig_.left;
   left_rect_px_.create(cam.height, cam.width, CV_32FC2);
   left_rays_.create(cam.height, cam.width, CV_32FC3);
@@ -424,7 +511,11 @@ MatchResult PhaseMatcher::Match(const PhaseImage& left, const PhaseImage& right)
   rect_right.runs = FindRuns(rect_right.phase, options_.max_step_gradients,
                              options_.max_reversal_gradients, &rect_right.envelope);
   cv::Mat texture;
-  if (!left.texture.empty()) left.texture.convertTo(texture, CV_32F);
+  if (left.texture.type() == CV_32FC1) {
+    texture = left.texture;  // read only: shared, not copied
+  } else if (!left.texture.empty()) {
+    left.texture.convertTo(texture, CV_32F);
+  }
 
   const int w = rig_.left.width, h = rig_.left.height;
   MatchResult result;
@@ -444,7 +535,7 @@ MatchResult PhaseMatcher::Match(const PhaseImage& left, const PhaseImage& right)
       const auto* rays = left_rays_.ptr<cv::Vec3f>(r);
       auto* right_px_row = result.right_px.ptr<cv::Vec2f>(r);
       float* err_row = result.reprojection_error_px.ptr<float>(r);
-      int right_hints[2] = {-1, -1}, left_hints[2] = {-1, -1};
+      int right_hints[4] = {-1, -1, -1, -1}, left_hints[4] = {-1, -1, -1, -1};
       for (int c = 0; c < w; ++c) {
         const double phi = phi_row[c];
         if (!std::isfinite(phi)) continue;
@@ -482,8 +573,8 @@ MatchResult PhaseMatcher::Match(const PhaseImage& left, const PhaseImage& right)
           continue;
         }
         const Eigen::Vector3d ray(rays[c][0], rays[c][1], rays[c][2]);
-        const TriangulatedPoint tp = TriangulateFromRays(rig_, ray, Eigen::Vector2d(c, r), xy_right,
-                                                         right_px, options_.triangulation);
+        const TriangulatedPoint tp =
+            triangulator_.Triangulate(ray, Eigen::Vector2d(c, r), xy_right, right_px);
         if (!tp.ok()) {
           ++s.triangulation_failed;
           continue;

@@ -155,6 +155,7 @@ class PhaseMatcher {
   StereoRig rig_;
   MatchingOptions options_;
   Rectification rect_;
+  RayTriangulator triangulator_;
   cv::Mat left_rect_px_;  // CV_32FC2: rectified pixel of every original left pixel
   cv::Mat left_rays_;     // CV_32FC3: unit viewing ray of every original left pixel
 };

@@ -12,12 +12,21 @@
 namespace fringe::stereo {
 namespace {
 
-PhaseImage ToPhaseImage(const phase::DecodeResult& d, double texture_scale) {
+// texture: the background already on the 0-255 scale (CV_32F), shared instead of converted
+// again; empty: converted here, or left empty when with_texture is false (the matcher reads
+// the left camera's texture only).
+PhaseImage ToPhaseImage(const phase::DecodeResult& d, double texture_scale, const cv::Mat& texture,
+                        bool with_texture) {
   PhaseImage p;
   p.phase = d.absolute_phase;
   p.mask = d.mask;
   p.modulation = d.modulation;
-  d.background.convertTo(p.texture, CV_32F, texture_scale);
+  if (!with_texture) return p;
+  if (texture.type() == CV_32FC1 && texture.size() == d.background.size()) {
+    p.texture = texture;
+  } else {
+    d.background.convertTo(p.texture, CV_32F, texture_scale);
+  }
   return p;
 }
 
@@ -45,8 +54,9 @@ class StereoCorrespondence : public Correspondence {
   }
   void Correspond(const std::vector<phase::PatternScheme>& /*schemes*/, const DecodedView& view,
                   ViewReconstruction* out) const override {
-    MatchResult m = matcher_.Match(ToPhaseImage(view.left[0], view.texture_scale),
-                                   ToPhaseImage(view.right[0], view.texture_scale));
+    MatchResult m =
+        matcher_.Match(ToPhaseImage(view.left[0], view.texture_scale, out->texture_left, true),
+                       ToPhaseImage(view.right[0], view.texture_scale, cv::Mat(), false));
     out->summary.matching = m.summary;
     out->cloud = std::move(m.cloud);
     out->reprojection_error_px = m.reprojection_error_px;

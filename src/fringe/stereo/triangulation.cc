@@ -49,17 +49,32 @@ TriangulatedPoint TriangulateFromRays(const StereoRig& rig, const Eigen::Vector3
                                       const Eigen::Vector2d& xy_right,
                                       const Eigen::Vector2d& right_px,
                                       const TriangulationOptions& options) {
+  return RayTriangulator(rig, options).Triangulate(ray_left, left_px, xy_right, right_px);
+}
+
+RayTriangulator::RayTriangulator(const StereoRig& rig, const TriangulationOptions& options)
+    : left_(rig.left),
+      right_(rig.right),
+      options_(options),
+      left_from_right_(rig.right_from_left.Inverse()),
+      r_rl_(rig.right_from_left.rotation_matrix()),
+      t_rl_(rig.right_from_left.translation()),
+      min_denom_(std::pow(std::sin(options.min_ray_angle_rad), 2)) {}
+
+TriangulatedPoint RayTriangulator::Triangulate(const Eigen::Vector3d& ray_left,
+                                               const Eigen::Vector2d& left_px,
+                                               const Eigen::Vector2d& xy_right,
+                                               const Eigen::Vector2d& right_px) const {
   TriangulatedPoint out;
-  const Rigid3d left_from_right = rig.right_from_left.Inverse();
-  const Eigen::Vector3d c_right = left_from_right.translation();
+  const Eigen::Vector3d& c_right = left_from_right_.translation();
   const Eigen::Vector3d d0 = ray_left.normalized();
   const Eigen::Vector3d d1 =
-      left_from_right.RotateDirection(Eigen::Vector3d(xy_right.x(), xy_right.y(), 1.0))
+      left_from_right_.RotateDirection(Eigen::Vector3d(xy_right.x(), xy_right.y(), 1.0))
           .normalized();
   // Closest points of the rays s*d0 and c_right + t*d1.
   const double b = d0.dot(d1);
   const double denom = 1.0 - b * b;
-  if (denom < std::pow(std::sin(options.min_ray_angle_rad), 2)) {
+  if (denom < min_denom_) {
     out.status = TriangulationStatus::kParallelRays;
     return out;
   }
@@ -72,10 +87,10 @@ TriangulatedPoint TriangulateFromRays(const StereoRig& rig, const Eigen::Vector3
   }
   Eigen::Vector3d p = 0.5 * (s * d0 + c_right + t * d1);
 
-  const Eigen::Matrix3d r_rl = rig.right_from_left.rotation_matrix();
-  const Eigen::Vector3d t_rl = rig.right_from_left.translation();
+  const Eigen::Matrix3d& r_rl = r_rl_;
+  const Eigen::Vector3d& t_rl = t_rl_;
   double sq_error = 0;
-  for (int it = 0; it <= options.refine_iterations; ++it) {
+  for (int it = 0; it <= options_.refine_iterations; ++it) {
     Eigen::Matrix<double, 2, 3> jl, jr;
     const Eigen::Vector3d p_right = r_rl * p + t_rl;
     if (p.z() <= 0 || p_right.z() <= 0) {
@@ -83,10 +98,10 @@ TriangulatedPoint TriangulateFromRays(const StereoRig& rig, const Eigen::Vector3
       return out;
     }
     // The last pass only measures the residual: no Jacobians.
-    const bool last = it == options.refine_iterations;
-    const Eigen::Vector2d el = ProjectWithJacobian(rig.left, p, last ? nullptr : &jl) - left_px;
+    const bool last = it == options_.refine_iterations;
+    const Eigen::Vector2d el = ProjectWithJacobian(left_, p, last ? nullptr : &jl) - left_px;
     const Eigen::Vector2d er =
-        ProjectWithJacobian(rig.right, p_right, last ? nullptr : &jr) - right_px;
+        ProjectWithJacobian(right_, p_right, last ? nullptr : &jr) - right_px;
     sq_error = el.squaredNorm() + er.squaredNorm();
     if (last) break;
     jr = jr * r_rl;

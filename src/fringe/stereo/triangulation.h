@@ -58,6 +58,26 @@ TriangulatedPoint TriangulateFromRays(const StereoRig& rig, const Eigen::Vector3
                                       const Eigen::Vector2d& right_px,
                                       const TriangulationOptions& options);
 
+// TriangulateFromRays for many correspondences of one rig: the rig-only quantities (left from
+// right transform, its rotation matrix, the parallel-ray bound) computed once instead of per
+// point, with the same arithmetic, so results are bit-identical to TriangulateFromRays (the
+// matcher calls it once per matched pixel). Immutable; safe to use concurrently.
+class RayTriangulator {
+ public:
+  RayTriangulator(const StereoRig& rig, const TriangulationOptions& options);
+  TriangulatedPoint Triangulate(const Eigen::Vector3d& ray_left, const Eigen::Vector2d& left_px,
+                                const Eigen::Vector2d& xy_right,
+                                const Eigen::Vector2d& right_px) const;
+
+ private:
+  CameraModel left_, right_;
+  TriangulationOptions options_;
+  Rigid3d left_from_right_;
+  Eigen::Matrix3d r_rl_;
+  Eigen::Vector3d t_rl_;
+  double min_denom_ = 0;  // sin(min_ray_angle_rad)^2
+};
+
 const char* ToString(TriangulationStatus status);
 
 }  // namespace fringe::stereo

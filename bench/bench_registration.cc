@@ -378,6 +378,12 @@ int Run(int argc, char** argv) {
                  "Marker-free pairwise ICP samples only points whose neighbours' normals lie "
                  "within this angle (0: all points)")
       ->capture_default_str();
+  app.add_option("--coarse-voxel-mm", options.coarse.voxel_mm,
+                 "Marker-free FPFH + RANSAC downsampling voxel, mm (registration::CoarseOptions)")
+      ->capture_default_str();
+  app.add_option("--coarse-hypotheses", options.coarse.hypotheses,
+                 "Marker-free sequential RANSAC runs per pair (registration::CoarseOptions)")
+      ->capture_default_str();
   app.add_option("--ransac-score-samples", options.coarse.score_samples,
                  "Marker-free RANSAC scores each hypothesis on this many source samples (a "
                  "number above the samples: all, as Open3D)")

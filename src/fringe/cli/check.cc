@@ -50,6 +50,7 @@ void AddCheckCommand(CLI::App& app) {
   sub->add_flag("--json", a->json, "Print check.json on stdout instead of the table");
   sub->callback([a] {
     a->options.Check();
+    a->input_options.Check("check");  // conflicting calibration flags, before any reading
     std::vector<std::filesystem::path> inputs(a->inputs.begin(), a->inputs.end());
     util::OutputFolderOptions output;
     output.inputs = inputs;

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "fringe/cli/calibration_flags.h"
 #include "fringe/cli/cli.h"
 #include "fringe/eval/artefact.h"
 #include "fringe/eval/check.h"
@@ -20,7 +21,8 @@ namespace fringe::cli {
 void AddCheckCommand(CLI::App& app) {
   struct Args {
     std::vector<std::string> inputs;
-    std::string artefact, out, calib;
+    std::string artefact, out;
+    pipeline::CheckInputOptions input_options;
     bool json = false;
     eval::CheckOptions options;
   };
@@ -37,7 +39,7 @@ void AddCheckCommand(CLI::App& app) {
       ->required();
   sub->add_option("--artefact", a->artefact, "Artefact file (JSON, docs/formats.md)")->required();
   sub->add_option("--out", a->out, "Output folder: check.json, check.html")->required();
-  sub->add_option("--calib", a->calib, "Rig JSON for scan folders (default: their rig.json)");
+  AddCalibrationFlags(sub, &a->input_options, "for scan folders, their rig.json");
   sub->add_option("--band", a->options.vdi.inlier_band_mm,
                   "Half width of the band of points belonging to an artefact, mm")
       ->capture_default_str();
@@ -48,17 +50,16 @@ void AddCheckCommand(CLI::App& app) {
   sub->add_flag("--json", a->json, "Print check.json on stdout instead of the table");
   sub->callback([a] {
     a->options.Check();
+    a->input_options.Check("check");  // conflicting calibration flags, before any reading
     std::vector<std::filesystem::path> inputs(a->inputs.begin(), a->inputs.end());
     util::OutputFolderOptions output;
     output.inputs = inputs;
     output.inputs.push_back(a->artefact);
-    if (!a->calib.empty()) output.inputs.push_back(a->calib);
+    for (const auto& f : a->input_options.Files()) output.inputs.push_back(f);
     util::CheckOutputFolder(a->out, output);
     const eval::Artefact artefact = eval::ReadArtefact(a->artefact);
-    pipeline::CheckInputOptions input_options;
-    input_options.calib = a->calib;
     const std::vector<eval::CheckInput> measurements =
-        pipeline::ReadCheckInputs(inputs, input_options);
+        pipeline::ReadCheckInputs(inputs, a->input_options);
     const eval::CheckSummary s = eval::CheckArtefact(measurements, artefact, a->options);
     const nlohmann::json j = eval::ToJson(s, artefact, a->options);
     util::WriteFolderAtomically(a->out, output, [&](const std::filesystem::path& dir) {

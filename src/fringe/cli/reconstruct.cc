@@ -9,12 +9,10 @@
 #include <optional>
 #include <sstream>
 
+#include "fringe/cli/calibration_flags.h"
 #include "fringe/cli/cli.h"
 #include "fringe/cli/scheme_flags.h"
-#include "fringe/io/calibration_formats.h"
-#include "fringe/io/calibration_io.h"
 #include "fringe/io/image_io.h"
-#include "fringe/io/opencv_calibration.h"
 #include "fringe/io/ply.h"
 #include "fringe/phase/pattern_scheme.h"
 #include "fringe/phase/stack_io.h"
@@ -48,14 +46,11 @@ fs::path FirstExisting(const std::vector<fs::path>& candidates, const char* what
 void AddReconstructCommand(CLI::App& app) {
   struct Args {
     std::string view;
-    std::string calib;
+    pipeline::CalibrationFiles calibration;
     std::string scheme;
     std::string out;
     std::string residuals;
     std::string mode = "auto";
-    std::string cv_intrinsics, cv_extrinsics;
-    std::vector<std::string> opencv;
-    std::vector<std::string> opencv_keys;
     bool ascii = false;
     bool no_normals = false;
     bool keep_outliers = false;
@@ -86,20 +81,7 @@ void AddReconstructCommand(CLI::App& app) {
                   "images and the rig a right camera, else camera-projector")
       ->check(CLI::IsMember({"stereo", "camera-projector", "trinocular", "auto"}))
       ->capture_default_str();
-  sub->add_option("--calib", a->calib,
-                  "Rig calibration (rig JSON); default VIEW/rig.json or VIEW/../rig.json");
-  sub->add_option("--opencv", a->opencv,
-                  "Instead of --calib: OpenCV calibration YAML/XML (one file with cameras and "
-                  "extrinsics in any usual spelling; may be repeated when split over files)");
-  sub->add_option("--opencv-keys", a->opencv_keys,
-                  "With --opencv, for files no reader recognises: which key holds what, e.g. "
-                  "left=Kc,kc projector=Kp,kp projector_from_left=Rp,Tp "
-                  "left_size=frameWidth,frameHeight")
-      ->expected(1, 16);
-  sub->add_option("--opencv-intrinsics", a->cv_intrinsics,
-                  "Instead of --calib: OpenCV stereo intrinsics (M1 D1 M2 D2, YAML/XML)");
-  sub->add_option("--opencv-extrinsics", a->cv_extrinsics,
-                  "With --opencv-intrinsics: OpenCV stereo extrinsics (R T, millimetres)");
+  AddCalibrationFlags(sub, &a->calibration, "VIEW/rig.json or VIEW/../rig.json");
   sub->add_option("--scheme", a->scheme,
                   "Scheme manifest or preset name; default: in a scan folder the scheme its "
                   "scan.json names, else VIEW/manifest.json, VIEW/left/manifest.json or "
@@ -185,34 +167,25 @@ void AddReconstructCommand(CLI::App& app) {
                                      view.parent_path() / "manifest.json"},
                                     "scheme manifest", "--scheme")
                           .string();
-    std::vector<fs::path> opencv_files(a->opencv.begin(), a->opencv.end());
-    if (!a->cv_intrinsics.empty() || !a->cv_extrinsics.empty()) {
-      if (a->cv_intrinsics.empty() || a->cv_extrinsics.empty()) {
-        throw Error("reconstruct: --opencv-intrinsics and --opencv-extrinsics go together");
-      }
-      opencv_files.push_back(a->cv_intrinsics);
-      opencv_files.push_back(a->cv_extrinsics);
-    }
-    const bool opencv = !opencv_files.empty();
-    if (!a->opencv_keys.empty() && !opencv) {
-      throw Error("reconstruct: --opencv-keys names the keys of files given with --opencv");
-    }
-    if (opencv && !a->calib.empty()) {
-      throw Error("reconstruct: give the calibration either with --calib or as OpenCV files");
-    }
-    const fs::path calib_path =
-        opencv || !a->calib.empty()
-            ? fs::path(a->calib)
-            : FirstExisting({view / "rig.json", view.parent_path() / "rig.json"}, "calibration",
-                            "--calib");
+    const pipeline::CalibrationFiles& calibration = a->calibration;
+    calibration.Check("reconstruct");
+    // Without a calibration given, the rig JSON beside the view (looked for now: its absence
+    // is an error before any work).
+    const std::vector<fs::path> default_rig =
+        calibration.empty()
+            ? std::vector<fs::path>{FirstExisting(
+                  {view / "rig.json", view.parent_path() / "rig.json"}, "calibration", "--calib")}
+            : std::vector<fs::path>{};
     // Output locations first (before minutes of work), never onto an input.
     if (!a->residuals.empty() && !util::HasExtension(a->residuals, {".tif", ".tiff"})) {
       throw Error(util::StrCat(a->residuals,
                                ": --residuals writes 32-bit float values; use a .tif or .tiff "
                                "name (other formats would truncate them)"));
     }
-    std::vector<fs::path> inputs = {view, calib_path, scheme_arg};
-    inputs.insert(inputs.end(), opencv_files.begin(), opencv_files.end());
+    std::vector<fs::path> inputs = {view, scheme_arg};
+    for (const std::vector<fs::path>& files : {calibration.Files(), default_rig}) {
+      inputs.insert(inputs.end(), files.begin(), files.end());
+    }
     util::CheckOutputFile(a->out, inputs);
     if (!a->residuals.empty()) {
       util::CheckOutputFile(a->residuals, inputs);
@@ -271,25 +244,18 @@ void AddReconstructCommand(CLI::App& app) {
       more_left.assign(left_exposures.begin() + 1, left_exposures.end());
     }
     const std::vector<cv::Mat>& left = left_stacks[0];
-    StereoRig rig;
-    if (opencv) {
-      // The scheme's projector size stands in when the file does not hold it (SLMaster).
-      io::CalibrationReadOptions read;
-      read.camera_width = left.at(0).cols;
-      read.camera_height = left.at(0).rows;
-      read.projector_width = scheme.projector_width;
-      read.projector_height = scheme.projector_height;
-      read.keys = io::CalibrationKeyMap::Parse(a->opencv_keys);
-      const io::OpenCvCalibration cv = io::ReadCalibration(opencv_files, read);
-      util::LogInfo("OpenCV calibration:\n" + cv.Describe());
-      const bool stereo_file = cv.right && cv.right_from_left;
-      rig = a->mode == "stereo" || (a->mode == "auto" && stereo_file && have_right_dir)
-                ? cv.ToRig(opencv_files[0].string())
-                : cv.ToCameraProjectorRig(opencv_files[0].string());
-    } else {
-      rig = io::ReadRig(calib_path);
-    }
-    const std::string rig_name = opencv ? opencv_files[0].string() : calib_path.string();
+    // The scheme's projector size stands in when a file does not hold it (SLMaster).
+    pipeline::RigReadOptions read;
+    read.devices = a->mode == "stereo"                   ? pipeline::RigDevices::kStereo
+                   : a->mode == "auto" && have_right_dir ? pipeline::RigDevices::kAuto
+                                                         : pipeline::RigDevices::kCameraProjector;
+    read.camera_width = left.at(0).cols;
+    read.camera_height = left.at(0).rows;
+    read.projector_width = scheme.projector_width;
+    read.projector_height = scheme.projector_height;
+    const pipeline::ResolvedRig resolved = *pipeline::LookUpRig(calibration, read, default_rig);
+    const StereoRig& rig = resolved.rig;
+    const std::string& rig_name = resolved.source;
     const bool camera_projector =
         a->mode == "camera-projector" ||
         (a->mode == "auto" && !(have_right_dir && rig.BaselineMm() > 0 && !two_directions));

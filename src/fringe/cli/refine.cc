@@ -4,6 +4,7 @@
 #include <map>
 #include <memory>
 
+#include "fringe/cli/calibration_flags.h"
 #include "fringe/cli/cli.h"
 #include "fringe/pipeline/refine.h"
 #include "fringe/util/error.h"
@@ -12,7 +13,7 @@ namespace fringe::cli {
 
 void AddRefineCommand(CLI::App& app) {
   struct Args {
-    std::string project, out, calib, cv_intrinsics, cv_extrinsics;
+    std::string project, out;
     std::string scale = "auto";
     bool json = false;
     pipeline::RefineOptions options;
@@ -29,11 +30,7 @@ void AddRefineCommand(CLI::App& app) {
       ->required();
   sub->add_option("--out", a->out, "Refined rig JSON (its summary inside as \"refinement\")")
       ->required();
-  sub->add_option("--calib", a->calib, "Rig JSON to refine instead of the scan folder's rig.json");
-  sub->add_option("--opencv-intrinsics", a->cv_intrinsics,
-                  "Instead of --calib: OpenCV stereo intrinsics (M1 D1 M2 D2, YAML/XML)");
-  sub->add_option("--opencv-extrinsics", a->cv_extrinsics,
-                  "With --opencv-intrinsics: OpenCV stereo extrinsics (R T, millimetres)");
+  AddCalibrationFlags(sub, &a->options, "the scan folder's rig.json");
   sub->add_flag("--intrinsics", a->options.rig.intrinsics,
                 "Also refine fx fy k1 k2 of both cameras");
   sub->add_option("--scale", a->scale,
@@ -47,9 +44,6 @@ void AddRefineCommand(CLI::App& app) {
       ->capture_default_str();
   sub->add_flag("--json", a->json, "Print the summary as one JSON object");
   sub->callback([a] {
-    a->options.calib = a->calib;
-    a->options.opencv_intrinsics = a->cv_intrinsics;
-    a->options.opencv_extrinsics = a->cv_extrinsics;
     a->options.rig.scale = a->scale == "projector"  ? calib::RefineScale::kProjector
                            : a->scale == "baseline" ? calib::RefineScale::kBaseline
                                                     : calib::RefineScale::kAuto;

@@ -5,6 +5,7 @@
 #include <memory>
 #include <sstream>
 
+#include "fringe/cli/calibration_flags.h"
 #include "fringe/cli/cli.h"
 #include "fringe/pipeline/scan.h"
 #include "fringe/scan/scan_folder.h"
@@ -15,8 +16,6 @@ void AddScanCommand(CLI::App& app) {
   struct Args {
     std::string project;
     std::string out;
-    std::string calib, cv_intrinsics, cv_extrinsics;
-    std::vector<std::string> opencv, opencv_keys;
     bool json = false;
     bool write_manifest = false;
     pipeline::ScanOptions options;
@@ -36,22 +35,7 @@ void AddScanCommand(CLI::App& app) {
                   "Output folder (written atomically; an existing one is replaced only when "
                   "fringe wrote it)")
       ->required();
-  sub->add_option("--calib", a->calib,
-                  "Rig calibration (rig JSON) instead of the scan folder's rig.json or "
-                  "calibration/");
-  sub->add_option("--opencv", a->opencv,
-                  "Instead of --calib: another tool's calibration file(s), format detected "
-                  "(OpenCV YAML/XML, SLStudio calibration.xml, SLMaster caliInfo.yml, ROS left + "
-                  "right camera_info, Kalibr camchain)")
-      ->expected(1, 4);
-  sub->add_option("--opencv-keys", a->opencv_keys,
-                  "With --opencv, for files no reader recognises: which key holds what, e.g. "
-                  "left=Kc,kc projector=Kp,kp projector_from_left=Rp,Tp")
-      ->expected(1, 16);
-  sub->add_option("--opencv-intrinsics", a->cv_intrinsics,
-                  "Instead of --calib: OpenCV stereo intrinsics (M1 D1 M2 D2, YAML/XML)");
-  sub->add_option("--opencv-extrinsics", a->cv_extrinsics,
-                  "With --opencv-intrinsics: OpenCV stereo extrinsics (R T, millimetres)");
+  AddCalibrationFlags(sub, &a->options, "the scan folder's rig.json, else its calibration/");
   sub->add_flag("--keep-going", a->options.keep_going,
                 "Leave out views that fail and finish with the others (exit code 3)");
   sub->add_option("--views-in-flight", a->options.views_in_flight,
@@ -137,11 +121,6 @@ void AddScanCommand(CLI::App& app) {
         out << "wrote " << scan::ScanLayout{root}.Manifest().string() << "\n";
       }
     }
-    a->options.calib = a->calib;
-    a->options.opencv.assign(a->opencv.begin(), a->opencv.end());
-    a->options.opencv_keys = a->opencv_keys;
-    a->options.opencv_intrinsics = a->cv_intrinsics;
-    a->options.opencv_extrinsics = a->cv_extrinsics;
     const pipeline::ScanSummary s = pipeline::RunScan(a->project, a->out, a->options);
     if (a->json) {
       std::cout << s.ToJson().dump(2) << "\n";

@@ -23,17 +23,20 @@ void ReconstructScanViews(const fs::path& root, const CheckInputOptions& options
                           std::vector<eval::CheckInput>* out) {
   const scan::ScanFolder folder = scan::ScanFolder::Open(root);
   if (!folder.has_views()) throw Error(StrCat(root.string(), ": the scan folder has no views"));
-  fs::path rig_path = options.calib;
-  if (rig_path.empty()) {
-    rig_path = folder.layout().Rig();
-    if (!fs::exists(rig_path)) {
-      throw Error(StrCat(root.string(),
-                         ": no rig to reconstruct the views with (give --calib RIG, or put "
-                         "rig.json in the scan folder)"));
-    }
-  }
-  const StereoRig rig = io::ReadRig(rig_path);
   const std::vector<phase::PatternScheme> schemes = folder.ReadSchemes();
+  RigReadOptions read;
+  read.devices = folder.stereo() ? RigDevices::kStereo : RigDevices::kCameraProjector;
+  read.camera_width = folder.manifest().image_width;
+  read.camera_height = folder.manifest().image_height;
+  read.projector_width = schemes.front().projector_width;
+  read.projector_height = schemes.front().projector_height;
+  const std::optional<ResolvedRig> resolved = LookUpRig(options, read, {folder.layout().Rig()});
+  if (!resolved) {
+    throw Error(StrCat(root.string(),
+                       ": no rig to reconstruct the views with (give --calib RIG or --opencv, or "
+                       "put rig.json in the scan folder)"));
+  }
+  const StereoRig& rig = resolved->rig;
   const stereo::ViewReconstructor reconstructor =
       folder.stereo()
           ? stereo::ViewReconstructor(rig, schemes.front(), options.reconstruction)

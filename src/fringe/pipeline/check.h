@@ -11,13 +11,14 @@
 #include <vector>
 
 #include "fringe/eval/check.h"
+#include "fringe/pipeline/calibration_files.h"
 #include "fringe/stereo/reconstruct_view.h"
 
 namespace fringe::pipeline {
 
-struct CheckInputOptions {
-  // Rig for scan folders: a rig JSON; empty: the scan folder's rig.json.
-  std::filesystem::path calib;
+// The rig for scan folders: the calibration fields (calib, opencv, the OpenCV pair,
+// opencv_keys; pipeline/calibration_files.h); none given: the scan folder's rig.json.
+struct CheckInputOptions : CalibrationFiles {
   stereo::ReconstructionOptions reconstruction;
 };
 

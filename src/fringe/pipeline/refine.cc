@@ -42,11 +42,7 @@ bool PhaseValidAround(const cv::Mat& phase, const Eigen::Vector2d& px) {
 void RefineOptions::Check() const {
   util::CheckOption(points_per_view >= 0, "RefineOptions", "points_per_view", points_per_view,
                     "must be >= 0");
-  util::CheckOption(opencv_intrinsics.empty() == opencv_extrinsics.empty(), "RefineOptions",
-                    "opencv_intrinsics", opencv_intrinsics.string(),
-                    "OpenCV intrinsics and extrinsics go together");
-  util::CheckOption(calib.empty() || opencv_intrinsics.empty(), "RefineOptions", "calib",
-                    calib.string(), "give a rig JSON or OpenCV files, not both");
+  CalibrationFiles::Check("RefineOptions");
   rig.Check();
   reconstruction.Check();
   markers.Check();
@@ -64,23 +60,16 @@ nlohmann::json RefineSummary::ToJson() const {
   return j;
 }
 
-StereoRig ReadScanRig(const scan::ScanFolder& folder, const fs::path& calib,
-                      const fs::path& opencv_intrinsics, const fs::path& opencv_extrinsics,
+StereoRig ReadScanRig(const scan::ScanFolder& folder, const CalibrationFiles& files,
                       std::string* source) {
   const scan::ScanManifest& m = folder.manifest();
-  if (!opencv_intrinsics.empty()) {
-    *source = opencv_intrinsics.string() + " + " + opencv_extrinsics.string();
-    return io::ImportOpenCvStereo(opencv_intrinsics, opencv_extrinsics, m.image_width,
-                                  m.image_height);
-  }
-  if (!calib.empty()) {
-    *source = calib.string();
-    return io::ReadRig(calib);
-  }
-  const fs::path rig_json = folder.root() / "rig.json";
-  if (fs::exists(rig_json)) {
-    *source = rig_json.string();
-    return io::ReadRig(rig_json);
+  RigReadOptions read;
+  read.devices = folder.stereo() ? RigDevices::kStereo : RigDevices::kCameraProjector;
+  read.camera_width = m.image_width;
+  read.camera_height = m.image_height;
+  if (std::optional<ResolvedRig> r = LookUpRig(files, read, {folder.root() / "rig.json"})) {
+    *source = std::move(r->source);
+    return std::move(r->rig);
   }
   throw Error(StrCat("refine: ", folder.root().string(),
                      ": no rig to refine: give --calib or --opencv, or put rig.json in the scan "
@@ -172,13 +161,10 @@ RefineResult RefineScanRig(const fs::path& project, const fs::path& out_rig,
   const scan::ScanFolder folder = scan::ScanFolder::Open(project);
   if (!folder.has_views()) throw Error(StrCat("refine: ", project.string(), ": no views"));
   std::vector<fs::path> inputs = {project};
-  for (const fs::path& p : {options.calib, options.opencv_intrinsics, options.opencv_extrinsics}) {
-    if (!p.empty()) inputs.push_back(p);
-  }
+  for (const fs::path& p : options.Files()) inputs.push_back(p);
   util::CheckOutputFile(out_rig, inputs);
   std::string source;
-  const StereoRig rig = ReadScanRig(folder, options.calib, options.opencv_intrinsics,
-                                    options.opencv_extrinsics, &source);
+  const StereoRig rig = ReadScanRig(folder, options, &source);
   RefineResult r = RefineRigFromScan(folder, rig, options);
   r.summary.calibration_source = source;
   if (r.summary.ok()) io::WriteRig(out_rig, r.rig, {{"refinement", r.summary.ToJson()}});

@@ -18,17 +18,16 @@
 
 #include "fringe/calib/refine_rig.h"
 #include "fringe/geometry/stereo_rig.h"
+#include "fringe/pipeline/calibration_files.h"
 #include "fringe/registration/markers.h"
 #include "fringe/scan/scan_folder.h"
 #include "fringe/stereo/reconstruct_view.h"
 
 namespace fringe::pipeline {
 
-struct RefineOptions {
-  // The rig to refine instead of PROJECT/rig.json: a rig JSON, or OpenCV stereo intrinsics +
-  // extrinsics (both). Empty: not given.
-  std::filesystem::path calib;
-  std::filesystem::path opencv_intrinsics, opencv_extrinsics;
+// The rig to refine instead of PROJECT/rig.json: the calibration fields (calib, opencv, the
+// OpenCV pair, opencv_keys; pipeline/calibration_files.h), read as `fringe scan` reads them.
+struct RefineOptions : CalibrationFiles {
   calib::RigRefinementOptions rig;
   // Phase points per view, sampled evenly over its measured left pixels, >= 0 (0: markers only).
   int points_per_view = 2000;
@@ -58,11 +57,10 @@ struct RefineResult {
   RefineSummary summary;
 };
 
-// The rig of a scan folder as `fringe scan` resolves it without calibrating: the options' files,
-// else PROJECT/rig.json; *source names it. Throws fringe::Error when there is none.
-StereoRig ReadScanRig(const scan::ScanFolder& folder, const std::filesystem::path& calib,
-                      const std::filesystem::path& opencv_intrinsics,
-                      const std::filesystem::path& opencv_extrinsics, std::string* source);
+// The rig of a scan folder as `fringe scan` resolves it without calibrating: the given files
+// (LookUpRig), else PROJECT/rig.json; *source names it. Throws fringe::Error when there is none.
+StereoRig ReadScanRig(const scan::ScanFolder& folder, const CalibrationFiles& files,
+                      std::string* source);
 
 // Adds one view's markers and sampled phase points to `data` (view index `view`): `rec` is the
 // view reconstructed with `rig` (its right phase map is kept in data.right_phase[view]). What

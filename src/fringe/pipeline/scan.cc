@@ -24,10 +24,8 @@
 #include "fringe/fusion/tiles.h"
 #include "fringe/geometry/align.h"
 #include "fringe/geometry/point_index.h"
-#include "fringe/io/calibration_formats.h"
 #include "fringe/io/calibration_io.h"
 #include "fringe/io/image_io.h"
-#include "fringe/io/opencv_calibration.h"
 #include "fringe/io/ply.h"
 #include "fringe/phase/decode.h"
 #include "fringe/phase/pattern_scheme.h"
@@ -134,40 +132,17 @@ Calibration ResolveCalibration(const scan::ScanFolder& folder, const phase::Patt
                                const ScanOptions& options, int width, int height) {
   const fs::path& project = folder.root();
   Calibration c;
-  std::vector<fs::path> files = options.opencv;
-  if (!options.opencv_intrinsics.empty()) {
-    files.push_back(options.opencv_intrinsics);
-    files.push_back(options.opencv_extrinsics);
-  }
-  if (!files.empty()) {
-    for (const fs::path& f : files) c.source += (c.source.empty() ? "" : " + ") + f.string();
-    // The scheme's projector size stands in when the files do not hold it (SLMaster).
-    io::CalibrationReadOptions read;
-    read.camera_width = width;
-    read.camera_height = height;
-    read.projector_width = scheme.projector_width;
-    read.projector_height = scheme.projector_height;
-    read.keys = io::CalibrationKeyMap::Parse(options.opencv_keys);
-    const io::OpenCvCalibration cv = io::ReadCalibration(files, read);
-    util::LogInfo("calibration " + c.source + ":\n" + cv.Describe());
-    if (folder.stereo() && !cv.right) {
-      throw Error(util::StrCat(c.source, ": holds no right camera, but ", project.string(),
-                               " is a stereo scan"));
-    }
-    // A stereo scan takes the two cameras; one camera takes the camera and the projector.
-    c.rig = folder.stereo() ? cv.ToRig(c.source) : cv.ToCameraProjectorRig(c.source);
-    RequireProjector(folder, c);
-    return c;
-  }
-  if (!options.calib.empty()) {
-    c.rig = io::ReadRig(options.calib);
-    c.source = options.calib.string();
-    RequireProjector(folder, c);
-    return c;
-  }
-  if (fs::exists(folder.layout().Rig())) {
-    c.rig = io::ReadRig(folder.layout().Rig());
-    c.source = folder.layout().Rig().string();
+  // The files given (any kind, calibration_files.h), else PROJECT/rig.json.
+  RigReadOptions read;
+  read.devices = folder.stereo() ? RigDevices::kStereo : RigDevices::kCameraProjector;
+  read.camera_width = width;
+  read.camera_height = height;
+  read.projector_width = scheme.projector_width;
+  read.projector_height = scheme.projector_height;
+  read.stereo_needed_by = project.string() + " is a stereo scan";
+  if (std::optional<ResolvedRig> r = LookUpRig(options, read, {folder.layout().Rig()})) {
+    c.rig = std::move(r->rig);
+    c.source = std::move(r->source);
     RequireProjector(folder, c);
     return c;
   }
@@ -1267,14 +1242,7 @@ void ScanOptions::Check() const {
                     "must be >= 0 (0: chosen from the memory limit)");
   util::CheckOption(std::isfinite(tolerance_mm) && tolerance_mm >= 0, "ScanOptions", "tolerance_mm",
                     tolerance_mm, "must be >= 0 (0: the colour range from the data)");
-  util::CheckOption(opencv_intrinsics.empty() == opencv_extrinsics.empty(), "ScanOptions",
-                    "opencv_intrinsics", opencv_intrinsics.string(),
-                    "OpenCV intrinsics and extrinsics go together");
-  util::CheckOption(calib.empty() || (opencv_intrinsics.empty() && opencv.empty()), "ScanOptions",
-                    "calib", calib.string(), "give a rig JSON or OpenCV files, not both");
-  util::CheckOption(opencv_keys.empty() || !opencv.empty() || !opencv_intrinsics.empty(),
-                    "ScanOptions", "opencv_keys", opencv_keys.size(),
-                    "name the keys of calibration files given as opencv");
+  CalibrationFiles::Check("ScanOptions");
   projector_calibration.Check();
   reconstruction.Check();
   projector_columns.Check();
@@ -1464,7 +1432,7 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
   // user's images); checked before the work.
   util::OutputFolderOptions output;
   output.inputs = {project};
-  if (!options.calib.empty()) output.inputs.push_back(options.calib);
+  for (const fs::path& f : options.Files()) output.inputs.push_back(f);
   output.resume = options.resume;
   util::CheckOutputFolder(out, output);
   util::WriteFolderAtomically(out, output, [&](const fs::path& dir) {

@@ -49,6 +49,7 @@
 #include "fringe/fusion/fuse.h"
 #include "fringe/fusion/mesh.h"
 #include "fringe/geometry/stereo_rig.h"
+#include "fringe/pipeline/calibration_files.h"
 #include "fringe/pipeline/drift.h"
 #include "fringe/pipeline/refine.h"
 #include "fringe/registration/markers.h"
@@ -58,17 +59,11 @@
 
 namespace fringe::pipeline {
 
-struct ScanOptions {
-  // Rig calibration to use instead of PROJECT/rig.json or PROJECT/calibration/: a rig JSON
-  // file, or another tool's calibration file(s) (io::ReadCalibration detects the format: OpenCV
-  // YAML/XML, SLStudio calibration.xml, SLMaster caliInfo.yml, ROS left + right camera_info,
-  // Kalibr camchain), or OpenCV stereo intrinsics + extrinsics (both). Empty: not given.
-  std::filesystem::path calib;
-  std::vector<std::filesystem::path> opencv;
-  std::filesystem::path opencv_intrinsics, opencv_extrinsics;
-  // With `opencv`: which key holds what ("left=Kc,kc", io::CalibrationKeyMap), for files no
-  // reader recognises; empty: the format is detected.
-  std::vector<std::string> opencv_keys;
+// The calibration fields (calib, opencv, opencv_intrinsics + opencv_extrinsics, opencv_keys;
+// pipeline/calibration_files.h) are inherited so that every command's options hold them under
+// one name and one lookup reads them: the rig to use instead of PROJECT/rig.json or
+// PROJECT/calibration/. Empty: not given.
+struct ScanOptions : CalibrationFiles {
   // Leave out views that fail and finish with the others (status kPartial) instead of failing.
   bool keep_going = false;
   // Resume an interrupted run (`fringe scan --resume`): take over the temporary output folder

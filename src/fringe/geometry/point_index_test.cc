@@ -74,7 +74,7 @@ TEST(PointIndex, NearestWithinARadiusOverBorrowedPoints) {
     (expected < 0 ? outside : inside) += 1;
     EXPECT_EQ(borrowed.Nearest(p), owned.Nearest(p));
   }
-  EXPECT_GT(inside, 10);   // both outcomes are exercised
+  EXPECT_GT(inside, 10);  // both outcomes are exercised
   EXPECT_GT(outside, 10);
 }
 

@@ -379,7 +379,7 @@ json Refinement(int views, double scale, int vdi_positions, double calibration_s
   j["refine_scale"] = scale;
   j["refine_status"] = calib::ToString(r.summary.status);
   j["refine_message"] = r.summary.message;
-  j["refinement"] = r.summary.ToJson();
+  j["refinement"] = ToJson(r.summary);
   j["refine_gather_s"] = gather_s;
   j["refine_solve_s"] = solve_s;
   double sigma_deg = 0;

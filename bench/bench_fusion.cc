@@ -651,7 +651,7 @@ int main(int argc, char** argv) {
       {"simulate_reconstruct_s", sim_s},
       {"reconstruct_s", reconstruct_s},
       {"fusion_summary", fused.summary.BriefReport()},
-      {"fusion", fusion::SummaryToJson(fused.summary)}};
+      {"fusion", fusion::ToJson(fused.summary)}};
 
   if (peers) {
     const open3d::geometry::PointCloud pcd = ToOpen3d(views);

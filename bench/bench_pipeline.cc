@@ -95,7 +95,7 @@ void MeshSweep(const fs::path& out, const fs::path& scan_dir,
     m.mesh.Transform(truth_from_world);
     json e = {{"wall_s", wall.ElapsedSeconds()},
               {"cpu_s", cpu.ElapsedSeconds()},
-              {"summary", fusion::SummaryToJson(m.summary)}};
+              {"summary", fusion::ToJson(m.summary)}};
     if (m.summary.ok()) {
       const pipeline::MeshTruthFigures f = pipeline::CompareMeshWithTruth(m.mesh, measured, truth);
       e["rms_mm"] = f.vertices_rms_mm;
@@ -250,7 +250,7 @@ int main(int argc, char** argv) {
     }
 
     const pipeline::ScanSummary s = pipeline::RunScan(scan_dir, dir / "out", options);
-    json j = s.FiguresJson();
+    json j = FiguresJson(s);
     const fringe::StereoRig used = io::ReadRig(dir / "out" / "rig.json");
     j["image_width"] = used.left.width;
     j["image_height"] = used.left.height;

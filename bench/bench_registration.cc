@@ -159,15 +159,16 @@ struct MarkerCentreErrors {
     ss_sigma += sigma_mm * sigma_mm;
     ++n;
   }
-  nlohmann::json ToJson() const {
-    const double k = 1.0 / std::max(1, n);
-    return {{"marker_centre_rms_mm", std::sqrt(ss * k)},
-            {"marker_depth_rms_mm", std::sqrt(ss_depth * k)},
-            {"marker_depth_bias_mm", sum_depth * k},
-            {"marker_lateral_rms_mm", std::sqrt(ss_lateral * k)},
-            {"marker_sigma_ratio", std::sqrt(ss / std::max(1e-30, ss_sigma))}};
-  }
 };
+
+nlohmann::json ToJson(const MarkerCentreErrors& e) {
+  const double k = 1.0 / std::max(1, e.n);
+  return {{"marker_centre_rms_mm", std::sqrt(e.ss * k)},
+          {"marker_depth_rms_mm", std::sqrt(e.ss_depth * k)},
+          {"marker_depth_bias_mm", e.sum_depth * k},
+          {"marker_lateral_rms_mm", std::sqrt(e.ss_lateral * k)},
+          {"marker_sigma_ratio", std::sqrt(e.ss / std::max(1e-30, e.ss_sigma))}};
+}
 
 std::shared_ptr<open3d::geometry::PointCloud> ToOpen3d(const PointCloud& c, const Rigid3d& pose) {
   auto o = std::make_shared<open3d::geometry::PointCloud>();
@@ -664,7 +665,7 @@ int Run(int argc, char** argv) {
          {"register_cpu_s", register_cpu_s},
          {"simulate_reconstruct_s", sim_s},
          {"icp", r.summary.icp.BriefReport()}};
-    j.update(centre_errors.ToJson());
+    j.update(ToJson(centre_errors));
     if (no_markers) {
       // A placed view is wrong when, after the refinement, it is off by more than 0.1 deg or
       // 1 mm (ten and fifty times the targets): then it is not merely inaccurate.

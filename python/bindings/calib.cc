@@ -171,7 +171,7 @@ void BindCalib(py::module_& m) {
           r = calib::CalibrateProjectorFolder(dir, target, o);
         }
         py::dict d;
-        if (r.ok()) d = FromJson(r.CalibrationJson()).cast<py::dict>();
+        if (r.ok()) d = FromJson(CalibrationToJson(r)).cast<py::dict>();
         d["layout"] = r.layout == calib::ProjectorFolderLayout::kCamerasProjector
                           ? "cameras-projector"
                           : "camera-projector";

@@ -272,8 +272,7 @@ Pass it as `poses` to fringe.fuse.)doc")
                              })
       .def_property_readonly("ok", [](const RegistrationResult& r) { return r.summary.ok(); })
       .def_property_readonly(
-          "summary",
-          [](const RegistrationResult& r) { return FromJson(registration::SummaryToJson(r)); })
+          "summary", [](const RegistrationResult& r) { return FromJson(registration::ToJson(r)); })
       .def(
           "save_poses",
           [](const RegistrationResult& r, const fs::path& p) {
@@ -407,7 +406,7 @@ an overlap), summary (dict: the "fusion" object `fringe fuse --json` prints).)do
                              [](const fusion::FusionResult& r) { return r.summary.has_output(); })
       .def_property_readonly(
           "summary",
-          [](const fusion::FusionResult& r) { return FromJson(fusion::SummaryToJson(r.summary)); })
+          [](const fusion::FusionResult& r) { return FromJson(fusion::ToJson(r.summary)); })
       .def("brief_report", [](const fusion::FusionResult& r) { return r.summary.BriefReport(); })
       .def("__repr__", [](const fusion::FusionResult& r) {
         return "fringe.FusionResult(" + r.summary.BriefReport() + ")";
@@ -486,7 +485,7 @@ The surface: mesh (fringe.Mesh sharing the C++ storage), summary (dict: the "mes
       .def_property_readonly("ok", [](const fusion::MeshResult& r) { return r.summary.ok(); })
       .def_property_readonly(
           "summary",
-          [](const fusion::MeshResult& r) { return FromJson(fusion::SummaryToJson(r.summary)); })
+          [](const fusion::MeshResult& r) { return FromJson(fusion::ToJson(r.summary)); })
       .def("brief_report", [](const fusion::MeshResult& r) { return r.summary.BriefReport(); })
       .def("__repr__", [](const fusion::MeshResult& r) {
         return "fringe.MeshResult(" + r.summary.BriefReport() + ")";

@@ -139,7 +139,7 @@ summary (dict, as `fringe decode` writes summary.json).)doc")
                              })
       .def_property_readonly(
           "summary",
-          [](const phase::DecodeResult& r) { return FromJson(phase::SummaryToJson(r.summary)); })
+          [](const phase::DecodeResult& r) { return FromJson(phase::ToJson(r.summary)); })
       .def("brief_report", [](const phase::DecodeResult& r) { return r.summary.BriefReport(); })
       .def("__repr__", [](const phase::DecodeResult& r) {
         return "fringe.DecodeResult(" + r.summary.BriefReport() + ")";

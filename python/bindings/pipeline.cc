@@ -68,7 +68,7 @@ void BindPipeline(py::module_& m) {
           py::gil_scoped_release release;
           s = pipeline::RunScan(project, out, opts);
         }
-        return FromJson(s.ToJson());
+        return FromJson(ToJson(s));
       },
       py::arg("project"), py::arg("out"), py::arg("options") = py::none(),
       "Runs the whole scanner on a scan folder (as `fringe scan PROJECT --out OUT`): calibration\n"

@@ -267,7 +267,7 @@ Calibration board images are not rendered (see Simulator.render_board, simulate_
           py::gil_scoped_release release;
           s = sim::SimulateScan(r, opts, out);
         }
-        return FromJson(s.ToJson());
+        return FromJson(ToJson(s));
       },
       py::arg("out"), py::arg("rig") = py::none(), py::arg("options") = py::none(),
       "Writes a scan folder (docs/scan-folder.md) as `fringe simulate` does; returns its summary.");

@@ -155,10 +155,9 @@ summary is a dict; cloud() gives the valid points as a PointCloud.)doc")
       .def_property_readonly(
           "texture_right",
           [](const stereo::ViewReconstruction& v) { return ArrayFromMat(v.texture_right); })
-      .def_property_readonly("summary",
-                             [](const stereo::ViewReconstruction& v) {
-                               return FromJson(stereo::SummaryToJson(v.summary));
-                             })
+      .def_property_readonly(
+          "summary",
+          [](const stereo::ViewReconstruction& v) { return FromJson(stereo::ToJson(v.summary)); })
       .def_property_readonly("ok",
                              [](const stereo::ViewReconstruction& v) { return v.summary.ok(); })
       .def(

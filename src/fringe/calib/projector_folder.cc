@@ -134,9 +134,9 @@ const CameraCalibration& ProjectorFolderCalibration::LeftCamera() const {
                                                             : camera_projector.joint.left;
 }
 
-nlohmann::json ProjectorFolderCalibration::CalibrationJson() const {
-  if (layout == ProjectorFolderLayout::kCamerasProjector) {
-    const MultiDeviceCalibration& j = cameras.joint;
+nlohmann::json CalibrationToJson(const ProjectorFolderCalibration& s) {
+  if (s.layout == ProjectorFolderLayout::kCamerasProjector) {
+    const MultiDeviceCalibration& j = s.cameras.joint;
     return {{"rms_px", j.rms_px},
             {"left_rms_px", j.device_rms_px[0]},
             {"right_rms_px", j.device_rms_px[1]},
@@ -149,7 +149,7 @@ nlohmann::json ProjectorFolderCalibration::CalibrationJson() const {
             {"right_from_left_std_dev", ExtrinsicStdDevJson(j.extrinsic_std_dev[1])},
             {"projector_from_left_std_dev", ExtrinsicStdDevJson(j.extrinsic_std_dev[2])}};
   }
-  const ProjectorCalibration& c = camera_projector;
+  const ProjectorCalibration& c = s.camera_projector;
   return {
       {"rms_px", c.joint.rms_px},
       {"camera_rms_px", c.camera_rms_px},

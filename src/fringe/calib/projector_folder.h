@@ -57,12 +57,12 @@ struct ProjectorFolderCalibration {
   }
   std::string message() const;  // why it failed ("" when ok)
   std::string BriefReport() const;
-  // The "calibration" object of the rig file: RMS per device, poses, standard deviations of
-  // every device's intrinsics and of the extrinsics (rotation vector rad, translation mm).
-  nlohmann::json CalibrationJson() const;
   // The left camera's joint-solution calibration (residual image).
   const CameraCalibration& LeftCamera() const;
 };
+// The "calibration" object of the rig file: RMS per device, poses, standard deviations of
+// every device's intrinsics and of the extrinsics (rotation vector rad, translation mm).
+nlohmann::json CalibrationToJson(const ProjectorFolderCalibration& s);
 
 // Throws fringe::Error for a folder without the layout, unreadable or mis-sized images, a
 // manifest of the wrong direction or projector size (naming the file). A calibration that does

@@ -143,7 +143,7 @@ TEST(ProjectorCalibration, TwoCamerasAndProjectorRecoverTheTrueRig) {
   const ProjectorFolderCalibration folder = CalibrateProjectorFolder(tmp.path(), target, fo);
   ASSERT_EQ(folder.layout, ProjectorFolderLayout::kCamerasProjector);
   ASSERT_EQ(folder.names.size(), 6u);
-  EXPECT_TRUE(folder.CalibrationJson().contains("right_from_left_std_dev"));
+  EXPECT_TRUE(CalibrationToJson(folder).contains("right_from_left_std_dev"));
   const CamerasProjectorCalibration& cal = folder.cameras;
   // The plain board images of both cameras, for the stereo-only reference below.
   std::vector<TargetDetection> left, right;

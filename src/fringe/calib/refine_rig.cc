@@ -308,9 +308,9 @@ std::string RigRefinementSummary::BriefReport() const {
   return s;
 }
 
-nlohmann::json RigRefinementSummary::ToJson() const {
+nlohmann::json ToJson(const RigRefinementSummary& s) {
   nlohmann::json params = nlohmann::json::array();
-  for (const RefinedParameter& p : parameters) {
+  for (const RefinedParameter& p : s.parameters) {
     params.push_back({{"name", p.name},
                       {"unit", p.unit},
                       {"before", p.before},
@@ -318,26 +318,26 @@ nlohmann::json RigRefinementSummary::ToJson() const {
                       {"change", p.after - p.before},
                       {"sigma", p.sigma}});
   }
-  return {{"status", ToString(status)},
-          {"message", message},
-          {"scale", ToString(scale)},
-          {"refined", refined},
+  return {{"status", ToString(s.status)},
+          {"message", s.message},
+          {"scale", ToString(s.scale)},
+          {"refined", s.refined},
           {"parameters", params},
-          {"views", views},
-          {"points", points},
-          {"markers", markers},
-          {"marker_epipolar_rms_before_px", FigureOrNull(marker_epipolar_rms_before_px)},
-          {"marker_epipolar_rms_after_px", FigureOrNull(marker_epipolar_rms_after_px)},
-          {"right_phase_rms_before_px", FigureOrNull(right_phase_rms_before_px)},
-          {"right_phase_rms_after_px", FigureOrNull(right_phase_rms_after_px)},
-          {"projector_rms_before_px", FigureOrNull(projector_rms_before_px)},
-          {"projector_rms_after_px", FigureOrNull(projector_rms_after_px)},
-          {"right_rotation_change_deg", right_rotation_change_deg},
-          {"projector_rotation_change_deg", projector_rotation_change_deg},
-          {"baseline_before_mm", baseline_before_mm},
-          {"baseline_after_mm", baseline_after_mm},
-          {"solve_rounds", solve_rounds},
-          {"solver", solve.BriefReport()}};
+          {"views", s.views},
+          {"points", s.points},
+          {"markers", s.markers},
+          {"marker_epipolar_rms_before_px", FigureOrNull(s.marker_epipolar_rms_before_px)},
+          {"marker_epipolar_rms_after_px", FigureOrNull(s.marker_epipolar_rms_after_px)},
+          {"right_phase_rms_before_px", FigureOrNull(s.right_phase_rms_before_px)},
+          {"right_phase_rms_after_px", FigureOrNull(s.right_phase_rms_after_px)},
+          {"projector_rms_before_px", FigureOrNull(s.projector_rms_before_px)},
+          {"projector_rms_after_px", FigureOrNull(s.projector_rms_after_px)},
+          {"right_rotation_change_deg", s.right_rotation_change_deg},
+          {"projector_rotation_change_deg", s.projector_rotation_change_deg},
+          {"baseline_before_mm", s.baseline_before_mm},
+          {"baseline_after_mm", s.baseline_after_mm},
+          {"solve_rounds", s.solve_rounds},
+          {"solver", s.solve.BriefReport()}};
 }
 
 RigRefinement RefineRig(const StereoRig& rig, const RigRefinementData& data,

@@ -165,8 +165,8 @@ struct RigRefinementSummary {
   SolveReport solve;
   bool ok() const { return status == RefineStatus::kOk; }
   std::string BriefReport() const;
-  nlohmann::json ToJson() const;
 };
+nlohmann::json ToJson(const RigRefinementSummary& s);
 
 struct RigRefinement {
   StereoRig rig;  // refined when ok(), else the input rig unchanged

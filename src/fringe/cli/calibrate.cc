@@ -69,10 +69,10 @@ void CalibrateProjector(const CalibrateArgs& a, const CalibrationTarget& target,
   std::cout << "projector_from_left: rotation " << t.AngleRad() * 180 / M_PI << " deg, t = ("
             << t.translation().transpose() << ") mm\n";
   Diagnose(a, calib::DiagnoseProjectorCalibration(cal, target, a.diagnostics),
-           cal.CalibrationJson());
+           CalibrationToJson(cal));
   util::OutputTransaction outputs;
   outputs.Write(a.out, [&](const fs::path& tmp) {
-    io::WriteRig(tmp, cal.rig, {{"calibration", cal.CalibrationJson()}});
+    io::WriteRig(tmp, cal.rig, {{"calibration", CalibrationToJson(cal)}});
   });
   if (!a.residual_image.empty()) {
     outputs.Write(a.residual_image, [&](const fs::path& tmp) {

@@ -59,7 +59,7 @@ void AddDemoCommand(CLI::App& app) {
   sub->callback([a] {
     const pipeline::DemoSummary s = pipeline::RunDemo(a->options, a->out);
     if (a->json) {
-      std::cout << s.ToJson().dump(2) << "\n";
+      std::cout << ToJson(s).dump(2) << "\n";
     } else {
       std::cout << s.Report() << "written to " << a->out << "/ (the scan's report: " << a->out
                 << "/scan/report.html)\n";

@@ -160,7 +160,7 @@ void AddEvaluateCommand(CLI::App& app) {
         const MeshIndex reference(mesh);  // mesh frame
         const registration::MeshAlignResult r =
             registration::AlignToMesh(cloud, reference, mesh_from_cloud, a->align_options);
-        j["align"] = registration::SummaryToJson(r);
+        j["align"] = registration::ToJson(r);
         if (!a->json) std::cout << r.BriefReport() << "\n";
         if (r.status == registration::IcpStatus::kNoOverlap) {
           throw Error(

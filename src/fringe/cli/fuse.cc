@@ -141,7 +141,7 @@ void AddFuseCommand(CLI::App& app) {
     if (!a->mesh.empty()) util::CheckOutputFile(a->mesh, read);
 
     const fusion::FusionResult fused = fusion::FuseViews(views, a->fusion);
-    nlohmann::json summary = {{"fusion", fusion::SummaryToJson(fused.summary)}};
+    nlohmann::json summary = {{"fusion", fusion::ToJson(fused.summary)}};
     if (!a->json) std::cout << fused.summary.BriefReport() << "\n";
     if (!fused.summary.has_output()) {
       if (a->json) std::cout << summary.dump(2) << "\n";
@@ -152,7 +152,7 @@ void AddFuseCommand(CLI::App& app) {
     fusion::MeshResult mesh;
     if (!a->mesh.empty()) {
       mesh = fusion::MeshPoisson(fused.fused, a->meshing);
-      summary["mesh"] = fusion::SummaryToJson(mesh.summary);
+      summary["mesh"] = fusion::ToJson(mesh.summary);
       if (!a->json) std::cout << mesh.summary.BriefReport() << "\n";
       if (!mesh.summary.ok()) {
         if (a->json) std::cout << summary.dump(2) << "\n";

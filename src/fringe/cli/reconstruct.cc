@@ -391,7 +391,7 @@ void AddReconstructCommand(CLI::App& app) {
                                    : trinocular     ? "trinocular"
                                                     : "stereo"},
                           {"out", a->out},
-                          {"summary", stereo::SummaryToJson(rec.summary)}};
+                          {"summary", stereo::ToJson(rec.summary)}};
       if (markers) {
         j["markers"] = {{"file", markers_path.string()},
                         {"count", markers->markers.size()},

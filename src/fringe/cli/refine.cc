@@ -49,7 +49,7 @@ void AddRefineCommand(CLI::App& app) {
                                                     : calib::RefineScale::kAuto;
     const pipeline::RefineResult r = pipeline::RefineScanRig(a->project, a->out, a->options);
     if (a->json) {
-      std::cout << r.summary.ToJson().dump(2) << "\n";
+      std::cout << ToJson(r.summary).dump(2) << "\n";
     } else {
       std::cout << r.summary.BriefReport() << "\n";
     }

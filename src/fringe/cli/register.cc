@@ -117,7 +117,7 @@ void AddRegisterCommand(CLI::App& app) {
       const pipeline::ResultLayout layout{tmp};
       registration::WritePoses(layout.Poses(), placed_names, placed_poses);
       registration::WriteMarkerMap(layout.MarkerMap(), r, views);
-      io::WriteJson(layout.Summary(), registration::SummaryToJson(r));
+      io::WriteJson(layout.Summary(), registration::ToJson(r));
       fs::create_directories(layout.RegisteredDir());
       for (size_t i = 0; i < views.size(); ++i) {
         if (!r.views[i].placed()) continue;
@@ -128,7 +128,7 @@ void AddRegisterCommand(CLI::App& app) {
       }
     });
     if (a->json) {
-      std::cout << registration::SummaryToJson(r).dump(2) << "\n";
+      std::cout << registration::ToJson(r).dump(2) << "\n";
     } else {
       for (const auto& v : r.views) {
         std::cout << v.name << ": " << registration::ToString(v.path);

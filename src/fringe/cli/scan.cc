@@ -123,7 +123,7 @@ void AddScanCommand(CLI::App& app) {
     }
     const pipeline::ScanSummary s = pipeline::RunScan(a->project, a->out, a->options);
     if (a->json) {
-      std::cout << s.ToJson().dump(2) << "\n";
+      std::cout << ToJson(s).dump(2) << "\n";
     } else {
       std::cout << s.BriefReport() << "\nwritten to " << a->out << "/\n";
     }

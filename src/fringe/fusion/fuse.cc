@@ -684,7 +684,7 @@ std::string FusionSummary::BriefReport() const {
   return s;
 }
 
-nlohmann::json SummaryToJson(const FusionSummary& s) {
+nlohmann::json ToJson(const FusionSummary& s) {
   return {{"status", ToString(s.status)},
           {"message", s.message},
           {"views", s.views},

@@ -204,7 +204,7 @@ struct FusionSummary {
   std::string BriefReport() const;
 };
 // As `fringe fuse --json` prints it (the "fusion" object).
-nlohmann::json SummaryToJson(const FusionSummary& s);
+nlohmann::json ToJson(const FusionSummary& s);
 
 struct FusionResult {
   // World frame, mm: normals, intensity (texture) also as grey colours, quality (weighted mean

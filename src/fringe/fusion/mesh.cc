@@ -478,7 +478,7 @@ std::string MeshSummary::BriefReport() const {
   return s;
 }
 
-nlohmann::json SummaryToJson(const MeshSummary& s) {
+nlohmann::json ToJson(const MeshSummary& s) {
   return {{"status", ToString(s.status)},
           {"message", s.message},
           {"input_points", s.input_points},

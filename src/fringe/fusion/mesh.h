@@ -152,7 +152,7 @@ struct MeshSummary {
   std::string BriefReport() const;
 };
 // As `fringe fuse --mesh --json` prints it (the "mesh" object).
-nlohmann::json SummaryToJson(const MeshSummary& s);
+nlohmann::json ToJson(const MeshSummary& s);
 
 struct MeshResult {
   TriangleMesh mesh;  // vertices with unit normals; triangles counter-clockwise from outside

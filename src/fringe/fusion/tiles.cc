@@ -160,16 +160,16 @@ double TileMarginMm(const std::vector<TiledView>& views, const FusionOptions& op
   return tile_options.margin_spacings * spacing_mm + 2 * RegistrationTermMm(options);
 }
 
-nlohmann::json TiledFusionSummary::ToJson() const {
-  return {{"tiles", tiles},
-          {"tiles_fused", tiles_fused},
-          {"tile_size_mm",
-           std::isfinite(tile_size_mm) ? nlohmann::json(tile_size_mm) : nlohmann::json(nullptr)},
-          {"margin_mm", margin_mm},
-          {"max_tile_points", max_tile_points},
-          {"piece_points", piece_points},
-          {"cut_s", cut_s},
-          {"fuse_s", fuse_s}};
+nlohmann::json ToJson(const TiledFusionSummary& s) {
+  return {{"tiles", s.tiles},
+          {"tiles_fused", s.tiles_fused},
+          {"tile_size_mm", std::isfinite(s.tile_size_mm) ? nlohmann::json(s.tile_size_mm)
+                                                         : nlohmann::json(nullptr)},
+          {"margin_mm", s.margin_mm},
+          {"max_tile_points", s.max_tile_points},
+          {"piece_points", s.piece_points},
+          {"cut_s", s.cut_s},
+          {"fuse_s", s.fuse_s}};
 }
 
 TiledFusionResult FuseTiled(const std::vector<TiledView>& views, const FusionOptions& options,

@@ -85,8 +85,8 @@ struct TiledFusionSummary {
   int64_t max_tile_points = 0;   // largest number of input points of one tile (pieces)
   int64_t piece_points = 0;      // input points over all tiles (>= the views' points: margins)
   double cut_s = 0, fuse_s = 0;  // wall time of cutting the views, of fusing the tiles
-  nlohmann::json ToJson() const;
 };
+nlohmann::json ToJson(const TiledFusionSummary& s);
 
 struct TiledFusionResult {
   // As FusionResult: fused (world frame), support and view per fused point, overlap per view

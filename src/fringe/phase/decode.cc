@@ -706,7 +706,7 @@ std::string DecodeSummary::BriefReport() const {
                 orders_repaired, "; ", time_ms, " ms", message.empty() ? "" : "; ", message);
 }
 
-nlohmann::json SummaryToJson(const DecodeSummary& s) {
+nlohmann::json ToJson(const DecodeSummary& s) {
   nlohmann::json j = {
       {"status", s.status == DecodeStatus::kSuccess ? "success" : "no_valid_pixels"},
       {"message", s.message},

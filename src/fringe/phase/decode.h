@@ -202,8 +202,8 @@ struct DecodeSummary {
 };
 
 // The summary as JSON (status, message, counts, noise, time): summary.json of `fringe decode`,
-// the decode part of stereo::SummaryToJson, the Python summary dict.
-nlohmann::json SummaryToJson(const DecodeSummary& summary);
+// the decode part of stereo::ToJson, the Python summary dict.
+nlohmann::json ToJson(const DecodeSummary& summary);
 
 struct DecodeResult {
   cv::Mat absolute_phase;  // CV_32F, projector pixels along the fringe direction; NaN if invalid

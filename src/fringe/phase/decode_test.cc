@@ -571,7 +571,7 @@ TEST(Decode, ExposuresCountRepairedOrdersOfTheCombinedPixelsOnce) {
   EXPECT_EQ(both.summary.exposures[0].orders_repaired, dim_only.summary.orders_repaired);
   EXPECT_EQ(both.summary.exposures[1].orders_repaired, bright_only.summary.orders_repaired);
   EXPECT_EQ(Compare(s, both, u).wrong_orders, 0);
-  const nlohmann::json j = SummaryToJson(both.summary);
+  const nlohmann::json j = ToJson(both.summary);
   EXPECT_EQ(j.at("exposures").at(0).at("orders_repaired").get<int64_t>(),
             dim_only.summary.orders_repaired);
 

@@ -120,7 +120,7 @@ void WriteDecodeFolder(const std::filesystem::path& dir, const DecodeResult& r) 
     cv::minMaxLoc(r.modulation, nullptr, &mod_hi);
     r.modulation.convertTo(preview, CV_8U, 255.0 / std::max(mod_hi, 1e-6));
     Write(tmp / "modulation_preview.png", preview);
-    io::WriteJson(tmp / "summary.json", SummaryToJson(r.summary));
+    io::WriteJson(tmp / "summary.json", ToJson(r.summary));
   });
 }
 

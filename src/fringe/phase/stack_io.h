@@ -30,7 +30,7 @@ bool HasExposureFolders(const std::filesystem::path& dir);
 //   absolute_phase.tiff (CV_32F, projector pixels, NaN invalid), wrapped_phase.tiff,
 //   modulation.tiff, background.tiff (CV_32F), mask.png (255 valid), previews
 //   absolute_phase_preview.png (valid range stretched to 1..255, 0 invalid) and
-//   modulation_preview.png, and summary.json (SummaryToJson).
+//   modulation_preview.png, and summary.json (ToJson).
 void WriteDecodeFolder(const std::filesystem::path& dir, const DecodeResult& result);
 
 }  // namespace fringe::phase

@@ -84,10 +84,10 @@ TEST(StackIo, ExposureFolders) {
   ASSERT_EQ(plain.size(), 1u);
   // The summary JSON lists the exposures of a combined decode.
   const DecodeResult r = DecodeExposures(s, stacks);
-  const nlohmann::json j = SummaryToJson(r.summary);
+  const nlohmann::json j = ToJson(r.summary);
   ASSERT_TRUE(j.contains("exposures"));
   EXPECT_EQ(j["exposures"].size(), 2u);
-  EXPECT_FALSE(SummaryToJson(Decode(s, stacks[0]).summary).contains("exposures"));
+  EXPECT_FALSE(ToJson(Decode(s, stacks[0]).summary).contains("exposures"));
   // An image beside the exposure folders.
   cv::imwrite((dir / "cam" / names[0]).string(), written[0][0]);
   ExpectErrorMentions([&] { ReadExposureStacks(dir / "cam", s); },

@@ -101,23 +101,23 @@ std::string DemoSummary::Report() const {
   return os.str();
 }
 
-json DemoSummary::ToJson() const {
-  json j = scan.FiguresJson();
-  j["views"] = views;
-  j["rig_scale"] = rig_scale;
-  j["image_width"] = image_width;
-  j["image_height"] = image_height;
-  j["simulate_s"] = simulate_s;
-  j["vdi_s"] = vdi_s;
-  j["demo_s"] = total_s;
-  j["calibration_rms_left_px"] = calibration_rms_left_px;
-  j["calibration_rms_right_px"] = calibration_rms_right_px;
-  j["focal_error_pct"] = focal_error_pct;
-  j["baseline_error_mm"] = baseline_error_mm;
-  j["PF_mm"] = sphere_ok ? json(PF_mm) : json(nullptr);
-  j["PS_mm"] = sphere_ok ? json(PS_mm) : json(nullptr);
-  j["SD_mm"] = ballbar_ok ? json(SD_mm) : json(nullptr);
-  j["F_mm"] = plane_ok ? json(F_mm) : json(nullptr);
+json ToJson(const DemoSummary& s) {
+  json j = FiguresJson(s.scan);
+  j["views"] = s.views;
+  j["rig_scale"] = s.rig_scale;
+  j["image_width"] = s.image_width;
+  j["image_height"] = s.image_height;
+  j["simulate_s"] = s.simulate_s;
+  j["vdi_s"] = s.vdi_s;
+  j["demo_s"] = s.total_s;
+  j["calibration_rms_left_px"] = s.calibration_rms_left_px;
+  j["calibration_rms_right_px"] = s.calibration_rms_right_px;
+  j["focal_error_pct"] = s.focal_error_pct;
+  j["baseline_error_mm"] = s.baseline_error_mm;
+  j["PF_mm"] = s.sphere_ok ? json(s.PF_mm) : json(nullptr);
+  j["PS_mm"] = s.sphere_ok ? json(s.PS_mm) : json(nullptr);
+  j["SD_mm"] = s.ballbar_ok ? json(s.SD_mm) : json(nullptr);
+  j["F_mm"] = s.plane_ok ? json(s.F_mm) : json(nullptr);
   return j;
 }
 
@@ -207,7 +207,7 @@ DemoSummary RunDemo(const DemoOptions& options, const fs::path& out_dir) {
     }
     s.vdi_s = timer.ElapsedSeconds();
     s.total_s = demo_timer.ElapsedSeconds();
-    io::WriteJson(dir / "report.json", s.ToJson());
+    io::WriteJson(dir / "report.json", ToJson(s));
     {
       std::ofstream text(dir / "report.txt");
       text << s.Report();

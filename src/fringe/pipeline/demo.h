@@ -60,12 +60,12 @@ struct DemoSummary {
   double simulate_s = 0, vdi_s = 0, total_s = 0;  // total_s: the whole demo, wall
 
   std::string Report() const;  // short readable table
-  // The keys (views, points, simulate_s, calibrate_s, total_s = the scan's wall time
-  // without calibration, read_s, decode_s, reconstruct_s, register_s, fuse_s, mesh_s, report_s,
-  // peak_mem_gib, pose_rot_err_deg, pose_trans_err_mm, fused_rms_mm, single_view_rms_mm) and
-  // the calibration and VDI figures; demo_s = the whole demo.
-  nlohmann::json ToJson() const;
 };
+// The keys (views, points, simulate_s, calibrate_s, total_s = the scan's wall time
+// without calibration, read_s, decode_s, reconstruct_s, register_s, fuse_s, mesh_s, report_s,
+// peak_mem_gib, pose_rot_err_deg, pose_trans_err_mm, fused_rms_mm, single_view_rms_mm) and
+// the calibration and VDI figures; demo_s = the whole demo.
+nlohmann::json ToJson(const DemoSummary& s);
 
 // Runs the demonstration and writes everything into out_dir atomically: scan-demo/ and
 // scan-vdi/ (the simulated scan folders), scan/ (the scanner's output with report.html),

@@ -35,21 +35,21 @@ void DriftOptions::Check() const {
   CheckOption(max_samples >= 100, o, "max_samples", max_samples, "must be >= 100");
 }
 
-nlohmann::json ViewDrift::ToJson() const {
-  return {{"checked", checked},
-          {"drift", drift},
-          {"evidence", evidence},
-          {"message", message},
-          {"epipolar_rms_px", FigureOrNull(epipolar_rms_px)},
-          {"epipolar_mean_px", FigureOrNull(epipolar_mean_px)},
-          {"epipolar_systematic_px", FigureOrNull(epipolar_systematic_px)},
-          {"epipolar_systematic_sigma_px", FigureOrNull(epipolar_systematic_sigma_px)},
-          {"epipolar_samples", epipolar_samples},
-          {"epipolar_source", epipolar_source},
-          {"projector_bias_px", FigureOrNull(projector_bias_px)},
-          {"projector_rms_px", FigureOrNull(projector_rms_px)},
-          {"projector_systematic_px", FigureOrNull(projector_systematic_px)},
-          {"projector_samples", projector_samples}};
+nlohmann::json ToJson(const ViewDrift& s) {
+  return {{"checked", s.checked},
+          {"drift", s.drift},
+          {"evidence", s.evidence},
+          {"message", s.message},
+          {"epipolar_rms_px", FigureOrNull(s.epipolar_rms_px)},
+          {"epipolar_mean_px", FigureOrNull(s.epipolar_mean_px)},
+          {"epipolar_systematic_px", FigureOrNull(s.epipolar_systematic_px)},
+          {"epipolar_systematic_sigma_px", FigureOrNull(s.epipolar_systematic_sigma_px)},
+          {"epipolar_samples", s.epipolar_samples},
+          {"epipolar_source", s.epipolar_source},
+          {"projector_bias_px", FigureOrNull(s.projector_bias_px)},
+          {"projector_rms_px", FigureOrNull(s.projector_rms_px)},
+          {"projector_systematic_px", FigureOrNull(s.projector_systematic_px)},
+          {"projector_samples", s.projector_samples}};
 }
 
 void MeasureProjectorConsistency(const StereoRig& rig, const OrganizedPointCloud& cloud,

@@ -101,8 +101,8 @@ struct ViewDrift {
   bool drift = false;                 // a figure exceeded its threshold
   std::vector<std::string> evidence;  // what the verdict rests on (e.g. "markers (23)")
   std::string message;                // which figure exceeded, or why the view was not checked
-  nlohmann::json ToJson() const;
 };
+nlohmann::json ToJson(const ViewDrift& s);
 
 // Projector consistency from the view's points (left camera frame, on the left grid) and the
 // left camera's absolute phase (projector columns, CV_32F, same grid): fills projector_*. No-op

@@ -52,11 +52,11 @@ std::string RefineSummary::BriefReport() const {
   return StrCat(refinement.BriefReport(), " [rig from ", calibration_source, "]");
 }
 
-nlohmann::json RefineSummary::ToJson() const {
-  nlohmann::json j = refinement.ToJson();
-  j["calibration"] = calibration_source;
-  j["gather_s"] = gather_s;
-  j["solve_s"] = solve_s;
+nlohmann::json ToJson(const RefineSummary& s) {
+  nlohmann::json j = ToJson(s.refinement);
+  j["calibration"] = s.calibration_source;
+  j["gather_s"] = s.gather_s;
+  j["solve_s"] = s.solve_s;
   return j;
 }
 
@@ -167,7 +167,7 @@ RefineResult RefineScanRig(const fs::path& project, const fs::path& out_rig,
   const StereoRig rig = ReadScanRig(folder, options, &source);
   RefineResult r = RefineRigFromScan(folder, rig, options);
   r.summary.calibration_source = source;
-  if (r.summary.ok()) io::WriteRig(out_rig, r.rig, {{"refinement", r.summary.ToJson()}});
+  if (r.summary.ok()) io::WriteRig(out_rig, r.rig, {{"refinement", ToJson(r.summary)}});
   return r;
 }
 

@@ -49,8 +49,8 @@ struct RefineSummary {
   double gather_s = 0, solve_s = 0;
   bool ok() const { return refinement.ok(); }
   std::string BriefReport() const;
-  nlohmann::json ToJson() const;
 };
+nlohmann::json ToJson(const RefineSummary& s);
 
 struct RefineResult {
   StereoRig rig;  // refined when ok(), else the input rig

@@ -195,7 +195,7 @@ void WriteRigOf(const Calibration& c, const fs::path& path) {
   if (c.folder) {
     calib::WriteFolderCalibration(path, *c.folder);
   } else if (c.projector_folder) {
-    io::WriteRig(path, c.rig, {{"calibration", c.projector_folder->CalibrationJson()}});
+    io::WriteRig(path, c.rig, {{"calibration", CalibrationToJson(*c.projector_folder)}});
   } else {
     io::WriteRig(path, c.rig);
   }
@@ -1067,102 +1067,103 @@ std::string ScanSummary::BriefReport() const {
   return s;
 }
 
-json ScanSummary::FiguresJson() const {
-  return {{"views", views.size()},
-          {"views_ok", views_ok},
-          {"views_resumed", views_resumed},
-          {"checkpoint_s", checkpoint_s},
-          {"checkpoint_mib", checkpoint_mib},
-          {"points", points},
-          {"fused_points", fused_points},
-          {"mesh_vertices", mesh_vertices},
-          {"mesh_triangles", mesh_triangles},
-          {"calibrate_s", calibrate_s},
-          {"read_s", read_s},
-          {"decode_s", decode_s},
-          {"reconstruct_s", reconstruct_s},
-          {"markers_s", markers_s},
-          {"views_s", views_s},
-          {"register_s", register_s},
-          {"fuse_s", fuse_s},
-          {"mesh_s", mesh_s},
-          {"report_s", report_s},
-          {"total_s", total_s},
-          {"evaluate_s", evaluate_s},
-          {"calibrate_cpu_s", calibrate_cpu_s},
-          {"views_cpu_s", views_cpu_s},
-          {"register_cpu_s", register_cpu_s},
-          {"fuse_cpu_s", fuse_cpu_s},
-          {"mesh_cpu_s", mesh_cpu_s},
-          {"report_cpu_s", report_cpu_s},
-          {"total_cpu_s", total_cpu_s},
-          {"evaluate_cpu_s", evaluate_cpu_s},
-          {"peak_mem_gib", peak_mem_gib},
-          {"memory_limit_gib", memory_limit_gib},
-          {"views_in_flight", views_in_flight},
-          {"fusion_tiles", fusion_tiles},
-          {"fusion_tile_mm", std::isfinite(fusion_tile_mm) ? json(fusion_tile_mm) : json(nullptr)},
-          {"marker_adjusted_rms_mm", marker_adjusted_rms_mm},
-          {"icp_rms_mm", icp_rms_mm},
-          {"projector_columns_used", projector_columns_used},
-          {"projector_column_rejected", projector_column_rejected},
-          {"pose_rot_err_deg", figure(pose_rot_err_deg)},
-          {"pose_trans_err_mm", figure(pose_trans_err_mm)},
-          {"fused_rms_mm", figure(fused_rms_mm)},
-          {"single_view_rms_mm", figure(single_view_rms_mm)},
-          {"fused_overlap_rms_mm", figure(fused_overlap_rms_mm)},
-          {"single_view_sensor_rms_mm", figure(single_view_sensor_rms_mm)},
-          {"single_view_all_rms_mm", figure(single_view_all_rms_mm)},
-          {"mesh_rms_mm", figure(mesh_rms_mm)},
-          {"mesh_truth_rms_mm", figure(mesh_truth_rms_mm)},
-          {"calibration_drift", calibration_drift},
-          {"epipolar_rms_px", figure(epipolar_rms_px)}};
+json FiguresJson(const ScanSummary& s) {
+  return {
+      {"views", s.views.size()},
+      {"views_ok", s.views_ok},
+      {"views_resumed", s.views_resumed},
+      {"checkpoint_s", s.checkpoint_s},
+      {"checkpoint_mib", s.checkpoint_mib},
+      {"points", s.points},
+      {"fused_points", s.fused_points},
+      {"mesh_vertices", s.mesh_vertices},
+      {"mesh_triangles", s.mesh_triangles},
+      {"calibrate_s", s.calibrate_s},
+      {"read_s", s.read_s},
+      {"decode_s", s.decode_s},
+      {"reconstruct_s", s.reconstruct_s},
+      {"markers_s", s.markers_s},
+      {"views_s", s.views_s},
+      {"register_s", s.register_s},
+      {"fuse_s", s.fuse_s},
+      {"mesh_s", s.mesh_s},
+      {"report_s", s.report_s},
+      {"total_s", s.total_s},
+      {"evaluate_s", s.evaluate_s},
+      {"calibrate_cpu_s", s.calibrate_cpu_s},
+      {"views_cpu_s", s.views_cpu_s},
+      {"register_cpu_s", s.register_cpu_s},
+      {"fuse_cpu_s", s.fuse_cpu_s},
+      {"mesh_cpu_s", s.mesh_cpu_s},
+      {"report_cpu_s", s.report_cpu_s},
+      {"total_cpu_s", s.total_cpu_s},
+      {"evaluate_cpu_s", s.evaluate_cpu_s},
+      {"peak_mem_gib", s.peak_mem_gib},
+      {"memory_limit_gib", s.memory_limit_gib},
+      {"views_in_flight", s.views_in_flight},
+      {"fusion_tiles", s.fusion_tiles},
+      {"fusion_tile_mm", std::isfinite(s.fusion_tile_mm) ? json(s.fusion_tile_mm) : json(nullptr)},
+      {"marker_adjusted_rms_mm", s.marker_adjusted_rms_mm},
+      {"icp_rms_mm", s.icp_rms_mm},
+      {"projector_columns_used", s.projector_columns_used},
+      {"projector_column_rejected", s.projector_column_rejected},
+      {"pose_rot_err_deg", figure(s.pose_rot_err_deg)},
+      {"pose_trans_err_mm", figure(s.pose_trans_err_mm)},
+      {"fused_rms_mm", figure(s.fused_rms_mm)},
+      {"single_view_rms_mm", figure(s.single_view_rms_mm)},
+      {"fused_overlap_rms_mm", figure(s.fused_overlap_rms_mm)},
+      {"single_view_sensor_rms_mm", figure(s.single_view_sensor_rms_mm)},
+      {"single_view_all_rms_mm", figure(s.single_view_all_rms_mm)},
+      {"mesh_rms_mm", figure(s.mesh_rms_mm)},
+      {"mesh_truth_rms_mm", figure(s.mesh_truth_rms_mm)},
+      {"calibration_drift", s.calibration_drift},
+      {"epipolar_rms_px", figure(s.epipolar_rms_px)}};
 }
 
-json ScanSummary::ToJson() const {
-  json j = FiguresJson();
-  j["status"] = ToString(status);
-  j["message"] = message;
-  j["calibration"] = calibration_source;
-  j["registration_status"] = registration_status;
-  j["overlap_points"] = overlap_points;
-  j["clusters"] = clusters;
-  j["mesh_watertight"] = mesh_watertight;
-  j["has_truth"] = has_truth;
-  if (has_truth) {
-    const Eigen::Matrix<double, 3, 4> g = truth_from_world.ToMatrix3x4();
+json ToJson(const ScanSummary& s) {
+  json j = FiguresJson(s);
+  j["status"] = ToString(s.status);
+  j["message"] = s.message;
+  j["calibration"] = s.calibration_source;
+  j["registration_status"] = s.registration_status;
+  j["overlap_points"] = s.overlap_points;
+  j["clusters"] = s.clusters;
+  j["mesh_watertight"] = s.mesh_watertight;
+  j["has_truth"] = s.has_truth;
+  if (s.has_truth) {
+    const Eigen::Matrix<double, 3, 4> g = s.truth_from_world.ToMatrix3x4();
     j["truth_from_world"] = {{g(0, 0), g(0, 1), g(0, 2), g(0, 3)},
                              {g(1, 0), g(1, 1), g(1, 2), g(1, 3)},
                              {g(2, 0), g(2, 1), g(2, 2), g(2, 3)}};
   }
-  j["registration"] = registration;
-  j["fusion"] = fusion;
-  j["mesh"] = meshing;
-  j["mode"] = stereo ? "stereo" : "camera-projector";
-  j["projector_columns"] = projector_columns;
-  j["refinement"] = refinement;
-  j["rig_refined"] = rig_refined;
-  j["drift"] = {{"views_checked", drift_views_checked},
-                {"evidence", drift_evidence},
-                {"max_epipolar_systematic_px", drift_options.max_epipolar_systematic_px},
-                {"min_markers", drift_options.min_markers},
-                {"min_epipolar_significance", drift_options.min_epipolar_significance},
-                {"max_projector_bias_px", drift_options.max_projector_bias_px},
-                {"max_projector_systematic_px", drift_options.max_projector_systematic_px},
-                {"min_projector_points", drift_options.min_projector_points},
-                {"max_two_direction_rms_px", drift_options.max_two_direction_rms_px}};
-  j["calibration_warnings"] = calibration_warnings;
-  if (!calibration_report.empty()) j["calibration_report"] = calibration_report;
-  if (calibration_rms_left_px > 0) {
-    j["calibration_rms_left_px"] = calibration_rms_left_px;
-    if (stereo) {
-      j["calibration_rms_right_px"] = calibration_rms_right_px;
+  j["registration"] = s.registration;
+  j["fusion"] = s.fusion;
+  j["mesh"] = s.meshing;
+  j["mode"] = s.stereo ? "stereo" : "camera-projector";
+  j["projector_columns"] = s.projector_columns;
+  j["refinement"] = s.refinement;
+  j["rig_refined"] = s.rig_refined;
+  j["drift"] = {{"views_checked", s.drift_views_checked},
+                {"evidence", s.drift_evidence},
+                {"max_epipolar_systematic_px", s.drift_options.max_epipolar_systematic_px},
+                {"min_markers", s.drift_options.min_markers},
+                {"min_epipolar_significance", s.drift_options.min_epipolar_significance},
+                {"max_projector_bias_px", s.drift_options.max_projector_bias_px},
+                {"max_projector_systematic_px", s.drift_options.max_projector_systematic_px},
+                {"min_projector_points", s.drift_options.min_projector_points},
+                {"max_two_direction_rms_px", s.drift_options.max_two_direction_rms_px}};
+  j["calibration_warnings"] = s.calibration_warnings;
+  if (!s.calibration_report.empty()) j["calibration_report"] = s.calibration_report;
+  if (s.calibration_rms_left_px > 0) {
+    j["calibration_rms_left_px"] = s.calibration_rms_left_px;
+    if (s.stereo) {
+      j["calibration_rms_right_px"] = s.calibration_rms_right_px;
     } else {
-      j["calibration_rms_projector_px"] = calibration_rms_projector_px;
+      j["calibration_rms_projector_px"] = s.calibration_rms_projector_px;
     }
   }
   json v = json::array();
-  for (const ScanViewSummary& e : views) {
+  for (const ScanViewSummary& e : s.views) {
     json o{{"view", e.name},
            {"ok", e.ok},
            {"points", e.points},
@@ -1185,7 +1186,7 @@ json ScanSummary::ToJson() const {
            {"truth_rms_mm", figure(e.truth_rms_mm)},
            {"epipolar_rms_px", figure(e.drift.epipolar_rms_px)},
            {"drift", e.drift.drift},
-           {"drift_check", e.drift.ToJson()}};
+           {"drift_check", ToJson(e.drift)}};
     if (!e.ok) {
       o["failed_stage"] = e.failed_stage;
       o["message"] = e.message;
@@ -1235,7 +1236,7 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
       }
       RefineResult r = RefineRigFromScan(folder, cal.rig, options.refine_options);
       r.summary.calibration_source = cal.source;
-      s.refinement = r.summary.ToJson();
+      s.refinement = ToJson(r.summary);
       s.rig_refined = r.summary.ok();
       if (r.summary.ok()) {
         util::LogInfo("scan: " + r.summary.BriefReport());
@@ -1276,7 +1277,7 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
         WriteOutput("calibration report", out, [&] {
           calib::WriteCalibrationReport(result.CalibrationDir(), diagnosis,
                                         cal.folder ? calib::CalibrationToJson(*cal.folder)
-                                                   : cal.projector_folder->CalibrationJson());
+                                                   : CalibrationToJson(*cal.projector_folder));
         });
         s.calibration_report = "calibration/report.html";
       }
@@ -1405,7 +1406,7 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
     m.registration = registration::RegisterViews(m.inputs, options.registration);
     const registration::RegistrationSummary& rs = m.registration.summary;
     s.registration_status = registration::ToString(rs.status);
-    s.registration = registration::SummaryToJson(m.registration);
+    s.registration = registration::ToJson(m.registration);
     s.marker_adjusted_rms_mm = rs.adjustment.rms_final_mm;
     if (!rs.icp.levels.empty()) s.icp_rms_mm = rs.icp.levels.back().rms_end_mm;
     for (size_t k = 0; k < m.inputs.size(); ++k) {
@@ -1521,11 +1522,11 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
       fusion::TiledFusionResult t = fusion::FuseTiled(tiled_views, fusion_options, tile_options);
       s.fusion_tiles = t.tiles.tiles_fused;
       s.fusion_tile_mm = t.tiles.tile_size_mm;
-      s.tiling = t.tiles.ToJson();
+      s.tiling = ToJson(t.tiles);
       m.fused = std::move(t.result);
     }
     const fusion::FusionSummary& fs_ = m.fused.summary;
-    s.fusion = fusion::SummaryToJson(fs_);
+    s.fusion = fusion::ToJson(fs_);
     s.fusion["registration_rms_mm"] = fusion_options.registration_rms_mm;
     if (tiled) s.fusion["tiles"] = s.tiling;
     if (!fs_.has_output()) throw stage_failed("fuse", fusion::ToString(fs_.status), fs_.message);
@@ -1614,7 +1615,7 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
     }
     fusion_views.clear();  // the grids are no longer needed
     const fusion::MeshSummary& ms = m.mesh.summary;
-    s.meshing = fusion::SummaryToJson(ms);
+    s.meshing = fusion::ToJson(ms);
     if (!ms.ok()) throw stage_failed("mesh", fusion::ToString(ms.status), ms.message);
     s.mesh_vertices = ms.vertices;
     s.mesh_triangles = ms.triangles;
@@ -1673,7 +1674,7 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
       s.total_s += report_s;
       s.total_cpu_s += report_cpu_s;
     }
-    WriteOutput("summary", out, [&] { io::WriteJson(result.Summary(), s.ToJson()); });
+    WriteOutput("summary", out, [&] { io::WriteJson(result.Summary(), ToJson(s)); });
     // The views' checkpoints are a cache of this run, not an output.
     std::error_code ec;
     fs::remove_all(dir / kCheckpointFolder, ec);

@@ -224,7 +224,7 @@ struct ScanSummary {
   std::string registration_status;
   double marker_adjusted_rms_mm = 0;  // marker sightings after the global adjustment
   double icp_rms_mm = 0;              // point-to-plane RMS after the last ICP level
-  nlohmann::json registration;        // registration::SummaryToJson of the result
+  nlohmann::json registration;        // registration::ToJson of the result
   // Fusion and mesh.
   int64_t fused_points = 0, overlap_points = 0, clusters = 0;
   int64_t mesh_vertices = 0, mesh_triangles = 0;
@@ -258,13 +258,13 @@ struct ScanSummary {
 
   bool partial() const { return status == ScanStatus::kPartial; }
   std::string BriefReport() const;
-  // The flat figures (counts, stage times, memory, registration and truth figures; truth ones
-  // null without truth): what fringe demo --json and bench_pipeline --json print.
-  nlohmann::json FiguresJson() const;
-  // FiguresJson plus status, message, the per-view results and the stages' summaries
-  // (summary.json).
-  nlohmann::json ToJson() const;
 };
+// The flat figures (counts, stage times, memory, registration and truth figures; truth ones
+// null without truth): what fringe demo --json and bench_pipeline --json print.
+nlohmann::json FiguresJson(const ScanSummary& s);
+// FiguresJson plus status, message, the per-view results and the stages' summaries
+// (summary.json).
+nlohmann::json ToJson(const ScanSummary& s);
 
 // A mesh against the truth both ways, everything in the truth's frame: the RMS signed distance of
 // the mesh's vertices to the truth mesh, and of the truth surface where it was measured (the

@@ -187,7 +187,7 @@ json ToJson(const IcpLevelReport& l) {
           {"residual_histogram", ResidualHistogram(l)}};
 }
 
-json SummaryToJson(const MeshAlignResult& r) {
+json ToJson(const MeshAlignResult& r) {
   json levels = json::array();
   for (const IcpLevelReport& l : r.levels) levels.push_back(ToJson(l));
   return {{"status", ToString(r.status)},
@@ -199,7 +199,7 @@ json SummaryToJson(const MeshAlignResult& r) {
           {"levels", levels}};
 }
 
-json SummaryToJson(const RegistrationResult& r) {
+json ToJson(const RegistrationResult& r) {
   json views = json::array();
   for (const ViewRegistration& v : r.views) {
     views.push_back({{"view", v.name},

@@ -52,10 +52,10 @@ void WriteMarkerMap(const std::filesystem::path& path, const RegistrationResult&
 
 // The summary as JSON (per view: path, message, markers, matched, residuals, overlap; the
 // adjustment and ICP levels).
-nlohmann::json SummaryToJson(const RegistrationResult& result);
+nlohmann::json ToJson(const RegistrationResult& result);
 // AlignToMesh's result (`fringe evaluate --align`): status, message, mesh_from_cloud, rms_mm,
 // points, seconds, levels.
-nlohmann::json SummaryToJson(const MeshAlignResult& result);
+nlohmann::json ToJson(const MeshAlignResult& result);
 // One ICP level (the levels of both summaries above).
 nlohmann::json ToJson(const IcpLevelReport& level);
 

@@ -157,14 +157,14 @@ std::string ScanSummary::BriefReport() const {
   return os.str();
 }
 
-nlohmann::json ScanSummary::ToJson() const {
-  return {{"cameras", cameras},
-          {"views", views},
-          {"fringe_images", fringe_images},
-          {"calibration_images", calibration_images},
-          {"markers", markers},
-          {"seconds", seconds},
-          {"report", BriefReport()}};
+nlohmann::json ToJson(const ScanSummary& s) {
+  return {{"cameras", s.cameras},
+          {"views", s.views},
+          {"fringe_images", s.fringe_images},
+          {"calibration_images", s.calibration_images},
+          {"markers", s.markers},
+          {"seconds", s.seconds},
+          {"report", s.BriefReport()}};
 }
 
 void WriteCameraTruth(const fs::path& dir, const CameraTruth& truth) {

@@ -98,8 +98,9 @@ struct ScanSummary {
   int markers = 0;
   double seconds = 0;
   std::string BriefReport() const;
-  nlohmann::json ToJson() const;  // the counts and seconds (the Python bindings' summary)
 };
+nlohmann::json ToJson(
+    const ScanSummary& s);  // the counts and seconds (the Python bindings' summary)
 
 // A simulated scan prepared once (scene, patterns, renderer, view and board poses), rendered
 // view by view on demand: the in-memory counterpart of SimulateScan for tests and the demo

@@ -96,13 +96,13 @@ std::string ReconstructionSummary::BriefReport() const {
   return s;
 }
 
-nlohmann::json SummaryToJson(const ReconstructionSummary& s) {
+nlohmann::json ToJson(const ReconstructionSummary& s) {
   const MatchingSummary& m = s.matching;
   return {{"status", ToString(s.status)},
           {"message", s.message},
           {"points", s.points},
-          {"decode_left", phase::SummaryToJson(s.decode_left)},
-          {"decode_right", phase::SummaryToJson(s.decode_right)},
+          {"decode_left", phase::ToJson(s.decode_left)},
+          {"decode_right", phase::ToJson(s.decode_right)},
           {"matching",
            {{"status", ToString(m.status)},
             {"message", m.message},

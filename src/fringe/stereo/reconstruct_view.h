@@ -74,7 +74,7 @@ struct ReconstructionSummary {
 };
 // Every figure of the summary (decode as in `fringe decode`'s summary.json, matching, outliers,
 // normals, timings) with each stage's one-line report, for scripts (the Python bindings).
-nlohmann::json SummaryToJson(const ReconstructionSummary& s);
+nlohmann::json ToJson(const ReconstructionSummary& s);
 
 struct ViewReconstruction {
   OrganizedPointCloud cloud;      // LEFT grid, LEFT camera frame, mm

@@ -1,20 +1,39 @@
 // What the scanner's stages hand to the report and the truth comparison (pipeline/scan.cc,
-// pipeline/scan_truth.cc): internal to the pipeline module, not an API.
+// pipeline/scan_report.cc, pipeline/scan_truth.cc): internal to the pipeline module, not an API.
 #pragma once
 
+#include <filesystem>
 #include <opencv2/core.hpp>
+#include <optional>
+#include <string>
 #include <vector>
 
+#include "fringe/calib/calibrate_folder.h"
+#include "fringe/calib/projector_folder.h"
 #include "fringe/fusion/fuse.h"
 #include "fringe/fusion/mesh.h"
 #include "fringe/io/report.h"
+#include "fringe/pipeline/report.h"
 #include "fringe/pipeline/scan.h"
+#include "fringe/pipeline/view_checkpoint.h"
+#include "fringe/registration/markers.h"
 #include "fringe/registration/register_views.h"
 #include "fringe/scan/scan_folder.h"
 
 namespace fringe::pipeline::internal {
 
 constexpr int kPictureWidthPx = 480;  // the report's per-view pictures
+
+// Everything a reconstructed view hands to the later stages: its cloud (kept for registration
+// and fusion; the images are gone) and the small pictures of the report.
+struct Calibration {
+  StereoRig rig;
+  std::string source;
+  std::optional<calib::FolderCalibration> folder;  // when calibrated from board images here
+  // One camera + projector, calibrated here from the board pose folders.
+  std::optional<calib::ProjectorFolderCalibration> projector_folder;
+  CalibrationTarget target;  // the board, when calibrated here (for the diagnostics)
+};
 
 // Everything registration, fusion, meshing and the truth comparison hand to the report.
 struct Model {
@@ -49,5 +68,29 @@ double Rms(const std::vector<double>& v);
 
 // The comparison with the scan folder's truth (ScanSummary's truth figures).
 void EvaluateAgainstTruth(const scan::ScanFolder& folder, Model* m, ScanSummary* s);
+
+// The report (pipeline/scan_report.cc).
+
+// v with `digits` digits after the point.
+std::string Fixed(double v, int digits);
+
+// The left texture image with the measured markers circled (their outer ring) and numbered.
+cv::Mat TextureWithMarkers(const cv::Mat& texture_left,
+                           const std::vector<registration::ViewMarker>& markers,
+                           const StereoRig& rig, int max_width_px);
+
+// The absolute phase of the left camera, shrunk to max_width_px.
+ReportImage PhasePicture(const std::string& name, const cv::Mat& phase_left, int max_width_px);
+
+// A view's depth and (when measured) fringe modulation pictures.
+std::vector<ReportImage> ViewPictures(const std::string& name, const OrganizedPointCloud& cloud);
+
+// z opposite the views' mean viewing direction (the sensors look down at the part).
+Rigid3d DisplayFromViews(const std::vector<Rigid3d>& world_from_sensor);
+
+// The scan's report: summary, fused cloud and mesh, registration, calibration, views.
+Report BuildReport(const std::filesystem::path& project, const ScanSummary& s,
+                   const Calibration& cal, const std::vector<ViewResult>& views,
+                   const Model& model);
 
 }  // namespace fringe::pipeline::internal

@@ -367,6 +367,38 @@ TEST(CliBadInput, CalibrateAndReconstructNeverOverwriteTheirInputs) {
   }
 }
 
+// The cloud is PLY: an --out without .ply (no extension, or another one) would be a file that
+// `fringe info` does not recognise; it is refused before any work, naming the path and the
+// extension to use, and nothing is written.
+TEST(CliBadInput, ReconstructRefusesAnOutWithoutPlyExtension) {
+  test::TempDir dir;
+  const fs::path stack = SmallStack(dir);
+  fs::create_directories(dir / "view");
+  fs::copy(stack, dir / "view" / "left");
+  fs::copy(stack, dir / "view" / "right");
+  WriteText(dir / "rig.json", "{}");
+  auto listing = [&] {
+    std::vector<fs::path> files;
+    for (const auto& e : fs::recursive_directory_iterator(dir.path())) files.push_back(e.path());
+    std::sort(files.begin(), files.end());
+    return files;
+  };
+  const std::vector<fs::path> before = listing();
+  for (const std::string& out : {(dir / "o3").string(), (dir / "o3.txt").string()}) {
+    std::string err;
+    EXPECT_EQ(
+        RunCli({"reconstruct", (dir / "view").string(), "--calib", (dir / "rig.json").string(),
+                "--scheme", (stack / "manifest.json").string(), "--out", out},
+               nullptr, &err),
+        1)
+        << out;
+    EXPECT_NE(err.find(out + ": --out writes a PLY point cloud; use a .ply name"),
+              std::string::npos)
+        << err;
+    EXPECT_EQ(listing(), before) << out;
+  }
+}
+
 // --centres picks CSV or JSON by the extension; anything else is refused before any work, and
 // a ball bar needs its calibrated distance.
 TEST(CliBadInput, CentresFileAndBallBarDistanceAreCheckedFirst) {

@@ -87,7 +87,8 @@ void AddReconstructCommand(CLI::App& app) {
                   "scan.json names, else VIEW/manifest.json, VIEW/left/manifest.json or "
                   "VIEW/../manifest.json");
   AddSchemeFlags(sub, &a->parameters);
-  sub->add_option("--out", a->out, "Output PLY (organized: keeps the left camera grid)")
+  sub->add_option("--out", a->out,
+                  "Output PLY, a .ply name (organized: keeps the left camera grid)")
       ->required();
   sub->add_option("--residuals", a->residuals,
                   "Also write the per-pixel reprojection residual (32-bit float TIFF, pixels)");
@@ -187,6 +188,13 @@ void AddReconstructCommand(CLI::App& app) {
       inputs.insert(inputs.end(), files.begin(), files.end());
     }
     util::CheckOutputFile(a->out, inputs);
+    // The cloud is always PLY, and fringe tells files apart by the extension (fringe info
+    // refuses a cloud named otherwise): refused here, before any work, not written under a name
+    // nothing reads back. After the output rule, so that an --out naming an input is reported
+    // as that.
+    if (!util::HasExtension(a->out, {".ply"})) {
+      throw Error(util::StrCat(a->out, ": --out writes a PLY point cloud; use a .ply name"));
+    }
     if (!a->residuals.empty()) {
       util::CheckOutputFile(a->residuals, inputs);
       util::CheckDistinctOutputs({a->out, a->residuals});

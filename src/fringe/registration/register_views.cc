@@ -288,26 +288,6 @@ class Registrar {
     }
   }
 
-  // The placed views' clouds in the world frame, thinned to about max_points.
-  PointCloud PlacedCloud(size_t max_points) const {
-    size_t total = 0;
-    for (int v = 0; v < n_; ++v) {
-      if (r_.views[v].placed()) total += in_[v].cloud.size();
-    }
-    const size_t stride = std::max<size_t>(1, total / max_points);
-    PointCloud out;
-    out.normals.reserve(total / stride + 1);
-    for (int v = 0; v < n_; ++v) {
-      if (!r_.views[v].placed()) continue;
-      const Rigid3d& pose = r_.views[v].world_from_sensor;
-      for (size_t i = 0; i < in_[v].cloud.size(); i += stride) {
-        out.points.push_back(pose * in_[v].cloud.points[i]);
-        out.normals.push_back(pose.RotateDirection(in_[v].cloud.normals[i]));
-      }
-    }
-    return out;
-  }
-
   // Marker-free placement (issue 29): pairwise candidates for every pair of views with at least
   // one view still to place, each pair verified on its own (CheckPair), then a pose graph over
   // the verified pairs (pose_graph.h: triangles that do not close reject their wrong edge) places

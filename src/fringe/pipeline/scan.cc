@@ -37,6 +37,7 @@
 #include "fringe/stereo/camera_projector.h"
 #include "fringe/util/error.h"
 #include "fringe/util/files.h"
+#include "fringe/util/format.h"
 #include "fringe/util/log.h"
 #include "fringe/util/memory.h"
 #include "fringe/util/timer.h"
@@ -48,7 +49,6 @@ using internal::BuildReport;
 using internal::Calibration;
 using internal::DisplayFromViews;
 using internal::EvaluateAgainstTruth;
-using internal::Fixed;
 using internal::kPictureWidthPx;
 using internal::Model;
 using internal::PhasePicture;
@@ -59,6 +59,7 @@ using internal::ViewPictures;
 
 namespace fs = std::filesystem;
 using nlohmann::json;
+using util::Fixed;
 using util::StrCat;
 
 // Truth figures are NaN without truth (a real scan): null in JSON.

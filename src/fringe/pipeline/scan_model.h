@@ -24,8 +24,8 @@ namespace fringe::pipeline::internal {
 
 constexpr int kPictureWidthPx = 480;  // the report's per-view pictures
 
-// Everything a reconstructed view hands to the later stages: its cloud (kept for registration
-// and fusion; the images are gone) and the small pictures of the report.
+// The rig the scan runs with, where it came from, and the calibration results when it was
+// calibrated from the scan folder's boards (for rig.json and the report's calibration section).
 struct Calibration {
   StereoRig rig;
   std::string source;
@@ -70,9 +70,6 @@ double Rms(const std::vector<double>& v);
 void EvaluateAgainstTruth(const scan::ScanFolder& folder, Model* m, ScanSummary* s);
 
 // The report (pipeline/scan_report.cc).
-
-// v with `digits` digits after the point.
-std::string Fixed(double v, int digits);
 
 // The left texture image with the measured markers circled (their outer ring) and numbered.
 cv::Mat TextureWithMarkers(const cv::Mat& texture_left,

@@ -2,21 +2,21 @@
 // views) and the per-view pictures, from what the scanner's stages hand over (scan_model.h).
 #include <algorithm>
 #include <cmath>
-#include <iomanip>
 #include <limits>
 #include <opencv2/imgproc.hpp>
-#include <sstream>
 
 #include "fringe/calib/diagnostics.h"
 #include "fringe/pipeline/report.h"
 #include "fringe/pipeline/scan.h"
 #include "fringe/pipeline/scan_model.h"
 #include "fringe/util/error.h"
+#include "fringe/util/format.h"
 
 namespace fringe::pipeline {
 namespace internal {
 
 namespace fs = std::filesystem;
+using util::Fixed;
 using util::StrCat;
 
 namespace {
@@ -312,12 +312,6 @@ ReportSection ModelSection(const ScanSummary& s, const Model& m, const CameraMod
 }
 
 }  // namespace
-
-std::string Fixed(double v, int digits) {
-  std::ostringstream os;
-  os << std::fixed << std::setprecision(digits) << v;
-  return os.str();
-}
 
 // The left texture image with the measured markers circled (their outer ring) and numbered.
 cv::Mat TextureWithMarkers(const cv::Mat& texture_left,

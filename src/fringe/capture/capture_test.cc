@@ -322,10 +322,13 @@ TEST(Capture, MeasuredLatencyMatchesTheInjectedOne) {
   o.latency.max_latency_ms = 120;
   const CaptureSummary s = CaptureIntoProject(tmp / "scan", SmallScheme(), o);
   // The fake camera makes its frame up to 2 ms after the trigger (it polls at 500 Hz), and the
-  // bisection stops at 1 ms: the measurement may be up to 3 ms early, 1 ms late.
+  // bisection stops at 1 ms: the measurement may be up to 3 ms early, 1 ms late, plus however
+  // late the rig's own 40 ms are (its screen sampling at the changes of level, 1.5-2.5 ms
+  // measured here; a measured 41.25 ms is the bisection's step after 40.31 ms).
   constexpr double kEarlyMs = 3.0, kLateMs = 1.0;
+  const double rig_late_ms = sensor.left->MaxInjectedLatencyErrorMs();
   EXPECT_GE(s.latency_ms, 40 - kEarlyMs);
-  EXPECT_LE(s.latency_ms, 40 + kLateMs);
+  EXPECT_LE(s.latency_ms, 40 + rig_late_ms + kLateMs) << "rig late by up to " << rig_late_ms;
   const auto stored = ReadProjectLatency(tmp / "scan");
   ASSERT_TRUE(stored.has_value());
   EXPECT_EQ(*stored, s.latency_ms);

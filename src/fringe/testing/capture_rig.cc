@@ -10,6 +10,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <chrono>
 #include <cstdlib>
@@ -161,19 +162,33 @@ void FakeCamera::SetInjectedLatency(double ms) {
     const Window root = DefaultRootWindow(d);
     XWindowAttributes a;
     XGetWindowAttributes(d, root, &a);
+    auto previous_request = std::chrono::steady_clock::now();
     while (!stop_sampler_) {
+      const auto request = std::chrono::steady_clock::now();
       XImage* image = XGetImage(d, root, a.width / 2, a.height / 2, 1, 1, AllPlanes, ZPixmap);
       if (image) {
         const int level = static_cast<int>((XGetPixel(image, 0, 0) & image->green_mask) >> 8);
         XDestroyImage(image);
+        const auto reply = std::chrono::steady_clock::now();
         std::lock_guard<std::mutex> lock(history_mutex_);
-        history_.emplace_back(std::chrono::steady_clock::now(), level);
+        if (!history_.empty() && history_.back().second != level) {
+          max_sample_span_ms_ =
+              std::max(max_sample_span_ms_,
+                       std::chrono::duration<double, std::milli>(reply - previous_request).count());
+        }
+        previous_request = request;
+        history_.emplace_back(reply, level);
         while (history_.size() > 20000) history_.pop_front();  // 5 s at 4 kHz
       }
       std::this_thread::sleep_for(std::chrono::microseconds(250));
     }
     XCloseDisplay(d);
   });
+}
+
+double FakeCamera::MaxInjectedLatencyErrorMs() const {
+  std::lock_guard<std::mutex> lock(history_mutex_);
+  return max_sample_span_ms_;
 }
 
 int FakeCamera::LevelAt(std::chrono::steady_clock::time_point t) {

@@ -70,6 +70,12 @@ class FakeCamera {
   // pixel of the screen every 0.25 ms, and every frame is the uniform level the screen had
   // `ms` before the frame is made (through the same response as ResampleProjector). 0: off.
   void SetInjectedLatency(double ms);
+  // How late the injected latency can be on top of `ms`: a sample is stamped when its reply
+  // arrives, so a change of the screen enters the history up to one sample's span (from the
+  // request of the sample before to the reply of the one that saw the change) late. The largest
+  // such span over the changes seen so far, ms: the sampler's sleep plus two X round trips,
+  // longer when the X server is busy or the machine loaded.
+  double MaxInjectedLatencyErrorMs() const;
   // Stops the device (as if unplugged): its control and stream channels go silent.
   void Kill();
   int frames() const { return frames_; }
@@ -90,8 +96,9 @@ class FakeCamera {
   double latency_ms_ = 0;
   std::thread sampler_;
   std::atomic<bool> stop_sampler_{false};
-  std::mutex history_mutex_;
+  mutable std::mutex history_mutex_;
   std::deque<std::pair<std::chrono::steady_clock::time_point, int>> history_;
+  double max_sample_span_ms_ = 0;  // under history_mutex_
   int LevelAt(std::chrono::steady_clock::time_point t);
 };
 

@@ -4,6 +4,7 @@
 
 #include "bindings.h"
 #include "convert.h"
+#include "fringe/pipeline/reconstruct.h"
 #include "fringe/pipeline/scan.h"
 
 namespace fringe::python {
@@ -77,6 +78,51 @@ void BindPipeline(py::module_& m) {
       "Returns the summary (the JSON `fringe scan --json` prints). Options: a ScannerOptions "
       "and/or\n"
       "its fields as keyword arguments (calib=path, keep_going=True, reconstruction={...}).");
+
+  using pipeline::ReconstructFolderOptions;
+  py::class_<ReconstructFolderOptions>(m, "ReconstructFolderOptions",
+                                       "Options of fringe.reconstruct_folder (C++ defaults).")
+      .def(OptionsInit<ReconstructFolderOptions>("ReconstructFolderOptions"))
+      .def_readwrite("calib", &ReconstructFolderOptions::calib)
+      .def_readwrite("opencv", &ReconstructFolderOptions::opencv)
+      .def_readwrite("opencv_keys", &ReconstructFolderOptions::opencv_keys)
+      .def_readwrite("opencv_intrinsics", &ReconstructFolderOptions::opencv_intrinsics)
+      .def_readwrite("opencv_extrinsics", &ReconstructFolderOptions::opencv_extrinsics)
+      .def_property(
+          "mode", [](const ReconstructFolderOptions& o) { return pipeline::ToString(o.mode); },
+          [](ReconstructFolderOptions& o, const std::string& name) {
+            o.mode = pipeline::ReconstructModeFromString(name);
+          },
+          "auto, stereo, camera-projector or trinocular")
+      .def_readwrite("scheme", &ReconstructFolderOptions::scheme)
+      .def_readwrite("bit_depth", &ReconstructFolderOptions::bit_depth)
+      .def_readwrite("reconstruction", &ReconstructFolderOptions::reconstruction)
+      .def_readwrite("detect_markers", &ReconstructFolderOptions::detect_markers)
+      .def_readwrite("ascii_ply", &ReconstructFolderOptions::ascii_ply)
+      .def_readwrite("residuals", &ReconstructFolderOptions::residuals);
+
+  m.def(
+      "reconstruct_folder",
+      [](const std::filesystem::path& view, const std::filesystem::path& out,
+         const py::object& options, const py::kwargs& kw) {
+        const auto opts =
+            MakeOptions<ReconstructFolderOptions>(options, kw, "ReconstructFolderOptions");
+        pipeline::ViewFolderReconstruction r;
+        {
+          py::gil_scoped_release release;
+          r = pipeline::ReconstructViewFolder(view, out, opts);
+        }
+        nlohmann::json j = ToJson(r);
+        j["report"] = r.report;
+        return FromJson(j);
+      },
+      py::arg("view"), py::arg("out"), py::arg("options") = py::none(),
+      "Reconstructs one view folder (as `fringe reconstruct VIEW --out OUT`): left/ and right/\n"
+      "stacks (or one camera's with a calibrated projector) to the organized cloud OUT (.ply),\n"
+      "OUT.markers.json beside it, and the residual TIFF when `residuals` names one. The scheme\n"
+      "and the calibration are found as the command finds them (a scheme preset's parameters\n"
+      "are the command's flags only: give a scheme file instead). Returns the JSON\n"
+      "`fringe reconstruct --json` prints, with the text report's lines as \"report\".");
 }
 
 }  // namespace fringe::python

@@ -550,6 +550,23 @@ class ScannerOptions:
 
 def scan(project: PathLike, out: PathLike, options: Optional[ScannerOptions] = None, **fields: Any) -> Dict[str, Any]: ...
 
+class ReconstructFolderOptions:
+    calib: PathLike
+    opencv: List[PathLike]
+    opencv_keys: List[str]
+    opencv_intrinsics: PathLike
+    opencv_extrinsics: PathLike
+    mode: str  # auto, stereo, camera-projector, trinocular
+    scheme: str
+    bit_depth: int
+    reconstruction: ReconstructionOptions
+    detect_markers: bool
+    ascii_ply: bool
+    residuals: PathLike
+    def __init__(self, **fields: Any) -> None: ...
+
+def reconstruct_folder(view: PathLike, out: PathLike, options: Optional[ReconstructFolderOptions] = None, **fields: Any) -> Dict[str, Any]: ...
+
 class MarkerDetectionOptions:
     rings: DetectionOptions
     inner_to_outer_ratio: float

@@ -100,6 +100,35 @@ def test_reconstruct_equals_fringe_reconstruct(tmp_path, scan, rig, scheme, stac
     assert (tmp_path / "ours.ply").read_bytes() == out.read_bytes()
 
 
+def test_reconstruct_folder_is_fringe_reconstruct(tmp_path, scan):
+    # The library call behind the command: the same files byte for byte and the same JSON,
+    # the scheme and the bit depth found in the scan folder as the command finds them.
+    view = scan / "views" / "000"
+    cli_json = json.loads(run_cli("reconstruct", view, "--calib", scan / "truth" / "rig.json",
+                                  "--out", tmp_path / "cli.ply", "--json"))
+    result = fringe.reconstruct_folder(view, tmp_path / "py.ply",
+                                       calib=scan / "truth" / "rig.json")
+    assert (tmp_path / "py.ply").read_bytes() == (tmp_path / "cli.ply").read_bytes()
+    assert ((tmp_path / "py.markers.json").read_bytes()
+            == (tmp_path / "cli.markers.json").read_bytes())
+    for key in ("view", "mode"):
+        assert result[key] == cli_json[key]
+    assert result["mode"] == "stereo"
+    # Everything but the times (and the one-line reports, which print them).
+    def untimed(d):
+        return {k: untimed(v) if isinstance(v, dict) else v for k, v in d.items()
+                if k not in ("seconds", "report") and not k.endswith(("_s", "_ms"))}
+    assert untimed(result["summary"]) == untimed(cli_json["summary"])
+    assert result["markers"]["count"] == cli_json["markers"]["count"]
+    assert any(line.endswith("(left)") for line in result["report"])
+    # Bad input: a clear error naming the problem, nothing written.
+    with pytest.raises(fringe.Error, match="must contain left/"):
+        fringe.reconstruct_folder(tmp_path, tmp_path / "none.ply", calib=scan / "truth" / "rig.json")
+    with pytest.raises(fringe.Error, match="mode"):
+        fringe.reconstruct_folder(view, tmp_path / "none.ply", mode="sideways")
+    assert not (tmp_path / "none.ply").exists()
+
+
 def test_camera_projector_equals_fringe_reconstruct(tmp_path, scan, rig, scheme, stacks):
     # Issue 14 through the bindings: right=None is the left camera against the projector.
     out = tmp_path / "cp.ply"

@@ -15,8 +15,8 @@
 #include "fringe/registration/markers.h"
 #include "fringe/sim/poses.h"
 #include "fringe/sim/renderer.h"
+#include "fringe/testing/fringe_test.h"
 #include "fringe/testing/registration_views.h"
-#include "fringe_test.h"
 
 namespace fringe {
 namespace {

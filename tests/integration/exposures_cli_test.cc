@@ -20,8 +20,8 @@
 #include "fringe/sim/poses.h"
 #include "fringe/sim/renderer.h"
 #include "fringe/sim/scene.h"
+#include "fringe/testing/fringe_test.h"
 #include "fringe/util/files.h"
-#include "fringe_test.h"
 
 namespace fringe {
 namespace {

@@ -15,7 +15,7 @@
 #include "fringe/sim/poses.h"
 #include "fringe/sim/renderer.h"
 #include "fringe/sim/scene.h"
-#include "fringe_test.h"
+#include "fringe/testing/fringe_test.h"
 
 namespace fringe {
 namespace {

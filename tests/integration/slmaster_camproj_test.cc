@@ -31,7 +31,7 @@
 #include "fringe/sim/renderer.h"
 #include "fringe/sim/scene.h"
 #include "fringe/stereo/camera_projector.h"
-#include "fringe_test.h"
+#include "fringe/testing/fringe_test.h"
 
 namespace fringe {
 namespace {

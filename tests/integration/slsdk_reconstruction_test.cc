@@ -10,7 +10,7 @@
 #include "fringe/phase/pattern_scheme.h"
 #include "fringe/phase/stack_io.h"
 #include "fringe/stereo/reconstruct_view.h"
-#include "fringe_test.h"
+#include "fringe/testing/fringe_test.h"
 
 namespace fringe {
 namespace {

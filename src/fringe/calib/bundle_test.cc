@@ -5,8 +5,8 @@
 #include <Eigen/Dense>
 #include <random>
 
+#include "fringe/testing/fringe_test.h"
 #include "fringe/util/error.h"
-#include "fringe_test.h"
 
 namespace fringe::calib {
 namespace {

@@ -10,9 +10,9 @@
 
 #include "fringe/calib/calibrate_folder.h"
 #include "fringe/sim/board.h"
+#include "fringe/testing/fringe_test.h"
 #include "fringe/util/error.h"
 #include "fringe/util/files.h"
-#include "fringe_test.h"
 
 namespace fringe::calib {
 namespace {

@@ -9,8 +9,8 @@
 #include "fringe/sim/board.h"
 #include "fringe/sim/projector_board.h"
 #include "fringe/sim/renderer.h"
+#include "fringe/testing/fringe_test.h"
 #include "fringe/util/error.h"
-#include "fringe_test.h"
 
 namespace fringe::calib {
 namespace {

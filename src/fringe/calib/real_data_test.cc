@@ -5,7 +5,7 @@
 
 #include "fringe/calib/calibrate.h"
 #include "fringe/io/image_io.h"
-#include "fringe_test.h"
+#include "fringe/testing/fringe_test.h"
 
 namespace fringe::calib {
 namespace {

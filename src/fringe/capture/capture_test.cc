@@ -20,8 +20,8 @@
 #include "fringe/phase/scheme_presets.h"
 #include "fringe/scan/scan_folder.h"
 #include "fringe/testing/capture_rig.h"
+#include "fringe/testing/fringe_test.h"
 #include "fringe/util/files.h"
-#include "fringe_test.h"
 
 namespace fringe::capture {
 namespace {

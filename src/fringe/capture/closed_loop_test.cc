@@ -25,7 +25,7 @@
 #include "fringe/sim/projector_board.h"
 #include "fringe/sim/scan.h"
 #include "fringe/testing/capture_rig.h"
-#include "fringe_test.h"
+#include "fringe/testing/fringe_test.h"
 
 namespace fringe::capture {
 namespace {

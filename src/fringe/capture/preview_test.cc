@@ -11,8 +11,8 @@
 #include "fringe/capture/preview.h"
 #include "fringe/cli/run_cli_for_test.h"
 #include "fringe/testing/capture_rig.h"
+#include "fringe/testing/fringe_test.h"
 #include "fringe/util/error.h"
-#include "fringe_test.h"
 
 namespace fringe::capture {
 namespace {

@@ -9,9 +9,9 @@
 #include "fringe/cli/run_cli_for_test.h"
 #include "fringe/io/json.h"
 #include "fringe/sim/scan.h"
+#include "fringe/testing/fringe_test.h"
 #include "fringe/testing/report.h"
 #include "fringe/util/files.h"
-#include "fringe_test.h"
 
 namespace fringe::cli {
 namespace {

@@ -14,7 +14,7 @@
 #include "fringe/io/json.h"
 #include "fringe/io/ply.h"
 #include "fringe/sim/scan.h"
-#include "fringe_test.h"
+#include "fringe/testing/fringe_test.h"
 
 namespace fringe::cli {
 namespace {

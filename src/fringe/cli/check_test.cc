@@ -8,7 +8,7 @@
 
 #include "fringe/cli/run_cli_for_test.h"
 #include "fringe/io/json.h"
-#include "fringe_test.h"
+#include "fringe/testing/fringe_test.h"
 
 namespace fringe::cli {
 namespace {

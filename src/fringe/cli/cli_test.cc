@@ -10,7 +10,6 @@
 #include <tuple>
 #include <vector>
 
-#include "file_size_limit.h"
 #include "fringe/calib/calibrate_folder.h"
 #include "fringe/cli/run_cli_for_test.h"
 #include "fringe/io/calibration_io.h"
@@ -23,9 +22,10 @@
 #include "fringe/scan/truth.h"
 #include "fringe/sim/demo_part.h"
 #include "fringe/sim/scan.h"
+#include "fringe/testing/file_size_limit.h"
+#include "fringe/testing/fringe_test.h"
 #include "fringe/util/error.h"
 #include "fringe/util/files.h"
-#include "fringe_test.h"
 
 namespace fringe::cli {
 namespace {

@@ -9,7 +9,7 @@
 #include "fringe/io/image_io.h"
 #include "fringe/io/json.h"
 #include "fringe/phase/pattern_scheme.h"
-#include "fringe_test.h"
+#include "fringe/testing/fringe_test.h"
 
 namespace fringe::cli {
 namespace {

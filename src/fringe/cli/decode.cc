@@ -70,7 +70,7 @@ void AddDecodeCommand(CLI::App& app) {
     const auto& images = stacks.front();
     const phase::DecodeResult result = phase::DecodeExposures(scheme, stacks, a->options);
     std::cout << result.summary.BriefReport() << "\n";
-    WarnIfSchemeMismatch(result.summary, scheme.name, a->stack);
+    phase::WarnIfSchemeMismatch(result.summary, scheme.name, a->stack);
     if (result.summary.status != phase::DecodeStatus::kSuccess) {
       throw Error(util::StrCat(a->stack, ": decoding failed: ", result.summary.message,
                                " (nothing written)"));

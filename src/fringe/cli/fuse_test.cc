@@ -9,7 +9,7 @@
 #include "fringe/cli/run_cli_for_test.h"
 #include "fringe/io/calibration_io.h"
 #include "fringe/io/ply.h"
-#include "fringe_test.h"
+#include "fringe/testing/fringe_test.h"
 
 namespace fringe::cli {
 namespace {

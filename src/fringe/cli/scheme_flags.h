@@ -6,10 +6,8 @@
 
 #include <string>
 
-#include "fringe/phase/decode.h"
 #include "fringe/phase/scheme_presets.h"
 #include "fringe/util/error.h"
-#include "fringe/util/log.h"
 
 namespace fringe::cli {
 
@@ -42,23 +40,6 @@ inline void AddSchemeFlags(CLI::App* sub, phase::SchemeParameters* p) {
                   "Image file names: a pattern with one integer (%d.png, img_%02d.bmp) or a "
                   "comma-separated list in stack order; with another tool's preset the integer "
                   "numbers that tool's frames (pattern_cam2_im%d.png)");
-}
-
-// Many repaired or rejected fringe orders mean the scheme does not describe the capture (a
-// wrong phase offset or Gray convention shifts every order decision): say so, naming the scheme.
-inline void WarnIfSchemeMismatch(const phase::DecodeSummary& s, const std::string& scheme,
-                                 const std::string& what) {
-  const double jumps = static_cast<double>(s.orders_repaired + s.rejected_spatial);
-  const double base = static_cast<double>(s.valid + s.rejected_spatial);
-  if (base > 0 && jumps > 0.01 * base) {
-    util::LogWarning(util::StrCat(
-        what, ": ", 100.0 * jumps / base,
-        " % of the valid pixels needed a fringe-order repair or failed the order check; the "
-        "phase offset or Gray-code convention of the scheme '",
-        scheme,
-        "' probably does not match the capture (docs/formats.md, \"Captures written by "
-        "other tools\")"));
-  }
 }
 
 }  // namespace fringe::cli

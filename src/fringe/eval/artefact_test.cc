@@ -4,7 +4,7 @@
 
 #include <fstream>
 
-#include "fringe_test.h"
+#include "fringe/testing/fringe_test.h"
 
 namespace fringe::eval {
 namespace {

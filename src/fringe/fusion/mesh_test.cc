@@ -12,9 +12,9 @@
 #include "fringe/io/mesh_io.h"
 #include "fringe/sim/poses.h"
 #include "fringe/sim/scene.h"
+#include "fringe/testing/fringe_test.h"
 #include "fringe/testing/fusion_views.h"
 #include "fringe/util/error.h"
-#include "fringe_test.h"
 
 namespace fringe::fusion {
 namespace {

@@ -10,9 +10,9 @@
 #include "fringe/sim/poses.h"
 #include "fringe/sim/renderer.h"
 #include "fringe/sim/scene.h"
+#include "fringe/testing/fringe_test.h"
 #include "fringe/testing/fusion_views.h"
 #include "fringe/util/error.h"
-#include "fringe_test.h"
 
 namespace fringe::fusion {
 namespace {

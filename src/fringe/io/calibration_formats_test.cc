@@ -7,8 +7,8 @@
 #include <opencv2/calib3d.hpp>
 #include <string>
 
+#include "fringe/testing/fringe_test.h"
 #include "fringe/util/error.h"
-#include "fringe_test.h"
 
 namespace fringe::io {
 namespace {

@@ -5,9 +5,9 @@
 #include <fstream>
 #include <opencv2/imgcodecs.hpp>
 
-#include "file_size_limit.h"
+#include "fringe/testing/file_size_limit.h"
+#include "fringe/testing/fringe_test.h"
 #include "fringe/util/error.h"
-#include "fringe_test.h"
 
 namespace fringe::io {
 namespace {

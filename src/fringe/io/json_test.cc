@@ -5,7 +5,7 @@
 #include <fstream>
 #include <string>
 
-#include "fringe_test.h"
+#include "fringe/testing/fringe_test.h"
 
 namespace fringe::io {
 namespace {

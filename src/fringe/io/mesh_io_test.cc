@@ -6,9 +6,9 @@
 #include <fstream>
 
 #include "fringe/io/ply.h"
+#include "fringe/testing/fringe_test.h"
 #include "fringe/util/error.h"
 #include "fringe/util/files.h"
-#include "fringe_test.h"
 
 namespace fringe::io {
 namespace {

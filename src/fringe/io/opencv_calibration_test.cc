@@ -5,8 +5,8 @@
 #include <fstream>
 #include <string>
 
+#include "fringe/testing/fringe_test.h"
 #include "fringe/util/error.h"
-#include "fringe_test.h"
 
 namespace fringe::io {
 namespace {

@@ -7,10 +7,10 @@
 #include <cstring>
 #include <fstream>
 
+#include "fringe/testing/fringe_test.h"
 #include "fringe/util/error.h"
 #include "fringe/util/files.h"
 #include "fringe/util/random.h"
-#include "fringe_test.h"
 
 namespace fringe::io {
 namespace {

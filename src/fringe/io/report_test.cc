@@ -8,9 +8,9 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "fringe/testing/fringe_test.h"
 #include "fringe/testing/report.h"
 #include "fringe/util/files.h"
-#include "fringe_test.h"
 
 namespace fringe::io {
 namespace {

@@ -15,6 +15,7 @@
 #include "fringe/phase/gamma.h"
 #include "fringe/phase/spatial_decode.h"
 #include "fringe/util/error.h"
+#include "fringe/util/log.h"
 #include "fringe/util/timer.h"
 
 namespace fringe::phase {
@@ -704,6 +705,21 @@ std::string DecodeSummary::BriefReport() const {
                 ToString(noise.source), "), shadow ", rejected_shadow, ", ambiguous order ",
                 rejected_order_ambiguous, ", spatial ", rejected_spatial, "; orders repaired ",
                 orders_repaired, "; ", time_ms, " ms", message.empty() ? "" : "; ", message);
+}
+
+void WarnIfSchemeMismatch(const DecodeSummary& s, const std::string& scheme,
+                          const std::string& what) {
+  const double jumps = static_cast<double>(s.orders_repaired + s.rejected_spatial);
+  const double base = static_cast<double>(s.valid + s.rejected_spatial);
+  if (base > 0 && jumps > 0.01 * base) {
+    util::LogWarning(util::StrCat(
+        what, ": ", 100.0 * jumps / base,
+        " % of the valid pixels needed a fringe-order repair or failed the order check; the "
+        "phase offset or Gray-code convention of the scheme '",
+        scheme,
+        "' probably does not match the capture (docs/formats.md, \"Captures written by "
+        "other tools\")"));
+  }
 }
 
 nlohmann::json ToJson(const DecodeSummary& s) {

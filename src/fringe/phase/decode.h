@@ -205,6 +205,12 @@ struct DecodeSummary {
 // the decode part of stereo::ToJson, the Python summary dict.
 nlohmann::json ToJson(const DecodeSummary& summary);
 
+// Many repaired or rejected fringe orders mean the scheme does not describe the capture (a
+// wrong phase offset or Gray convention shifts every order decision): logs a warning naming
+// `what` (the images) and the scheme when more than 1 % of the valid pixels needed either.
+void WarnIfSchemeMismatch(const DecodeSummary& s, const std::string& scheme,
+                          const std::string& what);
+
 struct DecodeResult {
   cv::Mat absolute_phase;  // CV_32F, projector pixels along the fringe direction; NaN if invalid
   cv::Mat wrapped_phase;   // CV_32F, radians in [-pi, pi]: atan2 of set 0 (includes its offset)

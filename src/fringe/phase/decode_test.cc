@@ -10,8 +10,8 @@
 #include "fringe/io/image_io.h"
 #include "fringe/phase/gamma.h"
 #include "fringe/phase/synthetic.h"
+#include "fringe/testing/fringe_test.h"
 #include "fringe/util/error.h"
-#include "fringe_test.h"
 
 namespace fringe::phase {
 namespace {

@@ -4,8 +4,8 @@
 
 #include <cmath>
 
+#include "fringe/testing/fringe_test.h"
 #include "fringe/util/error.h"
-#include "fringe_test.h"
 
 namespace fringe::phase {
 namespace {

@@ -11,9 +11,9 @@
 #include <vector>
 
 #include "fringe/phase/scheme_presets.h"
+#include "fringe/testing/fringe_test.h"
 #include "fringe/testing/tool_codecs.h"
 #include "fringe/util/error.h"
-#include "fringe_test.h"
 
 namespace fringe::phase {
 namespace {

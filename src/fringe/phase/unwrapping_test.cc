@@ -7,8 +7,8 @@
 
 #include "fringe/phase/decode.h"
 #include "fringe/phase/synthetic.h"
+#include "fringe/testing/fringe_test.h"
 #include "fringe/util/error.h"
-#include "fringe_test.h"
 
 namespace fringe::phase {
 namespace {

@@ -7,7 +7,7 @@
 
 #include "fringe/io/calibration_formats.h"
 #include "fringe/io/calibration_io.h"
-#include "fringe_test.h"
+#include "fringe/testing/fringe_test.h"
 
 namespace fringe::pipeline {
 namespace {

@@ -10,9 +10,9 @@
 #include <cmath>
 
 #include "fringe/io/json.h"
+#include "fringe/testing/fringe_test.h"
 #include "fringe/util/error.h"
 #include "fringe/util/files.h"
-#include "fringe_test.h"
 
 namespace fringe::pipeline {
 namespace {

@@ -9,8 +9,8 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "fringe/sim/scene.h"
+#include "fringe/testing/fringe_test.h"
 #include "fringe/util/error.h"
-#include "fringe_test.h"
 
 namespace fringe::pipeline {
 namespace {

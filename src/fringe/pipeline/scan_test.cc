@@ -21,7 +21,6 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "file_size_limit.h"
 #include "fringe/eval/deviation.h"
 #include "fringe/geometry/point_index.h"
 #include "fringe/io/calibration_io.h"
@@ -32,10 +31,11 @@
 #include "fringe/scan/scan_folder.h"
 #include "fringe/scan/truth.h"
 #include "fringe/sim/scan.h"
+#include "fringe/testing/file_size_limit.h"
+#include "fringe/testing/fringe_test.h"
 #include "fringe/testing/report.h"
 #include "fringe/util/error.h"
 #include "fringe/util/files.h"
-#include "fringe_test.h"
 
 namespace fringe::pipeline {
 namespace {

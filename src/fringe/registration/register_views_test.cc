@@ -9,8 +9,8 @@
 
 #include "fringe/io/ply.h"
 #include "fringe/registration/registration_io.h"
+#include "fringe/testing/fringe_test.h"
 #include "fringe/testing/registration_views.h"
-#include "fringe_test.h"
 
 namespace fringe::registration {
 namespace {

@@ -9,8 +9,8 @@
 #include "fringe/phase/pattern_scheme.h"
 #include "fringe/phase/stack_io.h"
 #include "fringe/scan/describe.h"
+#include "fringe/testing/fringe_test.h"
 #include "fringe/util/error.h"
-#include "fringe_test.h"
 
 namespace fringe::scan {
 namespace {

@@ -6,8 +6,8 @@
 #include <cmath>
 
 #include "fringe/io/calibration_io.h"
+#include "fringe/testing/fringe_test.h"
 #include "fringe/util/error.h"
-#include "fringe_test.h"
 
 namespace fringe::scan {
 namespace {

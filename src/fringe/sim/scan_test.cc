@@ -5,12 +5,12 @@
 
 #include <cmath>
 
-#include "file_size_limit.h"
 #include "fringe/io/calibration_io.h"
 #include "fringe/io/image_io.h"
 #include "fringe/scan/scan_folder.h"
+#include "fringe/testing/file_size_limit.h"
+#include "fringe/testing/fringe_test.h"
 #include "fringe/util/error.h"
-#include "fringe_test.h"
 
 namespace fringe::sim {
 namespace {

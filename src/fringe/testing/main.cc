@@ -29,7 +29,7 @@ int main(int argc, char** argv) {
 
 #include <atomic>
 
-#include "fringe_test.h"
+#include "fringe/testing/fringe_test.h"
 
 namespace fringe::test {
 

@@ -4,9 +4,9 @@
 
 #include <fstream>
 
-#include "file_size_limit.h"
+#include "fringe/testing/file_size_limit.h"
+#include "fringe/testing/fringe_test.h"
 #include "fringe/util/error.h"
-#include "fringe_test.h"
 
 namespace fringe::util {
 namespace {

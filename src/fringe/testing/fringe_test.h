@@ -1,4 +1,5 @@
-// Helpers for tests.
+// Helpers for the GoogleTest tests (TempDir is defined in fringe_test_main, main.cc): include it
+// from tests only; it needs gtest, which fringe_testing itself does not link.
 #pragma once
 
 #include <gtest/gtest.h>

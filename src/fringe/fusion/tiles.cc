@@ -136,6 +136,25 @@ TiledView DescribeTiledView(const std::string& name, const OrganizedPointCloud& 
   for (size_t i = 0; i < grid.valid.size(); ++i) {
     if (grid.valid[i]) v.box_in_world.extend(world_from_sensor * grid.cloud.points[i]);
   }
+  v.spacing_mm = GridSpacingMm(grid);
+  return v;
+}
+
+TiledView DescribeTiledView(const std::string& name, int width, int height, double spacing_mm,
+                            const PointCloud& valid_points, const Rigid3d& world_from_sensor,
+                            std::function<OrganizedPointCloud()> load) {
+  TiledView v;
+  v.name = name;
+  v.world_from_sensor = world_from_sensor;
+  v.width = width;
+  v.height = height;
+  v.load = std::move(load);
+  for (const Eigen::Vector3d& p : valid_points.points) v.box_in_world.extend(world_from_sensor * p);
+  v.spacing_mm = spacing_mm;
+  return v;
+}
+
+double GridSpacingMm(const OrganizedPointCloud& grid) {
   // Every 8th row is plenty for a median (a grid has hundreds of rows).
   std::vector<double> d;
   for (int r = 0; r < grid.height; r += 8) {
@@ -145,11 +164,9 @@ TiledView DescribeTiledView(const std::string& name, const OrganizedPointCloud& 
         d.push_back((grid.cloud.points[i + 1] - grid.cloud.points[i]).norm());
     }
   }
-  if (!d.empty()) {
-    std::nth_element(d.begin(), d.begin() + static_cast<ptrdiff_t>(d.size() / 2), d.end());
-    v.spacing_mm = d[d.size() / 2];
-  }
-  return v;
+  if (d.empty()) return 0;
+  std::nth_element(d.begin(), d.begin() + static_cast<ptrdiff_t>(d.size() / 2), d.end());
+  return d[d.size() / 2];
 }
 
 double TileMarginMm(const std::vector<TiledView>& views, const FusionOptions& options,

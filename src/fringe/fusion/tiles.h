@@ -68,11 +68,19 @@ struct TiledView {
   std::function<OrganizedPointCloud()> load;  // the grid (sensor frame); may throw
 };
 
-// Box and spacing of `grid` placed by world_from_sensor (spacing: median distance between
-// horizontally adjacent valid slots, over a sample of rows; 0 without such a pair).
+// Box and spacing of `grid` placed by world_from_sensor (spacing: GridSpacingMm).
 TiledView DescribeTiledView(const std::string& name, const OrganizedPointCloud& grid,
                             const Rigid3d& world_from_sensor,
                             std::function<OrganizedPointCloud()> load);
+// The same for a grid no longer held (the scanner drops the grids before registration when it
+// will fuse in tiles): its size and GridSpacingMm, and its valid points (any order; e.g.
+// grid.Compact()), which give the same box.
+TiledView DescribeTiledView(const std::string& name, int width, int height, double spacing_mm,
+                            const PointCloud& valid_points, const Rigid3d& world_from_sensor,
+                            std::function<OrganizedPointCloud()> load);
+// Median distance between horizontally adjacent valid slots, over a sample of rows; 0 without
+// such a pair.
+double GridSpacingMm(const OrganizedPointCloud& grid);
 
 // The margin FuseTiled uses (TileOptions::margin_mm, or the automatic one), mm.
 double TileMarginMm(const std::vector<TiledView>& views, const FusionOptions& options,

@@ -9,8 +9,9 @@
 //     that part grows with the views and is what the budget of the later stages starts from (it
 //     is measured, the process' resident memory after registration);
 //   - fusion either fuses every view at once (FusionBytes of all points) or, when that does not
-//     fit, drops the views' grids and fuses spatial tiles streamed from OUT/views/ (fusion/
-//     tiles.h), the tile size chosen so that one tile's pieces fit (ChooseTileSize);
+//     fit beside the compact copies, fuses spatial tiles streamed from OUT/views/ (fusion/
+//     tiles.h), the tile size chosen so that one tile's pieces fit (ChooseTileSize); which one is
+//     decided before registration, so that a tiled scan drops the views' grids before it;
 //   - meshing runs once on the fused cloud, whose size is that of the part's surface (at the
 //     points' spacing), not of the number of views.
 #pragma once

@@ -204,6 +204,23 @@ stereo::ViewStacks ReadOneCameraStacks(const scan::ScanFolder& folder, const std
 }
 
 // OUT/views/NNN.ply of a view that worked; a failure fails the view in stage "write".
+// The valid points of `grid` and their normals, in grid order (as Compact(), without the
+// attributes): all that registration, the report's residuals and the truth comparison read of a
+// view, held for every view at once.
+PointCloud CompactGeometry(const OrganizedPointCloud& grid) {
+  PointCloud out;
+  const size_t n = grid.NumValid();
+  const bool normals = grid.cloud.has_normals();
+  out.points.reserve(n);
+  if (normals) out.normals.reserve(n);
+  for (size_t i = 0; i < grid.valid.size(); ++i) {
+    if (!grid.valid[i]) continue;
+    out.points.push_back(grid.cloud.points[i]);
+    if (normals) out.normals.push_back(grid.cloud.normals[i]);
+  }
+  return out;
+}
+
 void WriteViewCloud(const fs::path& out_dir, ViewResult* v) {
   ScanViewSummary& s = v->summary;
   if (!s.ok) return;
@@ -897,17 +914,41 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
       m.grid_valid.push_back(results[i].cloud.valid);
       m.grid_size.emplace_back(results[i].cloud.width, results[i].cloud.height);
     }
+    // Fusion at once, or in tiles streamed from OUT/views/ when the views' grids and fusion's
+    // working memory would not fit in the limit beside the compact copies registration holds
+    // (decided before registration, so that the grids need not be held through it when tiled).
+    constexpr double kGiB = 1024.0 * 1024.0 * 1024.0;
+    int64_t ok_points = 0;
+    double compact_bytes = 0;
+    for (int i : m.view_of) {
+      const OrganizedPointCloud& g = results[static_cast<size_t>(i)].cloud;
+      const double n = static_cast<double>(g.NumValid());
+      ok_points += static_cast<int64_t>(n);
+      // What CompactGeometry copies per point, and the grid's slot.
+      compact_bytes +=
+          n * double(sizeof(uint32_t) + sizeof(Eigen::Vector3d) * (1 + g.cloud.has_normals()));
+    }
+    const double whole_gib = util::CurrentMemoryGiB() +
+                             (compact_bytes + kFusionBytesPerPoint * double(ok_points)) / kGiB;
+    const bool tiled = options.fusion_tile_mm > 0 || whole_gib > s.memory_limit_gib;
     // The views' compact clouds and grids (a copy of the cloud and a projection fit per view,
-    // counted in register_s), one view per task: they are independent.
+    // counted in register_s), one view per task: they are independent. Tiled, each view's grid is
+    // dropped once copied (it is on disk, OUT/views/; fusion and registered/ read it from there).
     m.inputs.resize(m.view_of.size());
+    std::vector<double> grid_spacing_mm(m.view_of.size(), 0.0);
     tbb::parallel_for(size_t{0}, m.inputs.size(), [&](size_t k) {
-      const ViewResult& v = results[static_cast<size_t>(m.view_of[k])];
+      ViewResult& v = results[static_cast<size_t>(m.view_of[k])];
       registration::RegistrationView& rv = m.inputs[k];
       rv.name = names[static_cast<size_t>(m.view_of[k])];
-      rv.cloud = v.cloud.Compact();
+      rv.cloud = CompactGeometry(v.cloud);
       rv.grid = registration::IndexViewGrid(v.cloud);  // projective ICP association
       rv.markers = v.markers;
+      if (!tiled) return;
+      grid_spacing_mm[k] = fusion::GridSpacingMm(v.cloud);
+      v.cloud = OrganizedPointCloud();
+      v.phase_left.release();
     });
+    if (tiled) util::ReleaseFreeMemory();
     m.registration = registration::RegisterViews(m.inputs, options.registration);
     const registration::RegistrationSummary& rs = m.registration.summary;
     s.registration_status = registration::ToString(rs.status);
@@ -944,12 +985,6 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
       placed.push_back(k);
       placed_points += static_cast<int64_t>(m.inputs[k].cloud.size());
     }
-    // Fusion at once, or in tiles streamed from OUT/views/ when the views' grids and fusion's
-    // working memory would not fit in the limit beside what registration holds.
-    constexpr double kGiB = 1024.0 * 1024.0 * 1024.0;
-    const double whole_gib =
-        util::CurrentMemoryGiB() + kFusionBytesPerPoint * double(placed_points) / kGiB;
-    const bool tiled = options.fusion_tile_mm > 0 || whole_gib > s.memory_limit_gib;
     std::vector<fusion::FusionView> fusion_views;
     std::vector<fusion::TiledView> tiled_views;
     std::vector<Eigen::Vector3d> samples;  // every kSampleStride-th point, world frame
@@ -962,14 +997,12 @@ ScanSummary RunScan(const fs::path& project, const fs::path& out, const ScanOpti
         continue;
       }
       const fs::path file = result.ViewCloud(r.name);
-      tiled_views.push_back(fusion::DescribeTiledView(
-          r.name, v.cloud, r.world_from_sensor, [file] { return io::ReadOrganizedPly(file); }));
       const PointCloud& compact = m.inputs[k].cloud;
+      tiled_views.push_back(fusion::DescribeTiledView(
+          r.name, m.grid_size[k].width, m.grid_size[k].height, grid_spacing_mm[k], compact,
+          r.world_from_sensor, [file] { return io::ReadOrganizedPly(file); }));
       for (size_t i = 0; i < compact.size(); i += kSampleStride)
         samples.push_back(r.world_from_sensor * compact.points[i]);
-      // The grid is on disk (OUT/views/): fusion and registered/ read it from there.
-      v.cloud = OrganizedPointCloud();
-      v.phase_left.release();
     }
     WriteOutput("register", out, [&] {
       registration::WritePoses(result.Poses(), placed_names, placed_poses);

@@ -4,12 +4,14 @@
 #include <tbb/parallel_for.h>
 
 #include <Eigen/Dense>
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <memory>
 #include <numeric>
 #include <random>
+#include <unordered_map>
 
 #include "fringe/geometry/point_index.h"
 #include "fringe/util/error.h"
@@ -47,6 +49,7 @@ void IcpOptions::Check() const {
                     "must be >= 0");
   util::CheckOption(max_grid_fit_error_px > 0, o, "max_grid_fit_error_px", max_grid_fit_error_px,
                     "must be > 0");
+  util::CheckOption(max_partners >= 0, o, "max_partners", max_partners, "must be >= 0");
 }
 
 ViewGrid IndexViewGrid(const OrganizedPointCloud& grid_in_sensor) {
@@ -73,15 +76,17 @@ const char* ToString(IcpStatus s) {
 }
 
 std::string IcpSummary::BriefReport() const {
-  std::string s = StrCat("icp: ", ToString(status), " in ", seconds, " s");
+  std::string s = StrCat("icp: ", ToString(status), " in ", seconds, " s, ", associated_pairs,
+                         " of ", touching_pairs, " touching view pairs associated");
   for (const IcpLevelReport& l : levels) {
     s += StrCat("; level ", l.level, " (", l.points_per_view, " pts/view): ", l.iterations, " it",
                 l.converged ? "" : " (not converged)", ", threshold ", l.threshold_start_mm, " -> ",
                 l.threshold_end_mm, " mm, rms ", l.rms_start_mm, " -> ", l.rms_end_mm, " mm, ",
-                l.correspondences, " pairs of points over ", l.overlapping_pairs, " view pairs (",
-                l.projective_pairs, " projective), ", l.degenerate_directions,
-                " degenerate directions, last step ", l.last_step_rotation_deg, " deg / ",
-                l.last_step_translation_mm, " mm (", l.last_step_sigmas, " sigma)");
+                l.correspondences, " pairs of points over ", l.overlapping_pairs, " of ",
+                l.searched_pairs, " view pairs searched (", l.projective_pairs, " projective), ",
+                l.degenerate_directions, " degenerate directions, last step ",
+                l.last_step_rotation_deg, " deg / ", l.last_step_translation_mm, " mm (",
+                l.last_step_sigmas, " sigma)");
   }
   if (!message.empty()) s += ": " + message;
   return s;
@@ -227,8 +232,6 @@ std::vector<uint32_t> NormalSpaceOrder(const std::vector<Vector3d>& normals, uin
   }
   return order;
 }
-
-namespace {}  // namespace
 
 namespace {
 
@@ -376,21 +379,122 @@ void PrepareView(const IcpView& view, int i, const IcpOptions& options, bool pro
   }
 }
 
+// The views each view is associated with (IcpOptions::max_partners), ascending: each view's
+// usable points binned into world voxels at its starting pose; view u touches view v in every
+// voxel of v with one of u's within one voxel. The voxel is at least twice the first threshold
+// (a correspondence needs its points within the search radius, and the poses move by about the
+// first threshold at most) and a 64th of the views' median extent (a few thousand voxels per
+// view whatever the point count). The touches are counted per voxel over the views sharing its
+// neighbourhood, not by testing all pairs; the N x N table of counts is ~4 MB at 1000 views.
+std::vector<std::vector<int>> AssociatedPartners(const std::vector<PreparedView>& prep,
+                                                 const std::vector<Rigid3d>& pose,
+                                                 const IcpOptions& options, IcpSummary* summary) {
+  const int nv = static_cast<int>(prep.size());
+  if (nv == 2) {  // pairwise ICP: the one pair, no occupancy needed
+    summary->touching_pairs = summary->associated_pairs = 1;
+    return {{1}, {0}};
+  }
+  std::vector<double> extent(nv, 0.0);
+  for (int v = 0; v < nv; ++v) {
+    Eigen::AlignedBox3d box;
+    for (size_t k = 0; k < prep[v].data.n; ++k) box.extend(prep[v].data.pts[k]);
+    extent[v] = box.isEmpty() ? 0.0 : box.diagonal().norm();
+  }
+  std::vector<double> sorted = extent;
+  std::nth_element(sorted.begin(), sorted.begin() + nv / 2, sorted.end());
+  const double voxel = std::max(2 * options.initial_threshold_mm, sorted[nv / 2] / 64);
+  // 21 bits per axis: +-1e6 voxels, far beyond any scene at this voxel size.
+  const auto key = [](int64_t x, int64_t y, int64_t z) {
+    constexpr int64_t kOff = int64_t{1} << 20, kMask = (int64_t{1} << 21) - 1;
+    return ((x + kOff) & kMask) << 42 | ((y + kOff) & kMask) << 21 | ((z + kOff) & kMask);
+  };
+  std::vector<std::vector<Eigen::Vector3i>> cells(nv);
+  tbb::parallel_for(0, nv, [&](int v) {
+    const Matrix3d r = pose[v].rotation_matrix();
+    const Vector3d t = pose[v].translation();
+    std::vector<Eigen::Vector3i> c(prep[v].data.n);
+    for (size_t k = 0; k < prep[v].data.n; ++k) {
+      c[k] = ((r * prep[v].data.pts[k] + t) / voxel).array().floor().cast<int>();
+    }
+    const auto less = [](const Eigen::Vector3i& a, const Eigen::Vector3i& b) {
+      return std::lexicographical_compare(a.data(), a.data() + 3, b.data(), b.data() + 3);
+    };
+    std::sort(c.begin(), c.end(), less);
+    c.erase(std::unique(c.begin(), c.end()), c.end());
+    cells[v] = std::move(c);
+  });
+  std::unordered_map<int64_t, std::vector<int>> views_in;
+  for (int v = 0; v < nv; ++v) {
+    for (const Eigen::Vector3i& c : cells[v]) views_in[key(c.x(), c.y(), c.z())].push_back(v);
+  }
+  // touches[v][u]: voxels of v with one of u's within one voxel.
+  std::vector<std::vector<int>> touches(nv, std::vector<int>(nv, 0));
+  tbb::parallel_for(0, nv, [&](int v) {
+    std::vector<size_t> stamp(nv, 0);
+    size_t cell_no = 0;
+    for (const Eigen::Vector3i& c : cells[v]) {
+      ++cell_no;
+      for (int dx = -1; dx <= 1; ++dx) {
+        for (int dy = -1; dy <= 1; ++dy) {
+          for (int dz = -1; dz <= 1; ++dz) {
+            const auto it = views_in.find(key(c.x() + dx, c.y() + dy, c.z() + dz));
+            if (it == views_in.end()) continue;
+            for (int u : it->second) {
+              if (u == v || stamp[u] == cell_no) continue;
+              stamp[u] = cell_no;
+              ++touches[v][u];
+            }
+          }
+        }
+      }
+    }
+  });
+  std::vector<std::vector<uint8_t>> keep(nv, std::vector<uint8_t>(nv, 0));
+  for (int v = 0; v < nv; ++v) {
+    std::vector<int> by_touch;
+    for (int u = 0; u < nv; ++u) {
+      if (touches[v][u] > 0) by_touch.push_back(u);
+    }
+    // The most touching first, the lower index among equals (deterministic).
+    std::stable_sort(by_touch.begin(), by_touch.end(),
+                     [&](int a, int b) { return touches[v][a] > touches[v][b]; });
+    if (options.max_partners > 0 && static_cast<int>(by_touch.size()) > options.max_partners) {
+      by_touch.resize(options.max_partners);
+    }
+    for (int u : by_touch) keep[v][u] = keep[u][v] = 1;
+  }
+  std::vector<std::vector<int>> partners(nv);
+  summary->touching_pairs = summary->associated_pairs = 0;
+  for (int v = 0; v < nv; ++v) {
+    for (int u = 0; u < nv; ++u) {
+      if (keep[v][u]) partners[v].push_back(u);
+      if (u > v) {
+        summary->touching_pairs += touches[v][u] > 0 || touches[u][v] > 0;
+        summary->associated_pairs += keep[v][u];
+      }
+    }
+  }
+  return partners;
+}
+
 // One multi-view ICP problem (RefineMultiView): the prepared views, their unknown blocks (-1:
 // fixed), the poses it moves, and the buffers every iteration reuses (a fresh vector per pair
 // and iteration was page faults).
 struct MultiViewIcp {
   MultiViewIcp(const IcpOptions& o, const std::vector<PreparedView>& views,
-               const std::vector<int>& blocks, int free_views, std::vector<Rigid3d>* poses,
+               const std::vector<std::vector<int>>& partner_lists, const std::vector<int>& blocks,
+               int free_views, std::vector<Rigid3d>* poses,
                std::vector<std::vector<double>>* overlap)
       : options(o),
         prep(views),
+        partners(partner_lists),
         block(blocks),
         nfree(free_views),
         pose(*poses),
         overlap_out(overlap) {}
   const IcpOptions& options;
   const std::vector<PreparedView>& prep;
+  const std::vector<std::vector<int>>& partners;  // per view, ascending (AssociatedPartners)
   const std::vector<int>& block;
   int nfree = 0;
   std::vector<Rigid3d>& pose;
@@ -411,25 +515,27 @@ struct MultiViewIcp {
   int samples_points = -1;
 
   // One iteration at the schedule's sample count and threshold: associate every view's samples
-  // with every other view, one simultaneous step of all free views.
+  // with its partners, one simultaneous step of all free views.
   IcpIteration Iterate(int points, double threshold, IcpLevelReport* rep) {
     IcpIteration out;
     kept.clear();
     pairs.clear();
-    int projective_pairs = 0;
+    int projective_pairs = 0, searched_pairs = 0;
     std::vector<std::vector<double>> overlap(nv, std::vector<double>(nv, 0.0));
     const bool projective_level = rep->level >= options.projective_from_level;
     GatherSamples(points);
     for (int v = 0; v < nv; ++v) {
-      for (int u = 0; u < nv; ++u) {
-        if (u == v || (block[v] < 0 && block[u] < 0)) continue;
+      for (int u : partners[v]) {
+        if (block[v] < 0 && block[u] < 0) continue;
         if (block[v] < 0 && !options.sample_fixed_views) continue;
+        ++searched_pairs;
         bool projective = false;
         if (AssociatePair(v, u, threshold, projective_level, &overlap, &projective)) {
           projective_pairs += projective;
         }
       }
     }
+    rep->searched_pairs = searched_pairs;
     if (kept.empty()) return out;
     out.overlap = true;
     double ss = 0;
@@ -696,7 +802,10 @@ IcpResult RefineMultiView(const std::vector<IcpView>& views, const IcpOptions& o
     if (views[i].fixed || (!any_fixed && i == 0)) continue;
     block[i] = nfree++;
   }
-  MultiViewIcp problem(options, prep, block, nfree, &result.world_from_sensor, &result.overlap);
+  const std::vector<std::vector<int>> partners =
+      AssociatedPartners(prep, result.world_from_sensor, options, &result.summary);
+  MultiViewIcp problem(options, prep, partners, block, nfree, &result.world_from_sensor,
+                       &result.overlap);
   const auto iterate = [&](int points, double threshold, IcpLevelReport* rep) {
     return problem.Iterate(points, threshold, rep);
   };

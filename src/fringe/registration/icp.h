@@ -20,6 +20,14 @@
 // them) and the convergence test are icp_schedule.h's, the one schedule every ICP of the
 // project runs (AlignToMesh too).
 //
+// View pairs: only views whose coarse occupancy (voxels of a few thresholds, at the starting
+// poses) touches are associated at all, and each view with at most max_partners of them, those
+// its occupancy touches most (the pair kept when either view chooses the other). A pair of
+// views that do not overlap has no correspondence to find, and a view already held by its
+// max_partners largest overlaps gains little from the smaller ones: without the bound the work of
+// an iteration grows with the square of the views (a ring of views around a part all see its
+// plate) instead of with the views.
+//
 // Association: a sample is matched with the target view's point nearest to it, either exactly
 // through a k-d tree over the target (geometry/point_index.h; any cloud), or projectively on the
 // target's organized grid (a view that carries its grid, IcpView::grid): the sample is projected
@@ -100,6 +108,9 @@ struct IcpOptions : IcpSchedule {
   // A grid whose projection fits its own points worse than this (px) is searched with the
   // k-d tree instead (a window that misses the sample's own slot finds a wrong neighbour), > 0.
   double max_grid_fit_error_px = 0.5;
+  // The most views each view is associated with (see View pairs above), >= 0 (0: every view
+  // whose occupancy touches).
+  int max_partners = 8;
   void Check() const;
 };
 
@@ -128,6 +139,9 @@ const char* ToString(IcpStatus s);
 struct IcpSummary {
   IcpStatus status = IcpStatus::kNoOverlap;
   std::string message;
+  // Unordered view pairs whose occupancy touches at the starting poses, and of those the pairs
+  // associated (at most max_partners per view).
+  int touching_pairs = 0, associated_pairs = 0;
   std::vector<IcpLevelReport> levels;
   double seconds = 0;
   bool ok() const { return status == IcpStatus::kOk; }

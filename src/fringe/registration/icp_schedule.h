@@ -67,6 +67,7 @@ struct IcpLevelReport {
   bool converged = false;
   double rms_start_mm = 0, rms_end_mm = 0;  // point-to-plane RMS over kept correspondences
   int correspondences = 0;                  // at the last iteration
+  int searched_pairs = 0;                   // ordered view pairs searched (last iteration)
   int overlapping_pairs = 0;                // ordered view pairs used at the last iteration
   int degenerate_directions = 0;            // unconstrained directions left unmoved (last it)
   int projective_pairs = 0;                 // view pairs associated projectively (last it)

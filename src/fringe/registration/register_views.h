@@ -20,7 +20,9 @@
 //     cannot be placed is reported as unplaced with every pair's reason, never dropped.
 //  4. Global marker adjustment of the map and the marker-placed poses (adjustment.h, Ceres).
 //  5. Multi-level simultaneous multi-view ICP (icp.h) over all placed views, the world view
-//     fixed; its first threshold follows the marker alignment error (or the coarse alignment's).
+//     fixed, each view associated with the few views it overlaps most (IcpOptions::
+//     max_partners); its first threshold follows the marker alignment error (or the coarse
+//     alignment's).
 //
 // Frames: each view's cloud and markers in its sensor frame (left camera), results as
 // world_from_sensor; world = the first good view's sensor frame. Millimetres.

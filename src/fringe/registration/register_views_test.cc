@@ -469,6 +469,96 @@ TEST(RegisterViews, MarkerFreeRefusesAFeaturelessPlate) {
   EXPECT_NE(r.views[1].message.find("cannot place"), std::string::npos) << r.views[1].message;
 }
 
+// The refinement associates only views that overlap: a chain of views along a strip (each
+// overlapping its two neighbours only), started 0.2 mm and 0.02 deg off, searches each view's
+// samples in its neighbours only, 2 (N - 1) - 1 ordered pairs per iteration (the fixed world
+// view's samples are not used) instead of (N - 1)^2, and aligns them to each other (residual
+// RMS at the noise of two views; a chain drifts along its length, the non-neighbours having
+// nothing to hold it). With every view overlapping all the others, each is associated with at
+// most max_partners of them, and the poses come back to the truth.
+constexpr int kChainViews = 10;
+constexpr double kStackRotTolDeg = 0.01;
+constexpr double kStackCentroidTolMm = 0.02;
+TEST(RegisterViews, RefinementAssociatesOnlyOverlappingViews) {
+  // One strip for every view (each sees its window of it): a plate with a turned box per 20 mm,
+  // walls in every direction within each window (large enough for smooth-normal samples on
+  // them, marker_free_icp's sample_max_normal_spread_deg).
+  PointCloud strip;
+  const double strip_mm = 50.0 * (kChainViews - 1) + 70;
+  for (double x = 0.5; x < strip_mm; x += 1) {
+    for (double y = -19.5; y < 20; y += 1) {
+      strip.points.emplace_back(x, y, 0);
+      strip.normals.push_back(Eigen::Vector3d::UnitZ());
+    }
+  }
+  for (double bx = 10; bx < strip_mm; bx += 20) {
+    AddBox({bx, 6 * std::sin(bx), 0}, 14, 10, 10, 0.3 + 0.01 * bx, &strip);
+  }
+  const auto window = [&](double x0, double x1) {
+    PointCloud c;
+    for (size_t i = 0; i < strip.size(); ++i) {
+      if (strip.points[i].x() >= x0 && strip.points[i].x() < x1) c.PushBackFrom(strip, i);
+    }
+    return c;
+  };
+  const auto run = [&](bool chain, int max_partners) {
+    std::vector<RegistrationView> views;
+    std::vector<Rigid3d> truth;
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<double> unit(-1, 1);
+    for (int v = 0; v < kChainViews; ++v) {
+      const double x0 = chain ? 50.0 * v : 0.0;
+      // The sensor above the window's middle, looking down.
+      const Rigid3d pose =
+          Rigid3d::FromAxisAngle(Eigen::Vector3d::UnitX(), M_PI, Eigen::Vector3d(x0 + 35, 0, 400));
+      views.push_back(SeeSynthetic(window(x0, x0 + 70), pose, "v" + std::to_string(v), v + 1));
+      truth.push_back(pose);
+      const Eigen::Vector3d axis = Eigen::Vector3d(unit(rng), unit(rng), unit(rng)).normalized();
+      const Eigen::Vector3d slide = 0.2 * Eigen::Vector3d(unit(rng), unit(rng), unit(rng));
+      views.back().initial_world_from_sensor =
+          v == 0 ? pose : Rigid3d::FromAxisAngle(axis, 0.02 * M_PI / 180, slide) * pose;
+    }
+    RegistrationOptions o;
+    o.use_markers = false;
+    o.coarse_fallback = false;
+    o.marker_free_icp.max_partners = max_partners;
+    RegistrationResult r = RegisterViews(views, o);
+    EXPECT_TRUE(r.summary.ok()) << r.summary.BriefReport();
+    EXPECT_FALSE(r.summary.icp.levels.empty()) << r.summary.icp.BriefReport();
+    if (!chain) {
+      for (int v = 0; v < kChainViews; ++v) {
+        const RigidDifference d = Difference(r.views[v].world_from_sensor, truth[v]);
+        EXPECT_LT(d.angle_rad * 180 / M_PI, kStackRotTolDeg) << "view " << v;
+        Eigen::Vector3d c = Eigen::Vector3d::Zero();
+        for (const auto& p : views[v].cloud.points) c += p;
+        c /= static_cast<double>(views[v].cloud.size());
+        EXPECT_LT((r.views[v].world_from_sensor * c - truth[v] * c).norm(), kStackCentroidTolMm)
+            << "view " << v << ": " << r.summary.icp.BriefReport();
+      }
+    }
+    return r.summary.icp;
+  };
+  const IcpSummary chain = run(true, 8);
+  ASSERT_FALSE(chain.levels.empty());
+  // sqrt(2) x the noise along the normal, and the noise's 3D scatter moving points along the
+  // surface: 1.5 x sqrt(2) x the noise.
+  EXPECT_LT(chain.levels.back().rms_end_mm, 1.5 * std::sqrt(2.0) * kSyntheticNoiseMm)
+      << chain.BriefReport();
+  EXPECT_EQ(chain.touching_pairs, kChainViews - 1) << chain.BriefReport();
+  EXPECT_EQ(chain.associated_pairs, kChainViews - 1) << chain.BriefReport();
+  for (const IcpLevelReport& l : chain.levels) {
+    EXPECT_EQ(l.searched_pairs, 2 * (kChainViews - 1) - 1) << chain.BriefReport();
+  }
+  constexpr int kPartners = 3;
+  const IcpSummary stack = run(false, kPartners);
+  EXPECT_EQ(stack.touching_pairs, kChainViews * (kChainViews - 1) / 2) << stack.BriefReport();
+  EXPECT_LE(stack.associated_pairs, kChainViews * kPartners) << stack.BriefReport();
+  EXPECT_GE(stack.associated_pairs, kChainViews * kPartners / 2) << stack.BriefReport();
+  for (const IcpLevelReport& l : stack.levels) {
+    EXPECT_LE(l.searched_pairs, 2 * stack.associated_pairs) << stack.BriefReport();
+  }
+}
+
 // Bad input: an unorganized cloud without normals gets them estimated (and says so), oriented
 // toward the sensor; a cloud in metres read with --units m comes back in millimetres.
 constexpr double kEstimatedNormalTolDeg = 3;  // 20-neighbour PCA on a 1 mm grid, no noise

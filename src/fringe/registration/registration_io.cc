@@ -35,6 +35,7 @@ json ResidualHistogram(const IcpLevelReport& l) {
           {"max_mm", lim},
           {"samples", l.residuals_mm.size()},
           {"correspondences", l.correspondences},
+          {"searched_pairs", l.searched_pairs},
           {"counts", counts}};
 }
 }  // namespace
@@ -232,6 +233,8 @@ json ToJson(const RegistrationResult& r) {
           {"icp",
            {{"status", ToString(r.summary.icp.status)},
             {"message", r.summary.icp.message},
+            {"touching_pairs", r.summary.icp.touching_pairs},
+            {"associated_pairs", r.summary.icp.associated_pairs},
             {"levels", levels}}}};
 }
 

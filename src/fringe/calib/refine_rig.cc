@@ -6,6 +6,7 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
+#include <Eigen/QR>
 #include <cmath>
 #include <memory>
 
@@ -76,16 +77,34 @@ struct RightPhaseCost {
 };
 
 // The projector column of the point minus the left phase; the projector's intrinsics are data.
+// Its orientation is R_y(yaw) R(rotation): the yaw block (about the projector's own y axis) is
+// free only with a sphere constraint (header).
 struct ProjectorColumnCost {
   IntrinsicsBlock projector;
   double left_phase, sigma;
   template <typename T>
-  bool operator()(const T* rotation, const T* translation, const T* p_in_left, T* r) const {
-    T p[3], px[2], k[kNumIntrinsics];
+  bool operator()(const T* rotation, const T* yaw, const T* translation, const T* p_in_left,
+                  T* r) const {
+    T q[3], p[3], px[2], k[kNumIntrinsics];
     for (int i = 0; i < kNumIntrinsics; ++i) k[i] = T(projector[static_cast<size_t>(i)]);
-    RotateTranslate(rotation, translation, p_in_left, p);
+    ceres::AngleAxisRotatePoint(rotation, p_in_left, q);
+    const T c = cos(yaw[0]), s = sin(yaw[0]);
+    p[0] = c * q[0] + s * q[2] + translation[0];
+    p[1] = q[1] + translation[1];
+    p[2] = -s * q[0] + c * q[2] + translation[2];
     if (!ProjectWithIntrinsics(k, p, px)) return false;
     r[0] = (px[0] - T(left_phase)) / T(sigma);
+    return true;
+  }
+};
+
+// A point's distance from its sphere's centre minus the radius.
+struct SphereCost {
+  double sigma;
+  template <typename T>
+  bool operator()(const T* p_in_left, const T* centre, const T* radius, T* r) const {
+    const T d[3] = {p_in_left[0] - centre[0], p_in_left[1] - centre[1], p_in_left[2] - centre[2]};
+    r[0] = (sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) - radius[0]) / T(sigma);
     return true;
   }
 };
@@ -101,6 +120,12 @@ Rigid3d FromBlocks(const double* w, const double* t) {
   const Eigen::Vector3d tt(t[0], t[1], t[2]);
   if (angle < 1e-300) return Rigid3d(Eigen::Quaterniond::Identity(), tt);
   return Rigid3d::FromAxisAngle(v / angle, angle, tt);
+}
+
+Rigid3d ProjectorFromBlocks(const double* w, double yaw, const double* t) {
+  const Rigid3d rotated = FromBlocks(w, t);
+  const Eigen::Quaterniond q(Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitY()));
+  return Rigid3d(q * rotated.rotation(), rotated.translation());
 }
 
 // RMS of a group of residual blocks (in their own unit: residual * sigma), NaN when empty.
@@ -238,6 +263,97 @@ bool RigStandardDeviations(ceres::Problem* problem, const std::vector<const doub
   return true;
 }
 
+// The rig as the bundle's blocks hold it (values, not the problem's blocks).
+struct RigValues {
+  IntrinsicsBlock left, right, projector;
+  Eigen::Vector3d right_w, right_t, proj_w, proj_t;
+  double proj_yaw = 0;
+  bool has_projector = false;
+};
+
+// Points triangulated again under `rig` from their own observations alone (left pixel, right
+// phase, projector column; no sphere residual), each its own small problem started at
+// `start`: what a rig measures, for the sphere's shape figures. A point that does not converge
+// is left out (its index is not in *kept).
+std::vector<Eigen::Vector3d> Retriangulate(const RigRefinementData& data,
+                                           const std::vector<size_t>& which,
+                                           const std::vector<std::unique_ptr<Interpolator>>& phase,
+                                           const RigValues& rig, const RigRefinementOptions& o,
+                                           std::vector<size_t>* kept) {
+  RigValues v = rig;  // Ceres takes non-const blocks; they are constant here
+  std::vector<Eigen::Vector3d> out;
+  ceres::Solver::Options so;
+  so.linear_solver_type = ceres::DENSE_QR;
+  so.num_threads = 1;
+  so.logging_type = ceres::SILENT;
+  so.max_num_iterations = 50;
+  for (size_t i : which) {
+    const RefinePhasePoint& pt = data.points[i];
+    Eigen::Vector3d p = pt.p_in_left;
+    ceres::Problem problem;
+    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<LeftPixelCost, 2, kNumIntrinsics, 3>(
+                                 new LeftPixelCost{pt.left_px, o.pixel_sigma_px}),
+                             nullptr, v.left.data(), p.data());
+    problem.SetParameterBlockConstant(v.left.data());
+    const size_t view = static_cast<size_t>(pt.view);
+    if (view < phase.size() && phase[view]) {
+      problem.AddResidualBlock(
+          new ceres::AutoDiffCostFunction<RightPhaseCost, 1, kNumIntrinsics, 3, 3, 3>(
+              new RightPhaseCost{phase[view].get(), pt.phase, kSqrt2 * o.phase_sigma_px}),
+          nullptr, v.right.data(), v.right_w.data(), v.right_t.data(), p.data());
+      for (double* b : {v.right.data(), v.right_w.data(), v.right_t.data()}) {
+        problem.SetParameterBlockConstant(b);
+      }
+    }
+    if (v.has_projector) {
+      problem.AddResidualBlock(
+          new ceres::AutoDiffCostFunction<ProjectorColumnCost, 1, 3, 1, 3, 3>(
+              new ProjectorColumnCost{v.projector, pt.phase, o.phase_sigma_px}),
+          nullptr, v.proj_w.data(), &v.proj_yaw, v.proj_t.data(), p.data());
+      for (double* b : {v.proj_w.data(), &v.proj_yaw, v.proj_t.data()}) {
+        problem.SetParameterBlockConstant(b);
+      }
+    }
+    if (problem.NumResiduals() < 3) continue;  // two pixel coordinates alone fix no depth
+    ceres::Solver::Summary summary;
+    ceres::Solve(so, &problem, &summary);
+    // A point its own observations contradict (a phase interpolated across an occlusion edge:
+    // the bundle's Huber loss bounds it there) would distort the shape fit: left out.
+    const double rms_sigmas =
+        std::sqrt(2 * summary.final_cost / static_cast<double>(problem.NumResiduals()));
+    if (summary.termination_type == ceres::CONVERGENCE && p.allFinite() &&
+        rms_sigmas <= o.loss_sigmas) {
+      out.push_back(p);
+      kept->push_back(i);
+    }
+  }
+  return out;
+}
+
+// Mean spheroid semi-axes across and along the viewing direction (from the left camera's
+// centre to each sphere's centre) over the spheres, weighted by their points; false when no
+// sphere has a spheroid fit.
+bool SphereShape(const std::vector<Eigen::Vector3d>& points, const std::vector<int>& sphere_of,
+                 const std::vector<Eigen::Vector3d>& centres, double* across_mm, double* along_mm) {
+  double across = 0, along = 0, weight = 0;
+  for (size_t k = 0; k < centres.size(); ++k) {
+    std::vector<Eigen::Vector3d> on;
+    for (size_t i = 0; i < points.size(); ++i) {
+      if (sphere_of[i] == static_cast<int>(k)) on.push_back(points[i]);
+    }
+    const SpheroidFit fit = FitSpheroid(on, centres[k].normalized());
+    if (!fit.ok) continue;
+    const double w = static_cast<double>(on.size());
+    across += w * fit.across_mm;
+    along += w * fit.along_mm;
+    weight += w;
+  }
+  if (!(weight > 0)) return false;
+  *across_mm = across / weight;
+  *along_mm = along / weight;
+  return true;
+}
+
 }  // namespace
 
 const char* ToString(RefineScale s) {
@@ -248,8 +364,41 @@ const char* ToString(RefineScale s) {
       return "baseline";
     case RefineScale::kProjector:
       return "projector";
+    case RefineScale::kArtefact:
+      return "artefact";
   }
   return "?";
+}
+
+SpheroidFit FitSpheroid(const std::vector<Eigen::Vector3d>& points, const Eigen::Vector3d& axis) {
+  SpheroidFit fit;
+  if (points.size() < 6 || !(axis.norm() > 0)) return fit;
+  // Frame: z along the axis; centred on the points' mean for conditioning.
+  const Eigen::Quaterniond to_frame =
+      Eigen::Quaterniond::FromTwoVectors(axis.normalized(), Eigen::Vector3d::UnitZ());
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (const Eigen::Vector3d& p : points) mean += p;
+  mean /= static_cast<double>(points.size());
+  Eigen::MatrixXd a(static_cast<Eigen::Index>(points.size()), 5);
+  const Eigen::VectorXd b = Eigen::VectorXd::Ones(static_cast<Eigen::Index>(points.size()));
+  for (size_t i = 0; i < points.size(); ++i) {
+    const Eigen::Vector3d q = to_frame * (points[i] - mean);
+    a.row(static_cast<Eigen::Index>(i)) << q.x() * q.x() + q.y() * q.y(), q.z() * q.z(), q.x(),
+        q.y(), q.z();
+  }
+  const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(a);
+  if (qr.rank() < 5) return fit;
+  const Eigen::VectorXd x = qr.solve(b);
+  const double ac = x[0], cc = x[1];
+  if (!(ac > 0) || !(cc > 0)) return fit;
+  const Eigen::Vector3d c0(-x[2] / (2 * ac), -x[3] / (2 * ac), -x[4] / (2 * cc));
+  const double k = 1 + ac * (c0.x() * c0.x() + c0.y() * c0.y()) + cc * c0.z() * c0.z();
+  if (!(k > 0)) return fit;
+  fit.across_mm = std::sqrt(k / ac);
+  fit.along_mm = std::sqrt(k / cc);
+  fit.centre = mean + to_frame.inverse() * c0;
+  fit.ok = std::isfinite(fit.across_mm) && std::isfinite(fit.along_mm);
+  return fit;
 }
 
 const char* ToString(RefineStatus s) {
@@ -286,6 +435,12 @@ void RigRefinementOptions::Check() const {
   CheckOption(max_rounds >= 1, o, "max_rounds", max_rounds, "must be >= 1");
   CheckOption(max_focal_sigma_fraction > 0, o, "max_focal_sigma_fraction", max_focal_sigma_fraction,
               "must be > 0");
+  if (sphere) {
+    CheckOption(sphere->diameter_mm > 0 && std::isfinite(sphere->diameter_mm), o,
+                "sphere.diameter_mm", sphere->diameter_mm, "must be > 0");
+    CheckOption(sphere->sigma_mm > 0 && std::isfinite(sphere->sigma_mm), o, "sphere.sigma_mm",
+                sphere->sigma_mm, "must be > 0");
+  }
   solve.Check();
 }
 
@@ -303,6 +458,13 @@ std::string RigRefinementSummary::BriefReport() const {
       s += StrCat("; projector column RMS ", Fixed(projector_rms_before_px, 3), " -> ",
                   Fixed(projector_rms_after_px, 3), " px");
     }
+  }
+  if (spheres > 0 || sphere_points > 0) {
+    s += StrCat("; sphere: ", sphere_points, " points in ", spheres,
+                " views, axis ratio along the view ", Fixed(sphere_axis_ratio_before, 4), " -> ",
+                Fixed(sphere_axis_ratio_after, 4), ", radius across ",
+                Fixed(sphere_radius_across_before_mm, 3), " -> ",
+                Fixed(sphere_radius_across_after_mm, 3), " mm");
   }
   if (!message.empty()) s += ": " + message;
   return s;
@@ -336,6 +498,16 @@ nlohmann::json ToJson(const RigRefinementSummary& s) {
           {"projector_rotation_change_deg", s.projector_rotation_change_deg},
           {"baseline_before_mm", s.baseline_before_mm},
           {"baseline_after_mm", s.baseline_after_mm},
+          {"spheres", s.spheres},
+          {"sphere_points", s.sphere_points},
+          {"sphere_rms_before_mm", FigureOrNull(s.sphere_rms_before_mm)},
+          {"sphere_rms_after_mm", FigureOrNull(s.sphere_rms_after_mm)},
+          {"sphere_axis_ratio_before", FigureOrNull(s.sphere_axis_ratio_before)},
+          {"sphere_axis_ratio_after", FigureOrNull(s.sphere_axis_ratio_after)},
+          {"sphere_radius_across_before_mm", FigureOrNull(s.sphere_radius_across_before_mm)},
+          {"sphere_radius_across_after_mm", FigureOrNull(s.sphere_radius_across_after_mm)},
+          {"sphere_radius_along_before_mm", FigureOrNull(s.sphere_radius_along_before_mm)},
+          {"sphere_radius_along_after_mm", FigureOrNull(s.sphere_radius_along_after_mm)},
           {"solve_rounds", s.solve_rounds},
           {"solver", s.solve.BriefReport()}};
 }
@@ -347,9 +519,24 @@ RigRefinement RefineRig(const StereoRig& rig, const RigRefinementData& data,
   if (options.scale == RefineScale::kProjector && !rig.projector) {
     throw Error("refine: the scale is to be held by the projector, but the rig has none");
   }
+  if (options.scale == RefineScale::kArtefact && !options.sphere) {
+    throw Error("refine: the scale is to be held by the artefact, but no sphere is given");
+  }
   RefineScale scale = options.scale;
   if (scale == RefineScale::kAuto) {
-    scale = rig.projector ? RefineScale::kProjector : RefineScale::kBaseline;
+    scale = options.sphere  ? RefineScale::kArtefact
+            : rig.projector ? RefineScale::kProjector
+                            : RefineScale::kBaseline;
+  }
+  std::vector<int> sphere_count(data.spheres.size(), 0);
+  for (const RefinePhasePoint& p : data.points) {
+    if (p.sphere < 0) continue;
+    if (static_cast<size_t>(p.sphere) >= data.spheres.size() ||
+        data.spheres[static_cast<size_t>(p.sphere)].view != p.view) {
+      throw Error(StrCat("refine: a phase point of view ", p.view, " names sphere ", p.sphere,
+                         ", which the data do not have in that view"));
+    }
+    ++sphere_count[static_cast<size_t>(p.sphere)];
   }
   RigRefinement out;
   out.rig = rig;
@@ -367,9 +554,28 @@ RigRefinement RefineRig(const StereoRig& rig, const RigRefinementData& data,
   s.marker_epipolar_rms_before_px = s.marker_epipolar_rms_after_px =
       MarkerEpipolarRms(rig, data.markers);
   const bool use_projector = rig.projector.has_value() && !data.points.empty();
+  // The sphere constraint: the points on a sphere (none without options.sphere).
+  std::vector<size_t> on_sphere;
+  if (options.sphere) {
+    for (size_t i = 0; i < data.points.size(); ++i) {
+      if (data.points[i].sphere >= 0) on_sphere.push_back(i);
+    }
+    for (int n : sphere_count) s.spheres += n > 0 ? 1 : 0;
+    s.sphere_points = static_cast<int>(on_sphere.size());
+    // A sphere constrains its size with 4 unknowns (centre, radius); fewer points say nothing.
+    constexpr int kMinSpherePoints = 20;
+    if (s.sphere_points < kMinSpherePoints) {
+      s.status = RefineStatus::kNoEvidence;
+      s.message = StrCat("the certified sphere (diameter ", options.sphere->diameter_mm,
+                         " mm) was asked for, but ", s.sphere_points,
+                         " phase points lie on a sphere (at least ", kMinSpherePoints,
+                         " needed): no sphere was found in the data; the rig is unchanged");
+      return out;
+    }
+  }
   // Enough for the five or six unknowns of a camera pose, with room to spare.
   constexpr int kMinMarkers = 8;
-  if (!use_projector && static_cast<int>(data.markers.size()) < kMinMarkers) {
+  if (!use_projector && on_sphere.empty() && static_cast<int>(data.markers.size()) < kMinMarkers) {
     s.status = RefineStatus::kNoEvidence;
     s.message = StrCat(
         "nothing constrains the rig: ", data.markers.size(),
@@ -390,6 +596,12 @@ RigRefinement RefineRig(const StereoRig& rig, const RigRefinementData& data,
     proj_w = RotationVector(rig.projector_from_left);
     proj_t = rig.projector_from_left.translation();
   }
+  double proj_yaw = 0;  // about the projector's y axis, on top of proj_w (ProjectorColumnCost)
+  // Per sphere: its centre (3) and radius (1; held at the certified one under kArtefact).
+  std::vector<Eigen::Vector3d> centres(data.spheres.size());
+  std::vector<double> radii(data.spheres.size(),
+                            options.sphere ? 0.5 * options.sphere->diameter_mm : 0);
+  for (size_t k = 0; k < centres.size(); ++k) centres[k] = data.spheres[k].centre_in_left;
   std::vector<Eigen::Vector3d> points(data.points.size()), markers(data.markers.size());
   for (size_t i = 0; i < points.size(); ++i) points[i] = data.points[i].p_in_left;
   for (size_t i = 0; i < markers.size(); ++i) markers[i] = data.markers[i].p_in_left;
@@ -426,11 +638,20 @@ RigRefinement RefineRig(const StereoRig& rig, const RigRefinementData& data,
     }
     if (use_projector) {
       projector_ids.push_back(problem.AddResidualBlock(
-          new ceres::AutoDiffCostFunction<ProjectorColumnCost, 1, 3, 3, 3>(
+          new ceres::AutoDiffCostFunction<ProjectorColumnCost, 1, 3, 1, 3, 3>(
               new ProjectorColumnCost{projector, p.phase, options.phase_sigma_px}),
-          NewLossFunction(RobustLoss::kHuber, phase_loss), proj_w.data(), proj_t.data(),
+          NewLossFunction(RobustLoss::kHuber, phase_loss), proj_w.data(), &proj_yaw, proj_t.data(),
           points[i].data()));
     }
+  }
+  std::vector<ceres::ResidualBlockId> sphere_ids;
+  for (size_t i : on_sphere) {
+    const size_t k = static_cast<size_t>(data.points[i].sphere);
+    sphere_ids.push_back(
+        problem.AddResidualBlock(new ceres::AutoDiffCostFunction<SphereCost, 1, 3, 3, 1>(
+                                     new SphereCost{options.sphere->sigma_mm}),
+                                 NewLossFunction(RobustLoss::kHuber, phase_loss), points[i].data(),
+                                 centres[k].data(), &radii[k]));
   }
   for (size_t i = 0; i < data.markers.size(); ++i) {
     const RefineMarker& m = data.markers[i];
@@ -462,7 +683,9 @@ RigRefinement RefineRig(const StereoRig& rig, const RigRefinementData& data,
   if (options.intrinsics) s.refined.push_back("focal lengths and k1 k2 of both cameras");
   if (has_right) {
     s.refined.push_back("right_from_left rotation");
-    if (scale == RefineScale::kBaseline) {
+    if (scale == RefineScale::kArtefact) {
+      s.refined.push_back("right_from_left translation (the sphere's diameter holds the scale)");
+    } else if (scale == RefineScale::kBaseline) {
       problem.SetManifold(right_t.data(), new ceres::SphereManifold<3>());
       s.refined.push_back(
           "right_from_left translation direction (its length, the baseline, "
@@ -472,8 +695,13 @@ RigRefinement RefineRig(const StereoRig& rig, const RigRefinementData& data,
     }
   }
   if (use_projector) {
-    // Its orientation holds the depth gauge (header).
+    // Its pitch and roll stay; its yaw holds the depth gauge unless a sphere does (header).
     problem.SetParameterBlockConstant(proj_w.data());
+    if (on_sphere.empty()) {
+      problem.SetParameterBlockConstant(&proj_yaw);
+    } else {
+      s.refined.push_back("projector yaw (the sphere's shape holds the depth gauge)");
+    }
     if (scale == RefineScale::kProjector) {
       problem.SetParameterBlockConstant(proj_t.data());
     } else {
@@ -483,11 +711,49 @@ RigRefinement RefineRig(const StereoRig& rig, const RigRefinementData& data,
     }
   }
 
+  for (size_t k = 0; k < radii.size(); ++k) {
+    if (!problem.HasParameterBlock(&radii[k])) continue;
+    if (scale == RefineScale::kArtefact) problem.SetParameterBlockConstant(&radii[k]);
+  }
+  if (!on_sphere.empty()) {
+    s.refined.push_back(scale == RefineScale::kArtefact
+                            ? "the sphere's centre per view (its certified radius held)"
+                            : "the sphere's centre and radius per view (shape only)");
+  }
   const IntrinsicsBlock left0 = left, right0 = right;
   const Eigen::Vector3d right_w0 = right_w, right_t0 = right_t, proj_w0 = proj_w, proj_t0 = proj_t;
   // Before: the points as the initial rig triangulated them.
   s.right_phase_rms_before_px = GroupRms(&problem, right_phase_ids, options.phase_sigma_px);
   s.projector_rms_before_px = GroupRms(&problem, projector_ids, options.phase_sigma_px);
+  if (!on_sphere.empty()) {
+    // The free radius starts where the initial points put it: their mean distance from the centre.
+    if (scale != RefineScale::kArtefact) {
+      std::vector<double> sum(radii.size(), 0.0);
+      for (size_t i : on_sphere) {
+        const size_t k = static_cast<size_t>(data.points[i].sphere);
+        sum[k] += (points[i] - centres[k]).norm();
+      }
+      for (size_t k = 0; k < radii.size(); ++k) {
+        if (sphere_count[k] > 0) radii[k] = sum[k] / sphere_count[k];
+      }
+    }
+    s.sphere_rms_before_mm = GroupRms(&problem, sphere_ids, options.sphere->sigma_mm);
+  }
+  std::vector<int> sphere_of;
+  std::vector<Eigen::Vector3d> sphere_points0;
+  for (size_t i : on_sphere) {
+    sphere_of.push_back(data.points[i].sphere);
+    sphere_points0.push_back(data.points[i].p_in_left);
+  }
+  if (!on_sphere.empty() &&
+      SphereShape(sphere_points0, sphere_of, centres, &s.sphere_radius_across_before_mm,
+                  &s.sphere_radius_along_before_mm)) {
+    s.sphere_axis_ratio_before = s.sphere_radius_along_before_mm / s.sphere_radius_across_before_mm;
+  }
+  s.sphere_axis_ratio_after = s.sphere_axis_ratio_before;
+  s.sphere_radius_across_after_mm = s.sphere_radius_across_before_mm;
+  s.sphere_radius_along_after_mm = s.sphere_radius_along_before_mm;
+  s.sphere_rms_after_mm = s.sphere_rms_before_mm;
   s.solve = Solve(options.solve, &problem);
   const auto restore = [&] {
     left = left0;
@@ -496,6 +762,7 @@ RigRefinement RefineRig(const StereoRig& rig, const RigRefinementData& data,
     right_t = right_t0;
     proj_w = proj_w0;
     proj_t = proj_t0;
+    proj_yaw = 0;
   };
   // A solve that ran out of iterations is often a problem the data do not determine (a flat
   // view with free focal lengths wanders along the undetermined direction): the uncertainty
@@ -507,8 +774,14 @@ RigRefinement RefineRig(const StereoRig& rig, const RigRefinementData& data,
     return out;
   }
   // Uncertainties, and whether the data determine what was refined.
-  std::vector<const double*> blocks = {left.data(),    right.data(),  right_w.data(),
-                                       right_t.data(), proj_w.data(), proj_t.data()};
+  // The spheres' centres and radii with the rig: a sphere residual touches a point and them, so
+  // they go with the dense part of the Schur complement (RigStandardDeviations).
+  std::vector<const double*> blocks = {left.data(),   right.data(),  right_w.data(), right_t.data(),
+                                       proj_w.data(), proj_t.data(), &proj_yaw};
+  for (size_t k = 0; k < centres.size(); ++k) {
+    blocks.push_back(centres[k].data());
+    blocks.push_back(&radii[k]);
+  }
   std::vector<const double*> present;
   for (const double* b : blocks) {
     if (problem.HasParameterBlock(const_cast<double*>(b))) present.push_back(b);
@@ -569,6 +842,9 @@ RigRefinement RefineRig(const StereoRig& rig, const RigRefinementData& data,
   }
   s.right_phase_rms_after_px = GroupRms(&problem, right_phase_ids, options.phase_sigma_px);
   s.projector_rms_after_px = GroupRms(&problem, projector_ids, options.phase_sigma_px);
+  if (!on_sphere.empty()) {
+    s.sphere_rms_after_mm = GroupRms(&problem, sphere_ids, options.sphere->sigma_mm);
+  }
   const auto sigma_of = [&](const double* block, int k) {
     for (size_t i = 0; i < present.size(); ++i) {
       if (present[i] == block) return sd[i][static_cast<size_t>(k)];
@@ -598,7 +874,12 @@ RigRefinement RefineRig(const StereoRig& rig, const RigRefinementData& data,
           sigma_of(right_t.data(), k), options.max_translation_sigma_mm);
     }
   }
-  if (use_projector && scale == RefineScale::kBaseline) {
+  if (use_projector && problem.HasParameterBlock(&proj_yaw) &&
+      !problem.IsParameterBlockConstant(&proj_yaw)) {
+    add("projector yaw", "deg", 0, proj_yaw * kDeg, sigma_of(&proj_yaw, 0) * kDeg,
+        options.max_rotation_sigma_deg);
+  }
+  if (use_projector && scale != RefineScale::kProjector) {
     for (int k : {0, 2}) {
       add(StrCat("projector_from_left translation ", axis[k]), "mm", proj_t0[k], proj_t[k],
           sigma_of(proj_t.data(), k), options.max_translation_sigma_mm);
@@ -644,20 +925,32 @@ RigRefinement RefineRig(const StereoRig& rig, const RigRefinementData& data,
   SetIntrinsicsFromBlock(left.data(), &refined.left);
   SetIntrinsicsFromBlock(right.data(), &refined.right);
   refined.right_from_left = FromBlocks(right_w.data(), right_t.data());
-  if (rig.projector) refined.projector_from_left = FromBlocks(proj_w.data(), proj_t.data());
+  if (rig.projector) {
+    refined.projector_from_left = ProjectorFromBlocks(proj_w.data(), proj_yaw, proj_t.data());
+  }
   // Something measurable gained? A change significant against the bundle's own uncertainty,
   // and evidence that improved.
   s.marker_epipolar_rms_after_px = MarkerEpipolarRms(refined, data.markers);
   std::vector<std::string> worse;
   bool better = false;
-  for (const auto& [name, before, after] :
+  // With a sphere the bend it corrects is invisible to the other kinds (header): they can only
+  // stay at their noise, and the initial points may sit below it (the matcher put each where the
+  // right phase matches exactly). So there a kind is worse only when it also ends above its
+  // stated noise; the sphere's own RMS is the evidence that must fall.
+  const bool shape = !on_sphere.empty();
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  for (const auto& [name, before, after, noise, unit] :
        {std::tuple{"markers' epipolar RMS", s.marker_epipolar_rms_before_px,
-                   s.marker_epipolar_rms_after_px},
-        std::tuple{"right-phase RMS", s.right_phase_rms_before_px, s.right_phase_rms_after_px},
-        std::tuple{"projector column RMS", s.projector_rms_before_px, s.projector_rms_after_px}}) {
+                   s.marker_epipolar_rms_after_px, kSqrt2 * options.marker_sigma_px, "px"},
+        std::tuple{"right-phase RMS", s.right_phase_rms_before_px, s.right_phase_rms_after_px,
+                   kSqrt2 * options.phase_sigma_px, "px"},
+        std::tuple{"projector column RMS", s.projector_rms_before_px, s.projector_rms_after_px,
+                   options.phase_sigma_px, "px"},
+        std::tuple{"sphere radial RMS", s.sphere_rms_before_mm, s.sphere_rms_after_mm, nan,
+                   "mm"}}) {
     if (!std::isfinite(before) || !std::isfinite(after)) continue;
-    if (after > before)
-      worse.push_back(StrCat(name, " ", Fixed(before, 4), " -> ", Fixed(after, 4), " px"));
+    if (after > before && !(shape && after <= noise))
+      worse.push_back(StrCat(name, " ", Fixed(before, 4), " -> ", Fixed(after, 4), " ", unit));
     if (after < options.min_evidence_ratio * before) better = true;
   }
   if (largest_change_sigmas <= options.min_change_sigmas || !worse.empty() || !better) {
@@ -675,10 +968,29 @@ RigRefinement RefineRig(const StereoRig& rig, const RigRefinementData& data,
     }
     s.message += "; the rig is unchanged";
     s.marker_epipolar_rms_after_px = s.marker_epipolar_rms_before_px;
+    s.sphere_rms_after_mm = s.sphere_rms_before_mm;
     restore();
     return out;
   }
   s.status = RefineStatus::kOk;
+  if (shape) {
+    // The shape the refined rig measures: the sphere points triangulated again without the
+    // sphere's residuals (the bundle's own points are pulled onto it).
+    const RigValues refined_values{left,   right,  projector, right_w,      right_t,
+                                   proj_w, proj_t, proj_yaw,  use_projector};
+    std::vector<size_t> kept;
+    const std::vector<Eigen::Vector3d> again =
+        Retriangulate(data, on_sphere, phase, refined_values, options, &kept);
+    std::vector<int> kept_sphere;
+    for (size_t i : kept) kept_sphere.push_back(data.points[i].sphere);
+    if (SphereShape(again, kept_sphere, centres, &s.sphere_radius_across_after_mm,
+                    &s.sphere_radius_along_after_mm)) {
+      s.sphere_axis_ratio_after = s.sphere_radius_along_after_mm / s.sphere_radius_across_after_mm;
+    } else {
+      s.sphere_axis_ratio_after = s.sphere_radius_across_after_mm = nan;
+      s.sphere_radius_along_after_mm = nan;
+    }
+  }
   s.right_rotation_change_deg =
       refined.right_from_left.rotation().angularDistance(rig.right_from_left.rotation()) * kDeg;
   if (rig.projector) {

@@ -33,11 +33,16 @@ void AddRefineCommand(CLI::App& app) {
   AddCalibrationFlags(sub, &a->options, "the scan folder's rig.json");
   sub->add_flag("--intrinsics", a->options.rig.intrinsics,
                 "Also refine fx fy k1 k2 of both cameras");
+  sub->add_option("--artefact", a->options.artefact,
+                  "Artefact file (JSON, docs/formats.md) whose sphere is in the scan: its "
+                  "certified diameter constrains the sphere's shape, which frees the depth bend "
+                  "(right camera + projector yaw) and holds the scale");
   sub->add_option("--scale", a->scale,
                   "What holds the metric scale: projector (its pose stays; the baseline is "
-                  "refined), baseline (its length stays; the projector's translation is refined) "
-                  "or auto (projector when the rig has a calibrated projector)")
-      ->check(CLI::IsMember({"auto", "baseline", "projector"}))
+                  "refined), baseline (its length stays; the projector's translation is refined), "
+                  "artefact (the --artefact sphere's diameter) or auto (artefact with --artefact, "
+                  "else projector when the rig has a calibrated projector)")
+      ->check(CLI::IsMember({"auto", "baseline", "projector", "artefact"}))
       ->capture_default_str();
   sub->add_option("--points-per-view", a->options.points_per_view,
                   "Phase points sampled per view (0: markers only)")
@@ -46,7 +51,11 @@ void AddRefineCommand(CLI::App& app) {
   sub->callback([a] {
     a->options.rig.scale = a->scale == "projector"  ? calib::RefineScale::kProjector
                            : a->scale == "baseline" ? calib::RefineScale::kBaseline
+                           : a->scale == "artefact" ? calib::RefineScale::kArtefact
                                                     : calib::RefineScale::kAuto;
+    if (a->options.rig.scale == calib::RefineScale::kArtefact && a->options.artefact.empty()) {
+      throw Error("refine: --scale artefact needs --artefact FILE");
+    }
     const pipeline::RefineResult r = pipeline::RefineScanRig(a->project, a->out, a->options);
     if (a->json) {
       std::cout << ToJson(r.summary).dump(2) << "\n";

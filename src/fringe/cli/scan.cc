@@ -89,6 +89,9 @@ void AddScanCommand(CLI::App& app) {
   sub->add_flag(
       "--refine-intrinsics", [a](int64_t) { a->options.refine_options.rig.intrinsics = true; },
       "With --refine: also the cameras' focal lengths and k1 k2");
+  sub->add_option("--refine-artefact", a->options.refine_options.artefact,
+                  "With --refine: an artefact file whose sphere is in the scan (as fringe refine "
+                  "--artefact)");
   sub->add_flag("--json", a->json, "Print the summary as one JSON object");
   sub->add_flag("--resume", a->options.resume,
                 "After an interrupted run of the same scan into the same --out (killed, a crash, "

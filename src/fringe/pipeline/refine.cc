@@ -4,11 +4,14 @@
 #include <iomanip>
 #include <sstream>
 
+#include "fringe/eval/artefact.h"
+#include "fringe/eval/vdi2634.h"
 #include "fringe/io/calibration_io.h"
 #include "fringe/io/opencv_calibration.h"
 #include "fringe/phase/pattern_scheme.h"
 #include "fringe/util/error.h"
 #include "fringe/util/files.h"
+#include "fringe/util/format.h"
 #include "fringe/util/log.h"
 #include "fringe/util/timer.h"
 
@@ -37,7 +40,78 @@ bool PhaseValidAround(const cv::Mat& phase, const Eigen::Vector2d& px) {
   return true;
 }
 
+// MarkSpherePoints' acceptance (pipeline/refine.h).
+constexpr double kRadiusTolerance = 0.1;
+constexpr double kBandFraction = 0.03;
+constexpr double kMinCapHalfAngleDeg = 25;
+constexpr double kMaxInsideFraction = 0.1;
+constexpr int kMinSpherePoints = 20;
+
 }  // namespace
+
+std::vector<std::string> MarkSpherePoints(const calib::RefineSphere& sphere,
+                                          calib::RigRefinementData* data) {
+  const double r0 = 0.5 * sphere.diameter_mm;
+  std::vector<std::string> log;
+  int views = 0;
+  for (const calib::RefinePhasePoint& p : data->points) views = std::max(views, p.view + 1);
+  eval::VdiOptions vdi;
+  vdi.inlier_band_mm = kBandFraction * r0;
+  vdi.radius_tolerance = kRadiusTolerance;
+  vdi.min_points = kMinSpherePoints;
+  for (int v = 0; v < views; ++v) {
+    std::vector<size_t> idx;
+    PointCloud cloud;
+    for (size_t i = 0; i < data->points.size(); ++i) {
+      if (data->points[i].view != v) continue;
+      idx.push_back(i);
+      cloud.points.push_back(data->points[i].p_in_left);
+    }
+    if (idx.empty()) continue;
+    const eval::SphereResult found = eval::EvaluateSphere(cloud, sphere.diameter_mm, vdi);
+    if (!found.ok()) {
+      log.push_back(StrCat("view ", v, ": no sphere of diameter ", sphere.diameter_mm,
+                           " mm: ", found.message));
+      continue;
+    }
+    const double r = 0.5 * found.diameter_mm;
+    std::vector<size_t> on;
+    int inside = 0;
+    Eigen::Vector3d direction_sum = Eigen::Vector3d::Zero();
+    for (size_t i : idx) {
+      const Eigen::Vector3d d = data->points[i].p_in_left - found.centre;
+      const double n = d.norm();
+      if (n < r - vdi.inlier_band_mm) {
+        ++inside;
+      } else if (n < r + vdi.inlier_band_mm && n > 0) {
+        on.push_back(i);
+        direction_sum += d / n;
+      }
+    }
+    const double mean_direction = on.empty() ? 1 : direction_sum.norm() / on.size();
+    const double max_mean_direction = 0.5 * (1 + std::cos(kMinCapHalfAngleDeg * M_PI / 180));
+    std::string why;
+    if (std::abs(r - r0) > kRadiusTolerance * r0) {
+      why = StrCat("its fitted diameter ", util::Fixed(2 * r, 3), " mm is not the certified one");
+    } else if (static_cast<int>(on.size()) < kMinSpherePoints) {
+      why = StrCat(on.size(), " points on it (at least ", kMinSpherePoints, " needed)");
+    } else if (mean_direction > max_mean_direction) {
+      why = StrCat("its points cover a cap of less than ", kMinCapHalfAngleDeg, " degrees");
+    } else if (inside > kMaxInsideFraction * static_cast<double>(on.size())) {
+      why = StrCat(inside, " points lie inside it");
+    }
+    if (!why.empty()) {
+      log.push_back(StrCat("view ", v, ": a sphere candidate left out: ", why));
+      continue;
+    }
+    const int k = static_cast<int>(data->spheres.size());
+    data->spheres.push_back({v, found.centre});
+    for (size_t i : on) data->points[i].sphere = k;
+    log.push_back(StrCat("view ", v, ": the sphere, ", on.size(), " points, fitted diameter ",
+                         util::Fixed(2 * r, 3), " mm"));
+  }
+  return log;
+}
 
 void RefineOptions::Check() const {
   util::CheckOption(points_per_view >= 0, "RefineOptions", "points_per_view", points_per_view,
@@ -126,6 +200,20 @@ RefineResult RefineRigFromScan(const scan::ScanFolder& folder, const StereoRig& 
                          manifest.image_height));
     }
   }
+  calib::RigRefinementOptions rig_options = options.rig;
+  if (!options.artefact.empty()) {
+    const eval::Artefact artefact = eval::ReadArtefact(options.artefact);
+    if (!artefact.sphere) {
+      throw Error(StrCat("refine: ", options.artefact.string(),
+                         ": the artefact has no sphere (the shape constraint needs its certified "
+                         "diameter)"));
+    }
+    calib::RefineSphere sphere;
+    sphere.diameter_mm = artefact.sphere->diameter_mm;
+    // The certificate's uncertainty when it is larger than the default form noise.
+    sphere.sigma_mm = std::max(sphere.sigma_mm, artefact.sphere->uncertainty_mm);
+    rig_options.sphere = sphere;
+  }
   const phase::PatternScheme scheme = folder.ReadScheme();
   const stereo::ViewReconstructor reconstructor(rig, scheme, options.reconstruction);
   RefineResult result;
@@ -147,7 +235,12 @@ RefineResult RefineRigFromScan(const scan::ScanFolder& folder, const StereoRig& 
   }
   result.summary.gather_s = timer.ElapsedSeconds();
   timer.Restart();
-  calib::RigRefinement refined = calib::RefineRig(rig, data, options.rig);
+  if (rig_options.sphere) {
+    for (const std::string& line : MarkSpherePoints(*rig_options.sphere, &data)) {
+      util::LogInfo("refine: " + line);
+    }
+  }
+  calib::RigRefinement refined = calib::RefineRig(rig, data, rig_options);
   result.summary.solve_s = timer.ElapsedSeconds();
   result.rig = refined.rig;
   result.summary.refinement = std::move(refined.summary);
@@ -162,6 +255,7 @@ RefineResult RefineScanRig(const fs::path& project, const fs::path& out_rig,
   if (!folder.has_views()) throw Error(StrCat("refine: ", project.string(), ": no views"));
   std::vector<fs::path> inputs = {project};
   for (const fs::path& p : options.Files()) inputs.push_back(p);
+  if (!options.artefact.empty()) inputs.push_back(options.artefact);
   util::CheckOutputFile(out_rig, inputs);
   std::string source;
   const StereoRig rig = ReadScanRig(folder, options, &source);

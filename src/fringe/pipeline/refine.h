@@ -15,6 +15,7 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <vector>
 
 #include "fringe/calib/refine_rig.h"
 #include "fringe/geometry/stereo_rig.h"
@@ -29,6 +30,10 @@ namespace fringe::pipeline {
 // OpenCV pair, opencv_keys; pipeline/calibration_files.h), read as `fringe scan` reads them.
 struct RefineOptions : CalibrationFiles {
   calib::RigRefinementOptions rig;
+  // An artefact file (docs/formats.md) whose sphere is in the scan: its certified diameter
+  // constrains the sphere's shape (calib/refine_rig.h) and, under scale kAuto, holds the scale.
+  // Empty: none. Read by RefineRigFromScan into rig.sphere (a file without a sphere is an error).
+  std::filesystem::path artefact;
   // Phase points per view, sampled evenly over its measured left pixels, >= 0 (0: markers only).
   int points_per_view = 2000;
   stereo::ReconstructionOptions reconstruction;
@@ -67,6 +72,18 @@ StereoRig ReadScanRig(const scan::ScanFolder& folder, const CalibrationFiles& fi
 // RefineRigFromScan does per view; benchmarks call it on views reconstructed in memory.
 void AddViewToRefinement(const StereoRig& rig, int view, const stereo::ViewReconstruction& rec,
                          const RefineOptions& options, calib::RigRefinementData* data);
+
+// Which of the data's phase points lie on the certified sphere, view by view, from the initial
+// triangulation: eval's sphere search with the certified diameter (RANSAC, then a least-squares
+// fit with a free radius), accepted only when the fit is that sphere (its radius within 10 % of
+// the certified one: a rig bent by a few % stays well inside, another object rarely does; seen
+// over a cap of at least 25 degrees; at most 10 % of the view's points inside it: a solid
+// sphere hides its inside) and at least 20 points are on it. A point is on it within 3 % of the
+// radius of the fitted sphere (a bent rig deforms it by about 1 % of the radius; the band scales
+// with the artefact, not with the noise of one scanner). Sets RefinePhasePoint::sphere and
+// appends one RefineSphereView per view it was found in; returns a line per view for the log.
+std::vector<std::string> MarkSpherePoints(const calib::RefineSphere& sphere,
+                                          calib::RigRefinementData* data);
 
 // Refines `rig` from the views of `folder` (stereo). Throws fringe::Error for bad options or
 // input (unreadable images, a camera + projector folder); data failures come back in the summary.

@@ -71,6 +71,13 @@ struct RightPhaseCost {
     if (!ProjectWithIntrinsics(intrinsics, p, px)) return false;
     T value;
     phase->Evaluate(px[1], px[0], &value);
+    // Points are chosen where the right phase is valid around their start; a step that moves a
+    // projection into undecoded pixels (NaN) must not end the solve (Ceres stops at the first
+    // non-finite residual): there the point has no right-phase evidence.
+    if (!ceres::isfinite(value)) {
+      r[0] = T(0);
+      return true;
+    }
     r[0] = (value - T(left_phase)) / T(sigma);
     return true;
   }
